@@ -1,0 +1,64 @@
+#pragma once
+// A bounding volume hierarchy over abstract primitives (given by their bounds), stored as
+// flat depth-first nodes: an interior node's left child follows it, the right child is at
+// `offset`. The BVH knows nothing of triangles or spheres; traversal takes the primitive test
+// as a template argument, so the hot path has no virtual or indirect call.
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "engine/geometry/aabb.h"
+
+namespace tessera {
+
+enum class BvhType { none, midpoint, median, sah };
+
+const char* to_string(BvhType t);
+bool parse_bvh_type(const std::string& s, BvhType& out);
+
+struct BvhNode {
+    glm::vec3 lo;
+    uint32_t offset;  // leaf: first entry of Bvh::prim_index; interior: index of the right child
+    glm::vec3 hi;
+    uint32_t count;   // leaf: number of primitives (> 0); interior: 0
+    bool is_leaf() const { return count != 0; }
+};
+static_assert(sizeof(BvhNode) == 32, "two nodes per cache line");
+
+struct BvhBuildOptions {
+    BvhType type = BvhType::sah;
+    int max_leaf_size = 4;
+    int sah_bins = 16;
+    // Relative costs of one node visit and one primitive test (pbrt's 1/8 : 1, the write-ups').
+    float traversal_cost = 0.125f;
+    float intersection_cost = 1.0f;
+};
+
+struct BvhBuildStats {
+    size_t node_count = 0;
+    size_t leaf_count = 0;
+    int depth = 0;
+    std::vector<size_t> leaf_size_histogram;  // [k] = leaves holding k primitives (last bin: k and more)
+    double sah_cost = 0.0;                    // expected cost per ray under the SAH model
+    double build_seconds = 0.0;
+    size_t memory_bytes = 0;
+};
+
+struct Bvh {
+    std::vector<BvhNode> nodes;
+    std::vector<uint32_t> prim_index;  // primitive ids in leaf order
+    BvhBuildStats stats;
+    bool empty() const { return nodes.empty(); }
+};
+
+// Deepest tree that traversal's fixed stack supports; builders fall back to median splits
+// (depth log2 n) past kMaxBvhDepth / 2, so hostile inputs cannot overflow it.
+inline constexpr int kMaxBvhDepth = 128;
+
+Bvh build_bvh(std::span<const Aabb> prim_bounds, const BvhBuildOptions& options);
+
+// Expected traversal cost of a built tree under the SAH model (the same figure as stats.sah_cost).
+double sah_cost(const Bvh& bvh, float traversal_cost, float intersection_cost);
+
+}  // namespace tessera

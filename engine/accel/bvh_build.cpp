@@ -1,0 +1,206 @@
+// The four BVH builders: none (one leaf), midpoint and median splits on the largest axis of
+// the centroid bounds, and binned SAH (Wald, "On fast construction of SAH-based bounding
+// volume hierarchies", 2007; pbrt-v4 section 7.3) over all three axes.
+#include <algorithm>
+#include <chrono>
+#include <numeric>
+
+#include "engine/accel/bvh.h"
+
+namespace tessera {
+
+const char* to_string(BvhType t) {
+    switch (t) {
+        case BvhType::none: return "none";
+        case BvhType::midpoint: return "midpoint";
+        case BvhType::median: return "median";
+        case BvhType::sah: return "sah";
+    }
+    return "?";
+}
+
+bool parse_bvh_type(const std::string& s, BvhType& out) {
+    for (BvhType t : {BvhType::none, BvhType::midpoint, BvhType::median, BvhType::sah})
+        if (s == to_string(t)) { out = t; return true; }
+    return false;
+}
+
+namespace {
+
+struct PrimRef {
+    Aabb bounds;
+    glm::vec3 centroid;
+    uint32_t id;
+};
+
+struct Builder {
+    const BvhBuildOptions& opt;
+    std::vector<PrimRef>& refs;
+    std::vector<BvhNode>& nodes;
+    int max_depth_seen = 0;
+    // Scratch reused across nodes, so that a build allocates O(1) times, not once per node.
+    struct Bin { Aabb b; uint32_t n = 0; };
+    std::vector<Bin> bins;
+    std::vector<float> right_area;
+    std::vector<uint32_t> right_count;
+
+    struct Split {
+        int axis = -1;
+        size_t mid = 0;  // refs[begin, mid) go left after partitioning
+    };
+
+    void make_leaf(uint32_t node, const Aabb& b, size_t begin, size_t end) {
+        nodes[node] = BvhNode{b.lo, uint32_t(begin), b.hi, uint32_t(end - begin)};
+    }
+
+    size_t median_split(size_t begin, size_t end, int axis) {
+        const size_t mid = begin + (end - begin) / 2;
+        std::nth_element(refs.begin() + begin, refs.begin() + mid, refs.begin() + end,
+                         [axis](const PrimRef& a, const PrimRef& b) { return a.centroid[axis] < b.centroid[axis]; });
+        return mid;
+    }
+
+    size_t midpoint_split(size_t begin, size_t end, int axis, const Aabb& cb) {
+        const float plane = 0.5f * (cb.lo[axis] + cb.hi[axis]);
+        auto it = std::partition(refs.begin() + begin, refs.begin() + end,
+                                 [axis, plane](const PrimRef& r) { return r.centroid[axis] < plane; });
+        size_t mid = size_t(it - refs.begin());
+        if (mid == begin || mid == end) mid = median_split(begin, end, axis);
+        return mid;
+    }
+
+    // Returns the SAH split, or axis -1 when a leaf is cheaper (and allowed).
+    Split sah_split(size_t begin, size_t end, const Aabb& b, const Aabb& cb) {
+        const int nbins = std::max(2, opt.sah_bins);
+        bins.assign(size_t(nbins) * 3, Bin{});
+        glm::vec3 scale;
+        const glm::vec3 ext = cb.extent();
+        for (int a = 0; a < 3; ++a) scale[a] = ext[a] > 0.f ? float(nbins) * (1.f - 1e-6f) / ext[a] : 0.f;
+        for (size_t i = begin; i < end; ++i) {
+            const PrimRef& r = refs[i];
+            for (int a = 0; a < 3; ++a) {
+                int k = std::min(nbins - 1, int((r.centroid[a] - cb.lo[a]) * scale[a]));
+                Bin& bin = bins[size_t(a) * nbins + k];
+                bin.b.expand(r.bounds);
+                ++bin.n;
+            }
+        }
+        const size_t n = end - begin;
+        float best_cost = INFINITY;
+        int best_axis = -1, best_bin = 0;
+        right_area.assign(nbins, 0.f);
+        right_count.assign(nbins, 0);
+        for (int a = 0; a < 3; ++a) {
+            if (ext[a] <= 0.f) continue;
+            const Bin* ab = &bins[size_t(a) * nbins];
+            Aabb acc; uint32_t cnt = 0;
+            for (int k = nbins - 1; k > 0; --k) {
+                acc.expand(ab[k].b); cnt += ab[k].n;
+                right_area[k] = acc.surface_area(); right_count[k] = cnt;
+            }
+            acc = Aabb{}; cnt = 0;
+            for (int k = 0; k < nbins - 1; ++k) {
+                acc.expand(ab[k].b); cnt += ab[k].n;
+                if (cnt == 0 || right_count[k + 1] == 0) continue;
+                const float cost = acc.surface_area() * cnt + right_area[k + 1] * right_count[k + 1];
+                if (cost < best_cost) { best_cost = cost; best_axis = a; best_bin = k; }
+            }
+        }
+        const float area = b.surface_area();
+        const float leaf_cost = opt.intersection_cost * float(n);
+        float split_cost = area > 0.f ? opt.traversal_cost + opt.intersection_cost * best_cost / area : INFINITY;
+        if (best_axis < 0 || (n <= size_t(opt.max_leaf_size) && leaf_cost <= split_cost)) return {};
+        const int axis = best_axis;
+        const float lo = cb.lo[axis], s = scale[axis];
+        auto it = std::partition(refs.begin() + begin, refs.begin() + end, [&](const PrimRef& r) {
+            return std::min(nbins - 1, int((r.centroid[axis] - lo) * s)) <= best_bin;
+        });
+        size_t mid = size_t(it - refs.begin());
+        if (mid == begin || mid == end) mid = median_split(begin, end, axis);
+        return {axis, mid};
+    }
+
+    void build(uint32_t node, size_t begin, size_t end, int depth) {
+        max_depth_seen = std::max(max_depth_seen, depth);
+        Aabb b, cb;
+        for (size_t i = begin; i < end; ++i) { b.expand(refs[i].bounds); cb.expand(refs[i].centroid); }
+        const size_t n = end - begin;
+        if (opt.type == BvhType::none || n <= 1 ||
+            (n <= size_t(opt.max_leaf_size) && opt.type != BvhType::sah)) {
+            make_leaf(node, b, begin, end);
+            return;
+        }
+        const int axis = cb.largest_axis();
+        size_t mid;
+        if (cb.extent()[axis] <= 0.f) {
+            // All centroids coincide: no plane separates them, so only the leaf-size limit matters.
+            if (n <= size_t(opt.max_leaf_size)) { make_leaf(node, b, begin, end); return; }
+            mid = begin + n / 2;
+        } else if (depth >= kMaxBvhDepth / 2) {
+            mid = median_split(begin, end, axis);  // bounded depth whatever the input
+        } else if (opt.type == BvhType::median) {
+            mid = median_split(begin, end, axis);
+        } else if (opt.type == BvhType::midpoint) {
+            mid = midpoint_split(begin, end, axis, cb);
+        } else {
+            const Split s = sah_split(begin, end, b, cb);
+            if (s.axis < 0) { make_leaf(node, b, begin, end); return; }
+            mid = s.mid;
+        }
+        nodes[node].lo = b.lo;
+        nodes[node].hi = b.hi;
+        nodes[node].count = 0;
+        const uint32_t left = uint32_t(nodes.size());
+        nodes.emplace_back();
+        build(left, begin, mid, depth + 1);
+        const uint32_t right = uint32_t(nodes.size());
+        nodes.emplace_back();
+        nodes[node].offset = right;
+        build(right, mid, end, depth + 1);
+    }
+};
+
+}  // namespace
+
+double sah_cost(const Bvh& bvh, float traversal_cost, float intersection_cost) {
+    if (bvh.nodes.empty()) return 0.0;
+    auto area = [](const BvhNode& n) { return double(Aabb{n.lo, n.hi}.surface_area()); };
+    const double root = area(bvh.nodes[0]);
+    if (root <= 0.0) return intersection_cost * double(bvh.prim_index.size());
+    double cost = 0.0;
+    for (const BvhNode& n : bvh.nodes)
+        cost += (n.is_leaf() ? intersection_cost * double(n.count) : double(traversal_cost)) * area(n) / root;
+    return cost;
+}
+
+Bvh build_bvh(std::span<const Aabb> prim_bounds, const BvhBuildOptions& options) {
+    const auto t0 = std::chrono::steady_clock::now();
+    Bvh bvh;
+    if (prim_bounds.empty()) return bvh;
+    std::vector<PrimRef> refs(prim_bounds.size());
+    for (size_t i = 0; i < prim_bounds.size(); ++i)
+        refs[i] = PrimRef{prim_bounds[i], prim_bounds[i].centroid(), uint32_t(i)};
+    bvh.nodes.reserve(std::max<size_t>(1, 2 * prim_bounds.size() / std::max(1, options.max_leaf_size / 2 + 1)));
+    bvh.nodes.emplace_back();
+    Builder builder{options, refs, bvh.nodes, 0, {}, {}, {}};
+    builder.build(0, 0, refs.size(), 0);
+    bvh.nodes.shrink_to_fit();
+    bvh.prim_index.resize(refs.size());
+    for (size_t i = 0; i < refs.size(); ++i) bvh.prim_index[i] = refs[i].id;
+
+    BvhBuildStats& s = bvh.stats;
+    s.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    s.node_count = bvh.nodes.size();
+    s.depth = builder.max_depth_seen;
+    s.leaf_size_histogram.assign(size_t(std::max(options.max_leaf_size, 1)) + 2, 0);
+    for (const BvhNode& n : bvh.nodes) {
+        if (!n.is_leaf()) continue;
+        ++s.leaf_count;
+        ++s.leaf_size_histogram[std::min<size_t>(n.count, s.leaf_size_histogram.size() - 1)];
+    }
+    s.sah_cost = sah_cost(bvh, options.traversal_cost, options.intersection_cost);
+    s.memory_bytes = bvh.nodes.size() * sizeof(BvhNode) + bvh.prim_index.size() * sizeof(uint32_t);
+    return bvh;
+}
+
+}  // namespace tessera

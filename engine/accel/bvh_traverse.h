@@ -1,0 +1,95 @@
+#pragma once
+// Iterative BVH traversal: both children's boxes are tested and the nearer is visited first;
+// the farther is pushed with its entry distance and skipped if a closer hit was found since.
+#include <cstdint>
+
+#include "engine/accel/bvh.h"
+#include "engine/geometry/ray.h"
+
+namespace tessera {
+
+struct TraversalCounters {
+    uint64_t nodes_visited = 0;
+    uint64_t prim_tests = 0;
+};
+
+// `test(prim_id, ray)` returns true on a hit and then lowers ray.tmax to the hit distance.
+template <class PrimTest>
+bool bvh_closest_hit(const Bvh& bvh, Ray& ray, PrimTest&& test, TraversalCounters& counters) {
+    if (bvh.nodes.empty()) return false;
+    const RayInv ri = make_ray_inv(ray.o, ray.d);
+    const BvhNode* nodes = bvh.nodes.data();
+    const uint32_t* prims = bvh.prim_index.data();
+    struct Entry { uint32_t node; float t; };
+    Entry stack[kMaxBvhDepth];
+    int sp = 0;
+    bool hit = false;
+    if (intersect_aabb(nodes[0].lo, nodes[0].hi, ri, ray.tmin, ray.tmax) == INFINITY) return false;
+    uint32_t current = 0;
+    uint64_t visited = 0, tests = 0;
+    for (;;) {
+        const BvhNode& n = nodes[current];
+        ++visited;
+        if (n.is_leaf()) {
+            for (uint32_t i = n.offset, end = n.offset + n.count; i < end; ++i) {
+                ++tests;
+                hit |= test(prims[i], ray);
+            }
+        } else {
+            const uint32_t l = current + 1, r = n.offset;
+            float tl = intersect_aabb(nodes[l].lo, nodes[l].hi, ri, ray.tmin, ray.tmax);
+            float tr = intersect_aabb(nodes[r].lo, nodes[r].hi, ri, ray.tmin, ray.tmax);
+            if (tl != INFINITY && tr != INFINITY) {
+                if (tl <= tr) { stack[sp++] = {r, tr}; current = l; }
+                else { stack[sp++] = {l, tl}; current = r; }
+                continue;
+            }
+            if (tl != INFINITY) { current = l; continue; }
+            if (tr != INFINITY) { current = r; continue; }
+        }
+        // Pop the next subtree that may still hold a closer hit.
+        for (;;) {
+            if (sp == 0) {
+                counters.nodes_visited += visited;
+                counters.prim_tests += tests;
+                return hit;
+            }
+            const Entry e = stack[--sp];
+            if (e.t < ray.tmax) { current = e.node; break; }
+        }
+    }
+}
+
+// Any-hit traversal for shadow rays: stops at the first primitive that reports a hit.
+template <class PrimTest>
+bool bvh_any_hit(const Bvh& bvh, const Ray& ray, PrimTest&& test, TraversalCounters& counters) {
+    if (bvh.nodes.empty()) return false;
+    const RayInv ri = make_ray_inv(ray.o, ray.d);
+    const BvhNode* nodes = bvh.nodes.data();
+    const uint32_t* prims = bvh.prim_index.data();
+    uint32_t stack[kMaxBvhDepth];
+    int sp = 0;
+    stack[sp++] = 0;
+    uint64_t visited = 0, tests = 0;
+    bool hit = false;
+    while (sp > 0 && !hit) {
+        const BvhNode& n = nodes[stack[--sp]];
+        ++visited;
+        if (intersect_aabb(n.lo, n.hi, ri, ray.tmin, ray.tmax) == INFINITY) continue;
+        if (n.is_leaf()) {
+            for (uint32_t i = n.offset, end = n.offset + n.count; i < end; ++i) {
+                ++tests;
+                if (test(prims[i], ray)) { hit = true; break; }
+            }
+        } else {
+            const uint32_t self = static_cast<uint32_t>(&n - nodes);
+            stack[sp++] = n.offset;
+            stack[sp++] = self + 1;
+        }
+    }
+    counters.nodes_visited += visited;
+    counters.prim_tests += tests;
+    return hit;
+}
+
+}  // namespace tessera

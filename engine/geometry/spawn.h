@@ -1,0 +1,39 @@
+#pragma once
+// Secondary-ray origins that cannot re-hit the surface they leave, at any scene scale:
+// the hit point carries a conservative bound on its rounding error, and the origin is pushed
+// out of that error box along the geometric normal and rounded away (pbrt-v4, section 6.8.6).
+// A fixed epsilon would be too large for a scene at 1e-4 and too small at 1e4.
+#include <glm/glm.hpp>
+
+#include "engine/core/float_util.h"
+#include "engine/geometry/ray.h"
+
+namespace tessera {
+
+inline glm::vec3 offset_ray_origin(const glm::vec3& p, const glm::vec3& p_err, const glm::vec3& ng,
+                                   const glm::vec3& w) {
+    const float d = glm::dot(glm::abs(ng), p_err);
+    glm::vec3 offset = d * ng;
+    if (glm::dot(w, ng) < 0.f) offset = -offset;
+    glm::vec3 po = p + offset;
+    for (int i = 0; i < 3; ++i) {
+        if (offset[i] > 0.f) po[i] = next_float_up(po[i]);
+        else if (offset[i] < 0.f) po[i] = next_float_down(po[i]);
+    }
+    return po;
+}
+
+inline Ray spawn_ray(const glm::vec3& p, const glm::vec3& p_err, const glm::vec3& ng, const glm::vec3& dir) {
+    return Ray{offset_ray_origin(p, p_err, ng, dir), 0.f, dir, INFINITY};
+}
+
+// A ray from a surface point toward a target point (shadow rays); it stops just short of the
+// target so that the target's own surface is not reported as an occluder.
+inline constexpr float shadow_epsilon = 1e-4f;
+
+inline Ray spawn_ray_to(const glm::vec3& p, const glm::vec3& p_err, const glm::vec3& ng, const glm::vec3& target) {
+    const glm::vec3 o = offset_ray_origin(p, p_err, ng, target - p);
+    return Ray{o, 0.f, target - o, 1.f - shadow_epsilon};
+}
+
+}  // namespace tessera

@@ -1,0 +1,81 @@
+#pragma once
+// Ray–triangle tests. The watertight test (Woop, Benthin, Wald, "Watertight Ray/Triangle
+// Intersection", JCGT 2013) never lets a ray slip between triangles that share an edge or a
+// vertex; Möller–Trumbore is kept for comparison (it can leak on shared edges).
+#include <cmath>
+#include <utility>
+
+#include <glm/glm.hpp>
+
+#include "engine/geometry/ray.h"
+
+namespace tessera {
+
+struct TriangleHit {
+    float t;
+    float b0, b1, b2;  // barycentric weights of p0, p1, p2
+};
+
+// Per-ray constants of the watertight test: the axis permutation and shear.
+struct WatertightRay {
+    int kx, ky, kz;
+    float sx, sy, sz;
+};
+
+inline WatertightRay make_watertight_ray(const glm::vec3& d) {
+    const glm::vec3 a = glm::abs(d);
+    int kz = (a.x > a.y) ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
+    int kx = kz + 1 == 3 ? 0 : kz + 1;
+    int ky = kx + 1 == 3 ? 0 : kx + 1;
+    if (d[kz] < 0.f) std::swap(kx, ky);  // keep the winding, so the sign tests stay consistent
+    return {kx, ky, kz, d[kx] / d[kz], d[ky] / d[kz], 1.f / d[kz]};
+}
+
+inline bool intersect_triangle_watertight(const Ray& ray, const WatertightRay& w, const glm::vec3& p0,
+                                          const glm::vec3& p1, const glm::vec3& p2, TriangleHit& hit) {
+    const glm::vec3 A = p0 - ray.o, B = p1 - ray.o, C = p2 - ray.o;
+    const float ax = A[w.kx] - w.sx * A[w.kz], ay = A[w.ky] - w.sy * A[w.kz];
+    const float bx = B[w.kx] - w.sx * B[w.kz], by = B[w.ky] - w.sy * B[w.kz];
+    const float cx = C[w.kx] - w.sx * C[w.kz], cy = C[w.ky] - w.sy * C[w.kz];
+    float u = cx * by - cy * bx;
+    float v = ax * cy - ay * cx;
+    float e = bx * ay - by * ax;
+    // An edge function that rounds to exactly zero is recomputed in double, so that two
+    // triangles sharing that edge cannot both reject the ray.
+    if (u == 0.f || v == 0.f || e == 0.f) {
+        u = float(double(cx) * double(by) - double(cy) * double(bx));
+        v = float(double(ax) * double(cy) - double(ay) * double(cx));
+        e = float(double(bx) * double(ay) - double(by) * double(ax));
+    }
+    if ((u < 0.f || v < 0.f || e < 0.f) && (u > 0.f || v > 0.f || e > 0.f)) return false;
+    const float det = u + v + e;
+    if (det == 0.f) return false;
+    const float az = w.sz * A[w.kz], bz = w.sz * B[w.kz], cz = w.sz * C[w.kz];
+    const float T = u * az + v * bz + e * cz;
+    const float inv_det = 1.f / det;
+    const float t = T * inv_det;
+    if (!(t > ray.tmin && t < ray.tmax)) return false;
+    hit = {t, u * inv_det, v * inv_det, e * inv_det};
+    return true;
+}
+
+inline bool intersect_triangle_moller_trumbore(const Ray& ray, const glm::vec3& p0, const glm::vec3& p1,
+                                               const glm::vec3& p2, TriangleHit& hit) {
+    const glm::vec3 e1 = p1 - p0, e2 = p2 - p0;
+    const glm::vec3 p = glm::cross(ray.d, e2);
+    const float det = glm::dot(e1, p);
+    if (det == 0.f) return false;
+    const float inv_det = 1.f / det;
+    const glm::vec3 s = ray.o - p0;
+    const float b1 = glm::dot(s, p) * inv_det;
+    if (b1 < 0.f || b1 > 1.f) return false;
+    const glm::vec3 q = glm::cross(s, e1);
+    const float b2 = glm::dot(ray.d, q) * inv_det;
+    if (b2 < 0.f || b1 + b2 > 1.f) return false;
+    const float t = glm::dot(e2, q) * inv_det;
+    if (!(t > ray.tmin && t < ray.tmax)) return false;
+    hit = {t, 1.f - b1 - b2, b1, b2};
+    return true;
+}
+
+}  // namespace tessera

@@ -1,0 +1,760 @@
+// glTF 2.0 -> SceneDescription. tinygltf parses the JSON and decodes buffers; everything it does
+// not check (accessor bounds, index ranges, the node graph, external paths) is checked here,
+// before anything is allocated, because glTF files come from users and fuzzers.
+#include "engine/io/gltf_loader.h"
+
+// Must match engine/io/tinygltf_impl.cpp: these switches change TinyGLTF's inline constructor,
+// which would otherwise refer to stb image functions that are not compiled.
+#define TINYGLTF_NO_STB_IMAGE
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#define TINYGLTF_NO_EXTERNAL_IMAGE
+#include <tiny_gltf.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <bit>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <numbers>
+#include <optional>
+
+namespace tessera {
+namespace {
+
+namespace fs = std::filesystem;
+static_assert(std::endian::native == std::endian::little, "glTF buffers are little-endian and read by memcpy");
+
+// tinygltf copies `extras` and `extensions` into its Value tree recursively, so a deeply nested
+// document would overflow the stack there. Real files nest fewer than ten levels.
+constexpr int kMaxJsonDepth = 128;
+// Extensions whose content is read; anything else in extensionsRequired is refused.
+constexpr const char* kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_materials_emissive_strength"};
+
+constexpr const char* kVerticesLeft = "vertices left under LoadLimits::max_vertices";
+// Each primitive instance becomes a MeshDesc with its own overhead; bounds memory for files that
+// instance many tiny primitives many times (LoadLimits has no field for this yet).
+constexpr size_t kMaxMeshInstances = 1'000'000;
+
+SourceLocation at(const std::string& file, const std::string& pointer) { return {file, 0, pointer}; }
+
+[[noreturn]] void fail(const std::string& file, const std::string& pointer, const std::string& what) {
+    throw SceneError(at(file, pointer), what);
+}
+
+std::string str(uint64_t v) { return std::to_string(v); }
+std::string num(double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%g", v);
+    return b;
+}
+
+// tinygltf quotes whole data URIs in some messages, and names are copied per instance: keep
+// both bounded.
+std::string clip(std::string s, size_t max = 400) {
+    while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+    if (s.size() > max) s = s.substr(0, max) + "...";
+    return s;
+}
+
+void check_json_depth(std::string_view json, const std::string& file) {
+    int depth = 0;
+    bool in_string = false, escaped = false;
+    for (char c : json) {
+        if (in_string) {
+            if (escaped) escaped = false;
+            else if (c == '\\') escaped = true;
+            else if (c == '"') in_string = false;
+        } else if (c == '"') {
+            in_string = true;
+        } else if (c == '[' || c == '{') {
+            if (++depth > kMaxJsonDepth) fail(file, "", "JSON nests deeper than " + str(kMaxJsonDepth) + " levels");
+        } else if (c == ']' || c == '}') {
+            --depth;
+        }
+    }
+}
+
+uint32_t read_u32(std::string_view b, size_t at) {
+    uint32_t v;
+    std::memcpy(&v, b.data() + at, 4);
+    return v;
+}
+
+// Checks the GLB container before tinygltf reads it: tinygltf 2.7 accepts a BIN chunk whose
+// declared length runs up to 8 bytes past the end (it forgets the chunk header) and then copies
+// from beyond the input. Returns the JSON chunk; the file's declared length goes to `length`.
+std::string_view check_glb(std::string_view b, const std::string& file, size_t& length) {
+    if (b.size() < 20)
+        fail(file, "", "truncated GLB: " + str(b.size()) + " bytes, the headers alone need 20");
+    if (b.substr(0, 4) != "glTF") fail(file, "", "not a GLB file (the magic is not 'glTF')");
+    if (read_u32(b, 4) != 2) fail(file, "", "GLB container version " + str(read_u32(b, 4)) + " is not supported (need 2)");
+    length = read_u32(b, 8);
+    if (length > b.size())
+        fail(file, "", "GLB header declares " + str(length) + " bytes but there are only " + str(b.size()));
+    if (length < 20) fail(file, "", "GLB header declares only " + str(length) + " bytes");
+    const uint64_t json_len = read_u32(b, 12);
+    if (read_u32(b, 16) != 0x4E4F534Au) fail(file, "", "the first GLB chunk is not JSON");
+    if (json_len > length - 20)
+        fail(file, "", "GLB JSON chunk of " + str(json_len) + " bytes runs past the end of the file");
+    const uint64_t bin_at = 20 + json_len;
+    if (bin_at < length) {
+        if (length - bin_at < 8) fail(file, "", "truncated GLB: incomplete BIN chunk header");
+        const uint64_t bin_len = read_u32(b, bin_at);
+        if (bin_len > length - bin_at - 8)
+            fail(file, "", "GLB BIN chunk of " + str(bin_len) + " bytes runs past the end of the file");
+    }
+    return b.substr(20, json_len);
+}
+
+// tinygltf 2.7 hands image loaders &buffer.data[bufferView.byteOffset] without checking the
+// offset: undefined behaviour for a hostile offset (an abort under _GLIBCXX_ASSERTIONS), although
+// the bytes are never read. Images are the only such place, so their bufferViews are checked first against
+// the declared buffer sizes (tinygltf makes decoded buffers exactly that long). This parses the
+// JSON a second time, hence only when there are images, keeping only the three arrays involved.
+void check_image_views(std::string_view text, const std::string& file) {
+    using nlohmann::json;
+    if (text.find("\"images\"") == std::string_view::npos) return;
+    const json::parser_callback_t keep = [](int depth, json::parse_event_t event, json& parsed) {
+        if (event != json::parse_event_t::key) return true;
+        const auto& key = parsed.get_ref<const std::string&>();
+        if (depth == 1) return key == "images" || key == "bufferViews" || key == "buffers";
+        return key == "bufferView" || key == "buffer" || key == "byteOffset" || key == "byteLength";
+    };
+    const json doc = json::parse(text.begin(), text.end(), keep, /*allow_exceptions=*/false);
+    if (!doc.is_object() || !doc.contains("images") || !doc["images"].is_array()) return;  // tinygltf reports it
+    auto index = [](const json& o, const char* key) -> std::optional<uint64_t> {
+        if (!o.is_object() || !o.contains(key) || !o[key].is_number_unsigned()) return std::nullopt;
+        return o[key].get<uint64_t>();
+    };
+    static const json none;
+    const json& views = doc.contains("bufferViews") ? doc["bufferViews"] : none;
+    const json& buffers = doc.contains("buffers") ? doc["buffers"] : none;
+    for (const json& image : doc["images"]) {
+        const auto v = index(image, "bufferView");
+        if (!v || !views.is_array() || *v >= views.size()) continue;
+        const json& view = views[*v];
+        const auto b = index(view, "buffer");
+        if (!b || !buffers.is_array() || *b >= buffers.size()) continue;
+        const uint64_t offset = index(view, "byteOffset").value_or(0), length = index(view, "byteLength").value_or(0);
+        const uint64_t size = index(buffers[*b], "byteLength").value_or(0);
+        if (offset > size || length > size - offset)
+            fail(file, "/bufferViews/" + str(*v), "byteOffset " + str(offset) + " + byteLength " + str(length) +
+                                                      " exceeds buffer " + str(*b) + " of " + str(size) + " bytes");
+    }
+}
+
+// --- external files -------------------------------------------------------------------------
+// tinygltf joins base_dir and the (URL-decoded) URI itself, then also tries the working
+// directory. We hand it an absolute base ending in '/', recover the URI from the joined path
+// and refuse anything that is absolute, has a scheme or resolves outside the scene's folder.
+struct FileGuard {
+    std::string prefix;  // absolute scene folder + '/'; empty = no external files at all
+    fs::path root;       // the folder, canonical
+    uint64_t max_bytes = 0;
+    std::string refusal;  // why a file was refused, for the error message
+};
+
+bool guard_exists(const std::string& path, void* user) {
+    const auto* g = static_cast<const FileGuard*>(user);
+    // Say yes to the scene-folder candidate (or to anything when files are forbidden) so that
+    // guard_read gets to refuse it with a reason; never to the working-directory candidate.
+    return g->prefix.empty() || path.starts_with(g->prefix);
+}
+
+std::string guard_expand(const std::string& path, void*) { return path; }
+
+bool guard_read(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+    auto* g = static_cast<FileGuard*>(user);
+    auto refuse = [&](const std::string& uri, const std::string& why) {
+        g->refusal = "external file '" + uri + "' refused: " + why;
+        if (err) *err += g->refusal;
+        return false;
+    };
+    if (g->prefix.empty() || !path.starts_with(g->prefix))
+        return refuse(path, "this input may not reference external files (only data: URIs)");
+    const std::string uri = path.substr(g->prefix.size());
+    if (uri.empty() || uri[0] == '/' || uri[0] == '\\') return refuse(uri, "absolute paths are not allowed");
+    for (char c : uri)
+        if (static_cast<unsigned char>(c) < 0x20) return refuse(uri, "control characters in the URI");
+    const size_t colon = uri.find(':');
+    if (colon != std::string::npos && uri.find('/') > colon)
+        return refuse(uri, "only relative paths and data: URIs are supported");
+    std::error_code ec;
+    const fs::path target = fs::weakly_canonical(g->root / uri, ec);
+    const fs::path rel = ec ? fs::path() : target.lexically_relative(g->root);
+    if (rel.empty() || *rel.begin() == "..") return refuse(uri, "it resolves outside the scene's folder");
+    if (!fs::is_regular_file(target, ec)) return refuse(uri, "not a readable file");
+    const uint64_t size = fs::file_size(target, ec);
+    if (ec) return refuse(uri, ec.message());
+    if (size > g->max_bytes) return refuse(uri, str(size) + " bytes is above the limit of " + str(g->max_bytes));
+    std::ifstream in(target, std::ios::binary);
+    out->resize(size);
+    if (!in.read(reinterpret_cast<char*>(out->data()), static_cast<std::streamsize>(size)))
+        return refuse(uri, "read error");
+    return true;
+}
+
+// Textures are not rendered: accept every image without decoding it, so broken ones never matter.
+bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
+    return true;
+}
+
+void add_lines(std::vector<std::string>& to, const std::string& text) {
+    size_t start = 0, lines = 0;
+    while (start < text.size()) {
+        size_t end = text.find('\n', start);
+        if (end == std::string::npos) end = text.size();
+        if (end > start && ++lines <= 20) to.push_back("glTF: " + clip(text.substr(start, end - start)));
+        start = end + 1;
+    }
+    if (lines > 20) to.push_back("glTF: " + str(lines - 20) + " more messages");
+}
+
+tinygltf::Model read_model(std::string_view bytes, bool binary, const std::string& base_dir, const std::string& file,
+                           const LoadLimits& limits, std::vector<std::string>& warnings) {
+    if (bytes.size() > limits.max_file_bytes)
+        fail(file, "", "input of " + str(bytes.size()) + " bytes is above the limit of " + str(limits.max_file_bytes));
+    if (bytes.size() >= std::numeric_limits<uint32_t>::max()) fail(file, "", "inputs of 4 GiB or more are not supported");
+    size_t length = bytes.size();
+    std::string_view json = binary ? check_glb(bytes, file, length) : bytes;
+    if (!binary && bytes.starts_with("glTF")) fail(file, "", "binary glTF (GLB) data where a text .gltf was expected");
+    check_json_depth(json, file);
+    check_image_views(json, file);
+
+    FileGuard guard;
+    guard.max_bytes = limits.max_file_bytes;
+    if (!base_dir.empty()) {
+        std::error_code ec;
+        const fs::path abs = fs::absolute(base_dir, ec).lexically_normal();
+        guard.root = fs::weakly_canonical(abs, ec);
+        guard.prefix = abs.string();
+        if (guard.prefix.empty() || guard.prefix.back() != '/') guard.prefix += '/';
+    }
+    tinygltf::TinyGLTF reader;
+    reader.SetImageLoader(skip_image, nullptr);
+    reader.SetFsCallbacks({guard_exists, guard_expand, guard_read, nullptr, &guard});
+
+    tinygltf::Model model;
+    std::string err, warn;
+    bool ok = false;
+    try {
+        const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
+        ok = binary ? reader.LoadBinaryFromMemory(&model, &err, &warn, data, static_cast<unsigned>(length), guard.prefix)
+                    : reader.LoadASCIIFromString(&model, &err, &warn, bytes.data(), static_cast<unsigned>(length),
+                                                 guard.prefix);
+    } catch (const std::exception& e) {  // tinygltf 2.7 throws std::out_of_range for a GLB buffer of 0 bytes
+        ok = false;
+        err = e.what();
+    }
+    if (!guard.refusal.empty()) fail(file, "", guard.refusal);
+    if (!ok) fail(file, "", "invalid glTF: " + clip(err.empty() ? "unknown tinygltf error" : err));
+    add_lines(warnings, err);  // tinygltf reports some problems it then works around
+    add_lines(warnings, warn);
+    return model;
+}
+
+// --- conversion -----------------------------------------------------------------------------
+
+struct Ctx {
+    const tinygltf::Model& m;
+    const std::string& file;
+    const LoadLimits& limits;
+    SceneDescription& out;
+    uint64_t vertices = 0, triangles = 0;
+    std::vector<char> on_path{}, visited{};
+    int points_lines = 0, no_position = 0, spots = 0, extra_cameras = 0, dropped_normals = 0;
+    std::string first_dropped{};
+    bool skinned = false;
+    std::vector<std::string> morphed{};
+};
+
+[[noreturn]] void fail(const Ctx& c, const std::string& pointer, const std::string& what) { fail(c.file, pointer, what); }
+
+// A bounds-checked window onto an accessor: element k starts at data + k * stride.
+struct AccessorView {
+    const unsigned char* data = nullptr;
+    size_t stride = 0;
+    size_t count = 0;
+    int component_type = 0;
+};
+
+const char* type_name(int type) {
+    switch (type) {
+        case TINYGLTF_TYPE_SCALAR: return "SCALAR";
+        case TINYGLTF_TYPE_VEC2: return "VEC2";
+        case TINYGLTF_TYPE_VEC3: return "VEC3";
+        case TINYGLTF_TYPE_VEC4: return "VEC4";
+        case TINYGLTF_TYPE_MAT2: return "MAT2";
+        case TINYGLTF_TYPE_MAT3: return "MAT3";
+        case TINYGLTF_TYPE_MAT4: return "MAT4";
+        default: return "unknown type";
+    }
+}
+
+// True when `count` elements of `elem` bytes, `stride` apart, starting at `offset`, end within
+// `length` bytes. Written so that no intermediate value can overflow.
+bool fits(uint64_t offset, uint64_t stride, uint64_t count, uint64_t elem, uint64_t length) {
+    if (count == 0) return offset <= length;
+    if (offset > length || elem > length - offset) return false;
+    return (count - 1) <= (length - offset - elem) / stride;
+}
+
+// `ref` is the JSON pointer of the reference (e.g. "/meshes/0/primitives/1/indices"); errors
+// about the accessor itself point at "/accessors/N". `max_count` is checked before the caller
+// allocates anything.
+AccessorView view_accessor(const Ctx& c, int index, const std::string& ref, const char* role, int want_type,
+                           std::initializer_list<int> want_components, uint64_t max_count, const char* what_is_left) {
+    if (index < 0 || static_cast<size_t>(index) >= c.m.accessors.size())
+        fail(c, ref, "refers to accessor " + std::to_string(index) + ", but the file has " + str(c.m.accessors.size()));
+    const tinygltf::Accessor& a = c.m.accessors[static_cast<size_t>(index)];
+    const std::string ap = "/accessors/" + str(static_cast<size_t>(index));
+    if (a.sparse.isSparse) fail(c, ap, std::string("sparse accessors are not supported (used as ") + role + ")");
+    if (a.type != want_type ||
+        std::find(want_components.begin(), want_components.end(), a.componentType) == want_components.end())
+        fail(c, ap, std::string(role) + " accessor has type " + type_name(a.type) + " with componentType " +
+                        std::to_string(a.componentType) + ", which is not allowed here (see " + ref + ")");
+    if (a.count > max_count)
+        fail(c, ap, "count " + str(a.count) + " exceeds the " + str(max_count) + " " + what_is_left);
+    if (a.bufferView < 0)
+        fail(c, ap, "accessor without a bufferView (all zeros) is not supported for " + std::string(role));
+    if (static_cast<size_t>(a.bufferView) >= c.m.bufferViews.size())
+        fail(c, ap, "refers to bufferView " + std::to_string(a.bufferView) + ", but the file has " +
+                        str(c.m.bufferViews.size()));
+    const tinygltf::BufferView& bv = c.m.bufferViews[static_cast<size_t>(a.bufferView)];
+    const std::string bp = "/bufferViews/" + std::to_string(a.bufferView);
+    if (bv.buffer < 0 || static_cast<size_t>(bv.buffer) >= c.m.buffers.size())
+        fail(c, bp, "refers to buffer " + std::to_string(bv.buffer) + ", but the file has " + str(c.m.buffers.size()));
+    const std::vector<unsigned char>& buf = c.m.buffers[static_cast<size_t>(bv.buffer)].data;
+    if (!fits(bv.byteOffset, 1, 1, bv.byteLength, buf.size()))
+        fail(c, bp, "byteOffset " + str(bv.byteOffset) + " + byteLength " + str(bv.byteLength) + " exceeds buffer " +
+                        std::to_string(bv.buffer) + " of " + str(buf.size()) + " bytes");
+    const uint64_t elem = static_cast<uint64_t>(tinygltf::GetComponentSizeInBytes(a.componentType)) *
+                          static_cast<uint64_t>(tinygltf::GetNumComponentsInType(a.type));
+    const uint64_t stride = bv.byteStride ? bv.byteStride : elem;
+    if (stride < elem)
+        fail(c, bp, "byteStride " + str(stride) + " is smaller than the " + str(elem) + "-byte elements of accessor " +
+                        std::to_string(index));
+    if (!fits(a.byteOffset, stride, a.count, elem, bv.byteLength))
+        fail(c, ap, "byteOffset " + str(a.byteOffset) + " + " + str(a.count) + " elements of " + str(elem) +
+                        " bytes, stride " + str(stride) + ", exceed bufferView " + std::to_string(a.bufferView) +
+                        " of " + str(bv.byteLength) + " bytes");
+    if (a.count == 0) return {};
+    return {buf.data() + bv.byteOffset + a.byteOffset, static_cast<size_t>(stride), a.count, a.componentType};
+}
+
+glm::vec3 read_vec3(const AccessorView& v, size_t k) {
+    float f[3];
+    std::memcpy(f, v.data + k * v.stride, sizeof f);
+    return {f[0], f[1], f[2]};
+}
+
+uint32_t read_index(const AccessorView& v, size_t k) {
+    const unsigned char* p = v.data + k * v.stride;
+    if (v.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) return p[0];
+    if (v.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT) {
+        uint16_t s;
+        std::memcpy(&s, p, 2);
+        return s;
+    }
+    uint32_t u;
+    std::memcpy(&u, p, 4);
+    return u;
+}
+
+bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+uint64_t left(uint64_t limit, uint64_t used) { return used >= limit ? 0 : limit - used; }
+
+void emit_primitive(Ctx& c, size_t mi, size_t pi, const glm::dmat4& world) {
+    const tinygltf::Mesh& mesh = c.m.meshes[mi];
+    const tinygltf::Primitive& prim = mesh.primitives[pi];
+    const std::string pp = "/meshes/" + str(mi) + "/primitives/" + str(pi);
+    const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    if (mode < TINYGLTF_MODE_TRIANGLES) {
+        ++c.points_lines;
+        return;
+    }
+    if (mode > TINYGLTF_MODE_TRIANGLE_FAN) fail(c, pp + "/mode", "unknown primitive mode " + std::to_string(mode));
+    if (!prim.targets.empty()) c.morphed.push_back(mesh.name.empty() ? "mesh " + str(mi) : clip(mesh.name, 200));
+    const auto pos_it = prim.attributes.find("POSITION");
+    if (pos_it == prim.attributes.end()) {
+        ++c.no_position;
+        return;
+    }
+    if (prim.material < -1 || prim.material >= static_cast<int>(c.out.materials.size()))
+        fail(c, pp + "/material", "refers to material " + std::to_string(prim.material) + ", but the file has " +
+                                      str(c.out.materials.size()));
+
+    const AccessorView pos = view_accessor(c, pos_it->second, pp + "/attributes/POSITION", "POSITION", TINYGLTF_TYPE_VEC3,
+                                           {TINYGLTF_COMPONENT_TYPE_FLOAT}, left(c.limits.max_vertices, c.vertices), kVerticesLeft);
+    AccessorView nrm;
+    const auto nrm_it = prim.attributes.find("NORMAL");
+    if (nrm_it != prim.attributes.end()) {
+        nrm = view_accessor(c, nrm_it->second, pp + "/attributes/NORMAL", "NORMAL", TINYGLTF_TYPE_VEC3,
+                            {TINYGLTF_COMPONENT_TYPE_FLOAT}, left(c.limits.max_vertices, c.vertices), kVerticesLeft);
+        if (nrm.count != pos.count)
+            fail(c, pp + "/attributes/NORMAL", "NORMAL has " + str(nrm.count) + " elements but POSITION has " + str(pos.count));
+    }
+    const bool indexed = prim.indices >= 0;
+    const uint64_t tri_budget = left(c.limits.max_triangles, c.triangles);
+    const uint64_t corner_budget = tri_budget > (std::numeric_limits<uint64_t>::max() - 2) / 3 ? tri_budget : 3 * tri_budget + 2;
+    AccessorView idx;
+    if (indexed)
+        idx = view_accessor(c, prim.indices, pp + "/indices", "indices", TINYGLTF_TYPE_SCALAR,
+                            {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+                             TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT},
+                            corner_budget, "indices left under LoadLimits::max_triangles");
+    if (pos.count > std::numeric_limits<uint32_t>::max())  // MeshDesc indices are 32-bit
+        fail(c, pp + "/attributes/POSITION", "more than 2^32 vertices in one primitive");
+    const size_t corners = indexed ? idx.count : pos.count;
+    const std::string corner_ptr = indexed ? pp + "/indices" : pp + "/attributes/POSITION";
+    if (mode == TINYGLTF_MODE_TRIANGLES && corners % 3 != 0)
+        fail(c, corner_ptr, str(corners) + " vertices do not make whole triangles");
+    const size_t tris = mode == TINYGLTF_MODE_TRIANGLES ? corners / 3 : (corners >= 3 ? corners - 2 : 0);
+    if (tris > tri_budget)
+        fail(c, pp, str(tris) + " triangles exceed the triangle limit (" + str(c.limits.max_triangles) + " in all)");
+    if (tris == 0) return;
+    if (c.out.meshes.size() >= kMaxMeshInstances)
+        fail(c, pp, "more than " + str(kMaxMeshInstances) + " mesh primitive instances in the scene");
+
+    MeshDesc out;
+    out.name = mesh.name.empty() ? "mesh " + str(mi) : clip(mesh.name, 200);
+    if (mesh.primitives.size() > 1) out.name += " [primitive " + str(pi) + "]";
+    out.material = prim.material;
+    out.origin = at(c.file, pp);
+
+    out.positions.resize(pos.count);
+    for (size_t k = 0; k < pos.count; ++k) {
+        const glm::dvec3 p = read_vec3(pos, k);
+        if (!finite(p))
+            fail(c, "/accessors/" + std::to_string(pos_it->second),
+                 "POSITION element " + str(k) + " is not finite (used by " + pp + ")");
+        out.positions[k] = glm::vec3(world * glm::dvec4(p, 1.0));
+    }
+    if (nrm.count > 0) {
+        const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(world)));
+        out.normals.resize(nrm.count);
+        for (size_t k = 0; k < nrm.count && !out.normals.empty(); ++k) {
+            const glm::dvec3 n = read_vec3(nrm, k);
+            if (!finite(n))
+                fail(c, "/accessors/" + std::to_string(nrm_it->second),
+                     "NORMAL element " + str(k) + " is not finite (used by " + pp + ")");
+            const glm::dvec3 w = normal_matrix * n;
+            const double len = glm::length(w);
+            if (!(len > 1e-30) || !std::isfinite(len)) {
+                out.normals.clear();  // the renderer falls back to geometric normals
+                if (c.dropped_normals++ == 0) c.first_dropped = out.name;
+            } else {
+                out.normals[k] = glm::vec3(w / len);
+            }
+        }
+    }
+
+    std::vector<uint32_t> corner(corners);
+    for (size_t k = 0; k < corners; ++k) {
+        corner[k] = indexed ? read_index(idx, k) : static_cast<uint32_t>(k);
+        if (corner[k] >= pos.count)
+            fail(c, pp + "/indices", "index " + str(k) + " = " + str(corner[k]) + " is out of range (" + str(pos.count) +
+                                         " vertices)");
+    }
+    // A mirroring transform turns counter-clockwise (front) faces clockwise; swap to keep them front.
+    const bool mirrored = glm::determinant(glm::dmat3(world)) < 0;
+    out.indices.reserve(3 * tris);
+    for (size_t t = 0; t < tris; ++t) {
+        uint32_t a, b, d;
+        if (mode == TINYGLTF_MODE_TRIANGLES) a = corner[3 * t], b = corner[3 * t + 1], d = corner[3 * t + 2];
+        else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) a = corner[t], b = corner[t + 1 + t % 2], d = corner[t + 2 - t % 2];
+        else a = corner[t + 1], b = corner[t + 2], d = corner[0];
+        if (mirrored) std::swap(b, d);
+        out.indices.insert(out.indices.end(), {a, b, d});
+    }
+    c.vertices += pos.count;
+    c.triangles += tris;
+    c.out.meshes.push_back(std::move(out));
+}
+
+glm::dmat4 local_matrix(const Ctx& c, size_t ni) {
+    const tinygltf::Node& n = c.m.nodes[ni];
+    const std::string np = "/nodes/" + str(ni);
+    auto check = [&](const std::vector<double>& v, size_t size, const char* name) {
+        const bool ok = v.size() == size && std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
+        if (!v.empty() && !ok) fail(c, np + "/" + name, std::string(name) + " must hold " + str(size) + " finite numbers");
+    };
+    check(n.matrix, 16, "matrix");
+    check(n.translation, 3, "translation");
+    check(n.rotation, 4, "rotation");
+    check(n.scale, 3, "scale");
+    glm::dmat4 m(1.0);
+    if (!n.matrix.empty()) {  // column-major, like glm
+        for (int col = 0; col < 4; ++col)
+            for (int row = 0; row < 4; ++row) m[col][row] = n.matrix[static_cast<size_t>(4 * col + row)];
+        return m;
+    }
+    if (!n.scale.empty()) m = glm::dmat4(glm::dmat3(n.scale[0], 0, 0, 0, n.scale[1], 0, 0, 0, n.scale[2]));
+    if (!n.rotation.empty()) {
+        double x = n.rotation[0], y = n.rotation[1], z = n.rotation[2], w = n.rotation[3];
+        const double len = std::sqrt(x * x + y * y + z * z + w * w);
+        if (!(len > 1e-12)) fail(c, np + "/rotation", "rotation quaternion has zero length");
+        x /= len, y /= len, z /= len, w /= len;
+        const glm::dmat3 r(1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w),   // column 0
+                           2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w),   // column 1
+                           2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y));  // column 2
+        m = glm::dmat4(r) * m;
+    }
+    if (!n.translation.empty()) m[3] = glm::dvec4(n.translation[0], n.translation[1], n.translation[2], 1.0);
+    return m;  // T * R * S: the translation column is untouched by R * S
+}
+
+glm::vec3 direction_of(const Ctx& c, const glm::dmat4& world, const glm::dvec3& local, const std::string& np) {
+    const glm::dvec3 d(world * glm::dvec4(local, 0.0));
+    const double len = glm::length(d);
+    if (!(len > 1e-30) || !std::isfinite(len)) fail(c, np, "node transform is degenerate (a zero or non-finite axis)");
+    return glm::vec3(d / len);
+}
+
+void add_camera(Ctx& c, size_t ni, const glm::dmat4& world) {
+    const tinygltf::Node& n = c.m.nodes[ni];
+    const std::string np = "/nodes/" + str(ni);
+    if (n.camera < 0 || static_cast<size_t>(n.camera) >= c.m.cameras.size())
+        fail(c, np + "/camera", "refers to camera " + std::to_string(n.camera) + ", but the file has " + str(c.m.cameras.size()));
+    const tinygltf::Camera& cam = c.m.cameras[static_cast<size_t>(n.camera)];
+    const std::string cp = "/cameras/" + std::to_string(n.camera);
+    if (cam.type != "perspective") {
+        c.out.warnings.push_back("orthographic camera " + std::to_string(n.camera) + " (" + np +
+                                 ") is not supported and is ignored");
+        return;
+    }
+    if (c.out.camera) {
+        ++c.extra_cameras;
+        return;
+    }
+    const tinygltf::PerspectiveCamera& p = cam.perspective;
+    if (!(p.yfov > 0 && p.yfov < std::numbers::pi)) fail(c, cp + "/perspective/yfov", "yfov must lie in (0, pi)");
+    if (!(p.aspectRatio >= 0 && std::isfinite(p.aspectRatio)))
+        fail(c, cp + "/perspective/aspectRatio", "aspectRatio must be positive");
+    if (!(p.znear >= 0 && std::isfinite(p.znear))) fail(c, cp + "/perspective/znear", "znear must be positive");
+    CameraDesc d;
+    const glm::dvec3 pos(world * glm::dvec4(0, 0, 0, 1));
+    d.position = glm::vec3(pos);
+    d.look_at = glm::vec3(pos + glm::dvec3(direction_of(c, world, {0, 0, -1}, np)));
+    d.up = direction_of(c, world, {0, 1, 0}, np);
+    d.vfov_deg = static_cast<float>(glm::degrees(p.yfov));
+    // Without aspectRatio the image's aspect decides (focal_px = 0); 4:3 only fills hfov_deg.
+    const double aspect = p.aspectRatio > 0 ? p.aspectRatio : 4.0 / 3.0;
+    d.hfov_deg = static_cast<float>(glm::degrees(2 * std::atan(std::tan(p.yfov / 2) * aspect)));
+    d.znear = static_cast<float>(p.znear);
+    d.zfar = p.zfar > 0 ? static_cast<float>(p.zfar) : std::max(1000.0f, 1000.0f * d.znear);  // absent = infinite
+    d.focal_px = 0.0f;
+    d.origin = at(c.file, np);
+    c.out.camera = d;
+}
+
+// KHR_lights_punctual intensities are photometric (point/spot: candela, directional: lux). They
+// are used as radiometric numbers unchanged: 1 cd -> 1 W/sr, 1 lux -> 1 W/m^2 (no 683 lm/W).
+void add_light(Ctx& c, size_t ni, const glm::dmat4& world) {
+    const tinygltf::Node& n = c.m.nodes[ni];
+    const auto ext = n.extensions.find("KHR_lights_punctual");
+    if (ext == n.extensions.end()) return;
+    const std::string np = "/nodes/" + str(ni);
+    const std::string lp = np + "/extensions/KHR_lights_punctual";
+    const tinygltf::Value& v = ext->second;
+    if (!v.IsObject() || !v.Has("light") || !v.Get("light").IsNumber())
+        fail(c, lp, "needs a numeric 'light' index");
+    const double li = v.Get("light").GetNumberAsDouble();
+    if (!(li >= 0 && li < static_cast<double>(c.m.lights.size())) || li != std::floor(li))
+        fail(c, lp + "/light", "refers to light " + num(li) + ", but the file has " + str(c.m.lights.size()));
+    const tinygltf::Light& l = c.m.lights[static_cast<size_t>(li)];
+    const std::string dp = "/extensions/KHR_lights_punctual/lights/" + str(static_cast<size_t>(li));
+    glm::dvec3 color(1.0);
+    if (!l.color.empty()) {
+        if (l.color.size() != 3) fail(c, dp + "/color", "color must hold 3 numbers");
+        color = {l.color[0], l.color[1], l.color[2]};
+    }
+    LightDesc d;
+    d.radiance = glm::vec3(color * l.intensity);
+    d.origin = at(c.file, np);
+    if (l.type == "point" || l.type == "spot") d.position = glm::vec3(world * glm::dvec4(0, 0, 0, 1));
+    if (l.type == "directional" || l.type == "spot") d.direction = direction_of(c, world, {0, 0, -1}, np);
+    if (l.type == "point") d.kind = LightKind::point;
+    else if (l.type == "directional") d.kind = LightKind::directional;
+    else if (l.type == "spot") {
+        d.kind = LightKind::spot;
+        ++c.spots;
+    } else {
+        fail(c, dp + "/type", "unknown light type '" + clip(l.type) + "'");
+    }
+    c.out.lights.push_back(d);
+}
+
+void visit(Ctx& c, int node, const glm::dmat4& parent, int depth, const std::string& ref) {
+    if (node < 0 || static_cast<size_t>(node) >= c.m.nodes.size())
+        fail(c, ref, "refers to node " + std::to_string(node) + ", but the file has " + str(c.m.nodes.size()));
+    const size_t ni = static_cast<size_t>(node);
+    const std::string np = "/nodes/" + str(ni);
+    if (c.on_path[ni]) fail(c, ref, "node cycle: node " + str(ni) + " is its own ancestor");
+    if (c.visited[ni]) fail(c, ref, "node " + str(ni) + " is reached twice; glTF node hierarchies must be trees");
+    // The limit also bounds this recursion.
+    if (depth > c.limits.max_node_depth)
+        fail(c, np, "node hierarchy is deeper than " + std::to_string(c.limits.max_node_depth) + " levels");
+    c.on_path[ni] = c.visited[ni] = 1;
+    const tinygltf::Node& n = c.m.nodes[ni];
+    const glm::dmat4 world = parent * local_matrix(c, ni);
+    if (n.mesh != -1) {
+        if (n.mesh < 0 || static_cast<size_t>(n.mesh) >= c.m.meshes.size())
+            fail(c, np + "/mesh", "refers to mesh " + std::to_string(n.mesh) + ", but the file has " + str(c.m.meshes.size()));
+        for (size_t pi = 0; pi < c.m.meshes[static_cast<size_t>(n.mesh)].primitives.size(); ++pi)
+            emit_primitive(c, static_cast<size_t>(n.mesh), pi, world);
+    }
+    if (n.camera != -1) add_camera(c, ni, world);
+    add_light(c, ni, world);
+    if (n.skin != -1) c.skinned = true;
+    for (size_t k = 0; k < n.children.size(); ++k) visit(c, n.children[k], world, depth + 1, np + "/children/" + str(k));
+    c.on_path[ni] = 0;
+}
+
+void convert_materials(Ctx& c) {
+    std::vector<std::string> textured;
+    for (size_t i = 0; i < c.m.materials.size(); ++i) {
+        const tinygltf::Material& mat = c.m.materials[i];
+        const std::string mp = "/materials/" + str(i);
+        MaterialDesc d;
+        d.name = mat.name.empty() ? "material " + str(i) : clip(mat.name, 200);
+        d.origin = at(c.file, mp);
+        const auto& base = mat.pbrMetallicRoughness.baseColorFactor;
+        if (base.size() >= 3) d.albedo = glm::vec3(glm::dvec3(base[0], base[1], base[2]));
+        double strength = 1.0;
+        const auto ext = mat.extensions.find("KHR_materials_emissive_strength");
+        if (ext != mat.extensions.end() && ext->second.Has("emissiveStrength")) {
+            const tinygltf::Value& s = ext->second.Get("emissiveStrength");
+            if (!s.IsNumber() || !(s.GetNumberAsDouble() >= 0))
+                fail(c, mp + "/extensions/KHR_materials_emissive_strength/emissiveStrength", "must be a number >= 0");
+            strength = s.GetNumberAsDouble();
+        }
+        const auto& e = mat.emissiveFactor;
+        if (e.size() == 3) d.emission = glm::vec3(glm::dvec3(e[0], e[1], e[2]) * strength);
+        if (d.emission.x > 0 || d.emission.y > 0 || d.emission.z > 0) d.kind = MaterialKind::emission;
+        d.double_sided = mat.doubleSided;
+        if (mat.pbrMetallicRoughness.baseColorTexture.index >= 0 || mat.emissiveTexture.index >= 0 ||
+            mat.pbrMetallicRoughness.metallicRoughnessTexture.index >= 0 || mat.normalTexture.index >= 0 ||
+            mat.occlusionTexture.index >= 0)
+            textured.push_back("'" + d.name + "'");
+        c.out.materials.push_back(std::move(d));
+    }
+    if (textured.empty()) return;
+    std::string names;
+    for (size_t i = 0; i < textured.size() && i < 5; ++i) names += (i ? ", " : "") + textured[i];
+    if (textured.size() > 5) names += " and " + str(textured.size() - 5) + " more";
+    c.out.warnings.push_back(textured.size() == 1
+                                 ? "textures are not supported yet; material " + names + " uses its factors"
+                                 : "textures are not supported yet; materials " + names + " use their factors");
+}
+
+void check_extensions(Ctx& c) {
+    auto supported = [](const std::string& e) {
+        return std::find(std::begin(kSupportedExtensions), std::end(kSupportedExtensions), e) != std::end(kSupportedExtensions);
+    };
+    for (size_t i = 0; i < c.m.extensionsRequired.size(); ++i)
+        if (!supported(c.m.extensionsRequired[i]))
+            fail(c, "/extensionsRequired/" + str(i),
+                 "required extension '" + clip(c.m.extensionsRequired[i]) + "' is not supported");
+    std::string ignored;
+    for (const std::string& e : c.m.extensionsUsed)
+        if (!supported(e)) ignored += (ignored.empty() ? "" : ", ") + clip(e);
+    if (!ignored.empty()) c.out.warnings.push_back("glTF extensions used by the file are ignored: " + ignored);
+}
+
+void traverse_scene(Ctx& c) {
+    std::vector<int> roots;
+    std::string roots_ptr;
+    const int nscenes = static_cast<int>(c.m.scenes.size());
+    int s = c.m.defaultScene;
+    if (s != -1 && (s < 0 || s >= nscenes))
+        fail(c, "/scene", "refers to scene " + std::to_string(s) + ", but the file has " + std::to_string(nscenes));
+    if (s == -1 && nscenes > 0) s = 0;
+    if (s >= 0) {
+        roots = c.m.scenes[static_cast<size_t>(s)].nodes;
+        roots_ptr = "/scenes/" + std::to_string(s) + "/nodes/";
+    } else {  // no scenes: every node that is nobody's child is a root
+        std::vector<char> child(c.m.nodes.size(), 0);
+        for (const auto& n : c.m.nodes)
+            for (int k : n.children)
+                if (k >= 0 && static_cast<size_t>(k) < child.size()) child[static_cast<size_t>(k)] = 1;
+        for (size_t i = 0; i < child.size(); ++i)
+            if (!child[i]) roots.push_back(static_cast<int>(i));
+        roots_ptr = "/nodes/";
+    }
+    c.on_path.assign(c.m.nodes.size(), 0);
+    c.visited.assign(c.m.nodes.size(), 0);
+    for (size_t k = 0; k < roots.size(); ++k)
+        visit(c, roots[k], glm::dmat4(1.0), 1, roots_ptr + (s >= 0 ? str(k) : str(static_cast<size_t>(roots[k]))));
+}
+
+void summarise(Ctx& c) {
+    auto& w = c.out.warnings;
+    if (c.points_lines) w.push_back(str(static_cast<size_t>(c.points_lines)) + " point/line primitive(s) skipped: only triangles are rendered");
+    if (c.no_position) w.push_back(str(static_cast<size_t>(c.no_position)) + " primitive(s) without POSITION skipped");
+    if (c.dropped_normals)
+        w.push_back("zero-length normals or a singular transform: normals of mesh '" + c.first_dropped + "'" +
+                    (c.dropped_normals > 1 ? " and " + str(static_cast<size_t>(c.dropped_normals) - 1) + " more" : "") +
+                    " are dropped");
+    if (c.spots) w.push_back("spot lights are rendered as point lights for now (cone angles are ignored)");
+    if (c.extra_cameras)
+        w.push_back("the scene has " + str(static_cast<size_t>(c.extra_cameras) + 1) + " perspective cameras; the first is used");
+    if (c.skinned || !c.m.skins.empty()) w.push_back("skins are not supported: skinned geometry is rendered in its bind pose");
+    if (!c.morphed.empty()) {
+        std::sort(c.morphed.begin(), c.morphed.end());
+        c.morphed.erase(std::unique(c.morphed.begin(), c.morphed.end()), c.morphed.end());
+        w.push_back("morph targets are not supported: '" + clip(c.morphed.front()) + "'" +
+                    (c.morphed.size() > 1 ? " and " + str(c.morphed.size() - 1) + " more mesh(es)" : "") +
+                    " rendered with the base shape");
+    }
+    if (!c.m.animations.empty()) w.push_back("animations are ignored: the scene is rendered at rest");
+    if (c.out.meshes.empty()) w.push_back("the scene has no triangle geometry");
+    const bool emitter = std::any_of(c.out.meshes.begin(), c.out.meshes.end(), [&](const MeshDesc& m) {
+        return m.material >= 0 && c.out.materials[static_cast<size_t>(m.material)].kind == MaterialKind::emission;
+    });
+    if (c.out.lights.empty() && !emitter)
+        w.push_back("the scene has no lights or emissive materials; a path-traced render will be black");
+}
+
+}  // namespace
+
+SceneDescription parse_gltf(std::string_view bytes, bool binary, const std::string& base_dir,
+                            const std::string& source_name, const LoadLimits& limits) {
+    SceneDescription scene;
+    scene.source = source_name;
+    const tinygltf::Model model = read_model(bytes, binary, base_dir, source_name, limits, scene.warnings);
+    Ctx c{model, source_name, limits, scene};
+    check_extensions(c);
+    convert_materials(c);
+    traverse_scene(c);
+    summarise(c);
+    validate(scene);
+    return scene;
+}
+
+SceneDescription load_gltf(const std::string& path, const LoadLimits& limits) {
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec)) fail(path, "", "not a readable file");
+    const uint64_t size = fs::file_size(path, ec);
+    if (ec) fail(path, "", "cannot read: " + ec.message());
+    if (size > limits.max_file_bytes)
+        fail(path, "", "file of " + str(size) + " bytes is above the limit of " + str(limits.max_file_bytes));
+    std::string bytes(static_cast<size_t>(size), '\0');
+    std::ifstream in(path, std::ios::binary);
+    if (!in.read(bytes.data(), static_cast<std::streamsize>(size))) fail(path, "", "cannot read the file");
+    std::string ext = fs::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+    const bool binary = ext == ".glb" || std::string_view(bytes).starts_with("glTF");
+    fs::path dir = fs::path(path).parent_path();
+    if (dir.empty()) dir = ".";
+    return parse_gltf(bytes, binary, dir.string(), path, limits);
+}
+
+}  // namespace tessera

@@ -1,0 +1,113 @@
+#include "engine/io/image_io.h"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+
+#include <OpenImageIO/imageio.h>
+
+namespace tessera {
+namespace {
+
+float srgb_encode(float v) {
+    v = std::clamp(v, 0.f, 1.f);
+    return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.f / 2.4f) - 0.055f;
+}
+
+float cs184_encode(float v) { return std::clamp(std::pow(std::max(0.f, std::sqrt(2.f) * v), 1.f / 2.2f), 0.f, 1.f); }
+
+void write(const std::string& path, OIIO::ImageSpec spec, OIIO::TypeDesc type, const void* data, const Metadata& meta) {
+    for (const auto& [k, v] : meta) spec.attribute(k, v);
+    auto out = OIIO::ImageOutput::create(path);
+    if (!out) throw std::runtime_error(path + ": cannot create an image writer: " + OIIO::geterror());
+    if (!out->open(path, spec)) throw std::runtime_error(path + ": " + out->geterror());
+    if (!out->write_image(type, data)) throw std::runtime_error(path + ": " + out->geterror());
+    if (!out->close()) throw std::runtime_error(path + ": " + out->geterror());
+}
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+    if (s.size() < suffix.size()) return false;
+    return std::equal(suffix.rbegin(), suffix.rend(), s.rbegin(),
+                      [](char a, char b) { return std::tolower(a) == std::tolower(b); });
+}
+
+}  // namespace
+
+std::vector<unsigned char> encode_srgb8(const Image& image, ToneCurve curve) {
+    std::vector<unsigned char> px(image.rgb.size());
+    for (size_t i = 0; i < px.size(); ++i) {
+        const float v = curve == ToneCurve::srgb ? srgb_encode(image.rgb[i]) : cs184_encode(image.rgb[i]);
+        px[i] = static_cast<unsigned char>(std::lround(v * 255.f));
+    }
+    return px;
+}
+
+std::vector<unsigned char> rate_colors8(const Image& image, int max_spp) {
+    std::vector<unsigned char> px(image.sample_count.size() * 3);
+    for (size_t i = 0; i < image.sample_count.size(); ++i) {
+        const float r = max_spp > 0 ? std::clamp(image.sample_count[i] / float(max_spp), 0.f, 1.f) : 0.f;
+        float c[3];
+        if (r < 0.5f) { const float t = 2.f * r; c[0] = 0; c[1] = t; c[2] = 1 - t; }
+        else { const float t = 2.f * r - 1.f; c[0] = t; c[1] = 1 - t; c[2] = 0; }
+        for (int k = 0; k < 3; ++k) px[i * 3 + k] = static_cast<unsigned char>(std::lround(c[k] * 255.f));
+    }
+    return px;
+}
+
+void write_png(const std::string& path, const Image& image, ToneCurve curve, const Metadata& meta) {
+    const auto px = encode_srgb8(image, curve);
+    OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
+    spec.attribute("oiio:ColorSpace", curve == ToneCurve::srgb ? "sRGB" : "CS184 gamma 2.2 with sqrt(2) exposure");
+    write(path, spec, OIIO::TypeDesc::UINT8, px.data(), meta);
+}
+
+void write_exr(const std::string& path, const Image& image, const Metadata& meta) {
+    const size_t n = size_t(image.width) * image.height;
+    std::vector<float> data(n * 4);
+    for (size_t i = 0; i < n; ++i) {
+        for (int k = 0; k < 3; ++k) data[i * 4 + k] = image.rgb[i * 3 + k];
+        data[i * 4 + 3] = image.sample_count.empty() ? 0.f : image.sample_count[i];
+    }
+    OIIO::ImageSpec spec(image.width, image.height, 4, OIIO::TypeDesc::FLOAT);
+    spec.channelnames = {"R", "G", "B", "samples"};
+    spec.alpha_channel = -1;  // the fourth channel is data, not coverage
+    spec.attribute("oiio:ColorSpace", "Linear");
+    spec.attribute("compression", "zip");
+    write(path, spec, OIIO::TypeDesc::FLOAT, data.data(), meta);
+}
+
+void write_image(const std::string& path, const Image& image, const Metadata& meta) {
+    if (ends_with(path, ".png")) write_png(path, image, ToneCurve::srgb, meta);
+    else if (ends_with(path, ".exr")) write_exr(path, image, meta);
+    else throw std::runtime_error(path + ": unknown image format (use .png or .exr)");
+}
+
+void write_rate_png(const std::string& path, const Image& image, int max_spp, const Metadata& meta) {
+    const auto px = rate_colors8(image, max_spp);
+    OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
+    spec.attribute("tessera:rate_scale", "blue = 0, green = 0.5, red = 1 x " + std::to_string(max_spp) + " samples per pixel");
+    write(path, spec, OIIO::TypeDesc::UINT8, px.data(), meta);
+}
+
+Image read_image(const std::string& path) {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) throw std::runtime_error(path + ": " + OIIO::geterror());
+    const OIIO::ImageSpec& spec = in->spec();
+    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels < 3 || int64_t(spec.width) * spec.height > (1ll << 28))
+        throw std::runtime_error(path + ": not an RGB image of a sensible size");
+    std::vector<float> all(size_t(spec.width) * spec.height * spec.nchannels);
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, all.data()))
+        throw std::runtime_error(path + ": " + in->geterror());
+    Image img(spec.width, spec.height);
+    for (size_t i = 0; i < size_t(spec.width) * spec.height; ++i)
+        for (int k = 0; k < 3; ++k) img.rgb[i * 3 + k] = all[i * spec.nchannels + k];
+    int samples = -1;
+    for (int c = 0; c < spec.nchannels; ++c) if (spec.channelnames[c] == "samples") samples = c;
+    if (samples >= 0)
+        for (size_t i = 0; i < size_t(spec.width) * spec.height; ++i) img.sample_count[i] = all[i * spec.nchannels + samples];
+    in->close();
+    return img;
+}
+
+}  // namespace tessera

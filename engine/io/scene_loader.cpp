@@ -1,0 +1,35 @@
+#include "engine/io/scene_loader.h"
+
+#include <algorithm>
+#include <filesystem>
+
+#include "engine/io/collada_loader.h"
+#include "engine/io/gltf_loader.h"
+#include "engine/scene/procedural.h"
+
+namespace tessera {
+
+SceneDescription load_scene(const std::string& path, const LoadLimits& limits) {
+    if (path.rfind("builtin:", 0) == 0) return builtin_scene(path);
+    std::string ext = std::filesystem::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    const SourceLocation where{path, 0, ""};
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) throw SceneError(where, "no such scene file");
+    const auto size = std::filesystem::file_size(path, ec);
+    if (ec) throw SceneError(where, "cannot read the file size: " + ec.message());
+    if (size > limits.max_file_bytes)
+        throw SceneError(where, "file is " + std::to_string(size) + " bytes, over the limit of " +
+                                    std::to_string(limits.max_file_bytes));
+    if (ext == ".dae") {
+        SceneDescription s = load_collada(path, limits);
+        // CS184's emission BSDF emits whatever side it is seen from; keep that meaning.
+        for (MaterialDesc& m : s.materials)
+            if (m.kind == MaterialKind::emission) m.double_sided = true;
+        return s;
+    }
+    if (ext == ".gltf" || ext == ".glb") return load_gltf(path, limits);
+    throw SceneError(where, "unknown scene format '" + ext + "' (expected .dae, .gltf or .glb)");
+}
+
+}  // namespace tessera

@@ -1,0 +1,167 @@
+#pragma once
+// Unidirectional path tracing with the CS184 semantics: max_depth 0 shows emitters only,
+// 1 adds direct lighting, n adds up to n bounces; `accumulate` sums bounces 0..n and `nth`
+// keeps only bounce n. Direct lighting is estimated at every vertex by its own rays
+// (hemisphere, light, or MIS of light and BSDF samples), so all three strategies estimate the
+// same integral; the continuation ray only carries the path and never adds emission itself.
+#include <algorithm>
+#include <cmath>
+
+#include "engine/geometry/spawn.h"
+#include "engine/render/light_sampler.h"
+#include "engine/render/renderer.h"
+#include "engine/sampling/rng.h"
+#include "engine/sampling/warp.h"
+#include "engine/scene/render_scene.h"
+
+namespace tessera {
+
+class PathIntegrator {
+public:
+    PathIntegrator(const RenderScene& scene, const RenderSettings& settings, RenderStats& stats)
+        : s_(scene), st_(settings), stats_(stats) {}
+
+    glm::vec3 radiance(Ray ray, Pcg32& rng) {
+        Hit hit;
+        if (!intersect(s_, ray, hit, stats_.traversal)) return include(0) ? sky(ray.d) : glm::vec3(0.f);
+        SurfaceInteraction si = surface_at(s_, ray, hit);
+        glm::vec3 wo = -glm::normalize(ray.d);
+        glm::vec3 L = include(0) ? emitted(si, hit, wo) : glm::vec3(0.f);
+        glm::vec3 beta(1.f);
+        for (int depth = 1; depth <= st_.max_depth; ++depth) {
+            face(si, wo);
+            const Material& m = s_.materials[si.material];
+            if (m.albedo == glm::vec3(0.f)) break;  // nothing is reflected from here on
+            if (include(depth)) L += beta * direct(si, m, rng);
+            if (depth == st_.max_depth) break;
+            if (st_.russian_roulette > 0.f) {
+                if (rng.next_float() >= st_.russian_roulette) break;
+                beta /= st_.russian_roulette;
+            }
+            // Cosine-weighted continuation: f·cos/pdf of the Lambertian lobe is its albedo.
+            const glm::vec3 wi = Frame(si.ns).to_world(sample_cosine_hemisphere(rng.next_float(), rng.next_float()));
+            if (glm::dot(wi, si.ng) <= 0.f) break;  // below the true surface (shading normal bent away)
+            beta *= m.albedo;
+            Ray next = spawn_ray(si.p, si.p_err, si.ng, wi);
+            ++stats_.bounce_rays;
+            if (!intersect(s_, next, hit, stats_.traversal)) break;
+            si = surface_at(s_, next, hit);
+            wo = -wi;
+        }
+        return L;
+    }
+
+private:
+    bool include(int bounce) const {
+        return st_.bounces == BounceMode::accumulate ? bounce <= st_.max_depth : bounce == st_.max_depth;
+    }
+
+    glm::vec3 sky(const glm::vec3& d) const { return (s_.has_sky && d.y > 0.f) ? s_.sky : glm::vec3(0.f); }
+
+    // Emission leaving the hit toward wo: triangles of lights only (spheres are not lights yet).
+    glm::vec3 emitted(const SurfaceInteraction& si, const Hit& hit, const glm::vec3& wo) const {
+        if (hit.sphere) return glm::vec3(0.f);
+        const Material& m = s_.materials[si.material];
+        if (!m.emissive()) return glm::vec3(0.f);
+        if (!m.double_sided && glm::dot(si.ng, wo) <= 0.f) return glm::vec3(0.f);
+        return m.emission;
+    }
+
+    // Two-sided shading: both normals turned toward the viewer.
+    static void face(SurfaceInteraction& si, const glm::vec3& wo) {
+        if (glm::dot(si.ng, wo) < 0.f) { si.ng = -si.ng; si.ns = -si.ns; }
+    }
+
+    static float power_heuristic(float a, float b) { return a * a / (a * a + b * b); }
+
+    glm::vec3 direct(const SurfaceInteraction& si, const Material& m, Pcg32& rng) {
+        if (!s_.has_lights()) return glm::vec3(0.f);
+        const glm::vec3 f = m.albedo * kInvPi;
+        glm::vec3 Ld(0.f);
+        // Delta lights have one deterministic direction: one shadow ray each, in every strategy.
+        for (const DeltaLight& dl : s_.delta_lights) {
+            if (dl.kind == DeltaKind::point) {
+                const glm::vec3 d = dl.position - si.p;
+                const float dist2 = glm::dot(d, d);
+                const glm::vec3 wi = d / std::sqrt(dist2);
+                const float c = glm::dot(si.ns, wi);
+                if (c <= 0.f || glm::dot(si.ng, wi) <= 0.f) continue;
+                ++stats_.shadow_rays;
+                if (!occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, dl.position), stats_.traversal))
+                    Ld += f * dl.intensity * (c / dist2);
+            } else {
+                const glm::vec3 wi = -dl.direction;
+                const float c = glm::dot(si.ns, wi);
+                if (c <= 0.f || glm::dot(si.ng, wi) <= 0.f) continue;
+                ++stats_.shadow_rays;
+                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi), stats_.traversal)) Ld += f * dl.intensity * c;
+            }
+        }
+        const int n = std::max(1, st_.light_rays);
+        const Frame frame(si.ns);
+        if (st_.direct == DirectLighting::hemisphere) {
+            const int count = n * int(s_.area_lights.size() + (s_.has_sky ? 1 : 0));
+            for (int i = 0; i < count; ++i) {
+                const glm::vec3 wi = frame.to_world(sample_uniform_hemisphere(rng.next_float(), rng.next_float()));
+                if (glm::dot(wi, si.ng) <= 0.f) continue;
+                Ray r = spawn_ray(si.p, si.p_err, si.ng, wi);
+                ++stats_.shadow_rays;
+                Hit h;
+                glm::vec3 Le;
+                if (intersect(s_, r, h, stats_.traversal)) Le = emitted(surface_at(s_, r, h), h, -wi);
+                else Le = sky(wi);
+                Ld += f * Le * (glm::dot(si.ns, wi) / (uniform_hemisphere_pdf() * float(count)));
+            }
+            return Ld;
+        }
+        const bool mis = st_.direct == DirectLighting::mis;
+        for (const AreaLight& light : s_.area_lights) {
+            for (int i = 0; i < n; ++i) {
+                LightSample ls;
+                if (!sample_area_light(s_, light, si.p, rng, ls)) continue;
+                const float c = glm::dot(si.ns, ls.wi);
+                if (c <= 0.f || glm::dot(si.ng, ls.wi) <= 0.f) continue;
+                ++stats_.shadow_rays;
+                if (occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, ls.point), stats_.traversal)) continue;
+                const float w = mis ? power_heuristic(ls.pdf_w, cosine_hemisphere_pdf(c)) : 1.f;
+                Ld += f * ls.Le * (w * c / (ls.pdf_w * float(n)));
+            }
+        }
+        if (mis && !s_.area_lights.empty()) {
+            // BSDF samples, shared by all area lights; each hit counts for the light it found.
+            for (int i = 0; i < n; ++i) {
+                const glm::vec3 wl = sample_cosine_hemisphere(rng.next_float(), rng.next_float());
+                const glm::vec3 wi = frame.to_world(wl);
+                if (glm::dot(wi, si.ng) <= 0.f || wl.z <= 0.f) continue;
+                Ray r = spawn_ray(si.p, si.p_err, si.ng, wi);
+                ++stats_.shadow_rays;
+                Hit h;
+                if (!intersect(s_, r, h, stats_.traversal) || h.sphere) continue;
+                const uint32_t li = s_.tri_shading[h.prim].light;
+                if (li == kNoLight) continue;
+                const SurfaceInteraction hs = surface_at(s_, r, h);
+                const glm::vec3 Le = emitted(hs, h, -wi);
+                if (Le == glm::vec3(0.f)) continue;
+                const float pdf_b = cosine_hemisphere_pdf(wl.z);
+                const float pdf_l = area_light_pdf(s_.area_lights[li], hs.ng, wi, h.t);
+                Ld += f * Le * (power_heuristic(pdf_b, pdf_l) * wl.z / (pdf_b * float(n)));
+            }
+        }
+        if (s_.has_sky) {
+            // The sky is sampled with the cosine lobe: f·L·cos/pdf reduces to albedo·L.
+            for (int i = 0; i < n; ++i) {
+                const glm::vec3 wi = frame.to_world(sample_cosine_hemisphere(rng.next_float(), rng.next_float()));
+                if (glm::dot(wi, si.ng) <= 0.f || wi.y <= 0.f) continue;
+                ++stats_.shadow_rays;
+                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi), stats_.traversal)) Ld += m.albedo * s_.sky / float(n);
+            }
+        }
+        return Ld;
+    }
+
+    const RenderScene& s_;
+    const RenderSettings& st_;
+    RenderStats& stats_;
+};
+
+}  // namespace tessera

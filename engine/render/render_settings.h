@@ -1,0 +1,33 @@
+#pragma once
+// What a render does, as plain data with defaults; validated once at the edge (api/, CLI).
+#include <cstdint>
+#include <optional>
+
+namespace tessera {
+
+enum class Integrator { normals, path };
+enum class DirectLighting { hemisphere, importance, mis };
+enum class BounceMode { accumulate, nth };
+
+struct AdaptiveSettings {
+    int batch = 32;           // samples between convergence checks
+    float tolerance = 0.05f;  // stop when 1.96·σ/√n ≤ tolerance·μ
+};
+
+struct RenderSettings {
+    int width = 480;
+    int height = 360;
+    int spp = 1;
+    int light_rays = 1;       // samples per area light per shading point
+    int max_depth = 1;        // CS184 meaning: 0 emitted only, 1 direct, n bounces
+    Integrator integrator = Integrator::path;
+    DirectLighting direct = DirectLighting::importance;
+    float russian_roulette = 0.f;  // continuation probability; 0 disables
+    BounceMode bounces = BounceMode::accumulate;
+    std::optional<AdaptiveSettings> adaptive;
+    int tile_size = 32;
+    uint64_t seed = 0;
+    int threads = 0;          // 0: all hardware threads
+};
+
+}  // namespace tessera

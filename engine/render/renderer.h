@@ -1,0 +1,52 @@
+#pragma once
+// Renders a RenderScene: the image is cut into tiles that worker threads take from a shared
+// counter; each pixel sample draws from its own random stream (sampling/rng.h), so the image
+// is the same bit for bit whatever the thread count or tile order.
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "engine/render/image.h"
+#include "engine/render/render_settings.h"
+#include "engine/scene/render_scene.h"
+
+namespace tessera {
+
+struct RenderStats {
+    uint64_t camera_rays = 0;
+    uint64_t shadow_rays = 0;
+    uint64_t bounce_rays = 0;
+    TraversalCounters traversal;
+    uint64_t samples = 0;
+    uint64_t nonfinite_samples = 0;  // NaN/Inf radiance samples, dropped from the film
+    double render_seconds = 0.0;
+    int threads = 0;
+    bool canceled = false;
+    std::vector<double> tile_seconds;
+
+    uint64_t rays() const { return camera_rays + shadow_rays + bounce_rays; }
+    void add(const RenderStats& o);
+};
+
+struct RenderProgress {
+    size_t tiles_done = 0;
+    size_t tiles_total = 0;
+    uint64_t samples_done = 0;
+};
+
+struct RenderCallbacks {
+    // Called after each tile from the worker that finished it (keep it cheap and thread-safe).
+    std::function<void(const RenderProgress&)> progress;
+    // Checked between tiles: a set flag stops the render, leaving unfinished tiles black.
+    const std::atomic<bool>* cancel = nullptr;
+};
+
+struct RenderResult {
+    Image image;
+    RenderStats stats;
+};
+
+RenderResult render(const RenderScene& scene, const RenderSettings& settings, const RenderCallbacks& callbacks = {});
+
+}  // namespace tessera

@@ -1,0 +1,185 @@
+#include "engine/scene/procedural.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <utility>
+
+#include "engine/sampling/rng.h"
+
+namespace tessera {
+namespace {
+
+SourceLocation here(const std::string& what) { return SourceLocation{"builtin:" + what, 0, ""}; }
+
+int add_material(SceneDescription& s, const std::string& name, glm::vec3 albedo, glm::vec3 emission = glm::vec3(0.f)) {
+    MaterialDesc m;
+    m.name = name;
+    m.albedo = albedo;
+    m.emission = emission;
+    m.kind = emission == glm::vec3(0.f) ? MaterialKind::diffuse : MaterialKind::emission;
+    m.origin = here(name);
+    s.materials.push_back(m);
+    return int(s.materials.size()) - 1;
+}
+
+// A quad a, b, c, d (counter-clockwise seen from the side it faces).
+void add_quad(SceneDescription& s, const std::string& name, int material, glm::vec3 a, glm::vec3 b, glm::vec3 c, glm::vec3 d) {
+    MeshDesc m;
+    m.name = name;
+    m.positions = {a, b, c, d};
+    m.indices = {0, 1, 2, 0, 2, 3};
+    m.material = material;
+    m.origin = here(name);
+    s.meshes.push_back(std::move(m));
+}
+
+}  // namespace
+
+SceneDescription cornell_box() {
+    SceneDescription s;
+    s.source = "builtin:cornell_box";
+    const int white = add_material(s, "white", glm::vec3(0.725f, 0.71f, 0.68f));
+    const int red = add_material(s, "red", glm::vec3(0.63f, 0.065f, 0.05f));
+    const int blue = add_material(s, "blue", glm::vec3(0.161f, 0.133f, 0.427f));
+    const int lamp = add_material(s, "lamp", glm::vec3(0.f), glm::vec3(10.f));
+    const float x0 = -1, x1 = 1, y0 = 0, y1 = 1.5f, z0 = -1, z1 = 1;
+    add_quad(s, "floor", white, {x0, y0, z1}, {x1, y0, z1}, {x1, y0, z0}, {x0, y0, z0});
+    add_quad(s, "ceiling", white, {x0, y1, z0}, {x1, y1, z0}, {x1, y1, z1}, {x0, y1, z1});
+    add_quad(s, "back", white, {x0, y0, z0}, {x1, y0, z0}, {x1, y1, z0}, {x0, y1, z0});
+    add_quad(s, "left", red, {x0, y0, z1}, {x0, y0, z0}, {x0, y1, z0}, {x0, y1, z1});
+    add_quad(s, "right", blue, {x1, y0, z0}, {x1, y0, z1}, {x1, y1, z1}, {x1, y1, z0});
+    const float ly = 1.49f;
+    add_quad(s, "lamp", lamp, {-0.4f, ly, -0.3f}, {0.4f, ly, -0.3f}, {0.4f, ly, 0.3f}, {-0.4f, ly, 0.3f});
+    CameraDesc c;
+    c.position = {0.f, 0.75f, 3.6f};
+    c.look_at = {0.f, 0.75f, 0.f};
+    c.vfov_deg = 37.8f;
+    c.hfov_deg = 49.1f;
+    c.focal_px = 875.f;
+    c.origin = here("camera");
+    s.camera = c;
+    return s;
+}
+
+SceneDescription cornell_spheres() {
+    SceneDescription s = cornell_box();
+    s.source = "builtin:cornell_spheres";
+    const int white = 0;
+    s.spheres.push_back({glm::vec3(-0.45f, 0.3f, -0.35f), 0.3f, white, here("sphere_left")});
+    s.spheres.push_back({glm::vec3(0.45f, 0.25f, 0.2f), 0.25f, white, here("sphere_right")});
+    return s;
+}
+
+SceneDescription furnace_box(float albedo, float emission, float half, glm::vec3 center) {
+    SceneDescription s;
+    s.source = "builtin:furnace";
+    MaterialDesc m;
+    m.name = "furnace";
+    m.albedo = glm::vec3(albedo);
+    m.emission = glm::vec3(emission);
+    m.kind = emission > 0.f ? MaterialKind::emission : MaterialKind::diffuse;
+    m.double_sided = true;
+    m.origin = here("furnace");
+    s.materials.push_back(m);
+    MeshDesc cube;
+    cube.name = "walls";
+    cube.material = 0;
+    cube.origin = here("walls");
+    for (int i = 0; i < 8; ++i)
+        cube.positions.push_back(center + half * glm::vec3(i & 1 ? 1.f : -1.f, i & 2 ? 1.f : -1.f, i & 4 ? 1.f : -1.f));
+    cube.indices = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
+                    2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
+    s.meshes.push_back(std::move(cube));
+    CameraDesc c;
+    c.position = center;
+    c.look_at = center + glm::vec3(0.f, 0.f, -1.f);
+    c.vfov_deg = 90.f;
+    c.hfov_deg = 90.f;
+    c.znear = 0.f;
+    c.zfar = 1e30f;
+    c.origin = here("camera");
+    s.camera = c;
+    return s;
+}
+
+SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed) {
+    // A subdivided octahedron: 8·4^k triangles, then vertices pushed along the normal by a sum
+    // of random sinusoids, so the surface is bumpy but closed.
+    int level = 0;
+    while ((8ull << (2 * level)) < min_triangles) ++level;
+    std::vector<glm::vec3> pos = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    std::vector<uint32_t> idx = {0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5};
+    for (int l = 0; l < level; ++l) {
+        std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
+        auto midpoint = [&](uint32_t a, uint32_t b) {
+            auto key = std::minmax(a, b);
+            auto it = mid.find(key);
+            if (it != mid.end()) return it->second;
+            pos.push_back(glm::normalize(pos[a] + pos[b]));
+            return mid[key] = uint32_t(pos.size() - 1);
+        };
+        std::vector<uint32_t> next;
+        next.reserve(idx.size() * 4);
+        for (size_t i = 0; i < idx.size(); i += 3) {
+            const uint32_t a = idx[i], b = idx[i + 1], c = idx[i + 2];
+            const uint32_t ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
+            next.insert(next.end(), {a, ab, ca, ab, b, bc, ca, bc, c, ab, bc, ca});
+        }
+        idx.swap(next);
+    }
+    Pcg32 rng(seed, 7);
+    glm::vec3 freq[8];
+    float phase[8];
+    for (int i = 0; i < 8; ++i) {
+        freq[i] = glm::vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float() - 0.5f) * float(4 << (i / 2));
+        phase[i] = 6.2831853f * rng.next_float();
+    }
+    for (glm::vec3& p : pos) {
+        float h = 0.f;
+        for (int i = 0; i < 8; ++i) h += std::sin(glm::dot(freq[i], p) + phase[i]) / float(2 + i);
+        p *= 1.f + 0.15f * h;
+    }
+    SceneDescription s;
+    s.source = "builtin:displaced_sphere";
+    MeshDesc m;
+    m.name = "displaced_sphere";
+    m.positions = std::move(pos);
+    m.indices = std::move(idx);
+    m.material = add_material(s, "clay", glm::vec3(0.7f));
+    m.origin = here("displaced_sphere");
+    s.meshes.push_back(std::move(m));
+    LightDesc sun;
+    sun.kind = LightKind::directional;
+    sun.direction = glm::normalize(glm::vec3(-0.4f, -1.f, -0.6f));
+    sun.radiance = glm::vec3(3.f);
+    sun.origin = here("sun");
+    s.lights.push_back(sun);
+    return s;
+}
+
+SceneDescription builtin_scene(const std::string& name) {
+    const SourceLocation where{name, 0, ""};
+    if (name == "builtin:cornell_box") return cornell_box();
+    if (name == "builtin:cornell_spheres") return cornell_spheres();
+    if (name == "builtin:furnace") return furnace_box(0.5f, 1.f);
+    const std::string prefix = "builtin:displaced_sphere";
+    if (name.rfind(prefix, 0) == 0) {
+        uint64_t tris = 1'000'000;
+        const std::string rest = name.substr(prefix.size());
+        if (!rest.empty()) {
+            const std::string key = "?triangles=";
+            if (rest.rfind(key, 0) != 0) throw SceneError(where, "expected '?triangles=N' after " + prefix);
+            const std::string num = rest.substr(key.size());
+            if (num.empty() || num.size() > 9 || num.find_first_not_of("0123456789") != std::string::npos)
+                throw SceneError(where, "triangles must be a whole number up to 20000000");
+            tris = std::stoull(num);
+            if (tris < 8 || tris > 20'000'000) throw SceneError(where, "triangles must lie in [8, 20000000]");
+        }
+        return displaced_sphere(tris);
+    }
+    throw SceneError(where, "unknown built-in scene (builtin:cornell_box, builtin:cornell_spheres, builtin:furnace, "
+                            "builtin:displaced_sphere?triangles=N)");
+}
+
+}  // namespace tessera

@@ -1,0 +1,26 @@
+#pragma once
+// Scenes made in code: our Cornell boxes, analytic test scenes, and large meshes for
+// benchmarks (generated on demand rather than committed).
+#include <cstdint>
+#include <string>
+
+#include "engine/scene/scene_description.h"
+
+namespace tessera {
+
+// The CS184 Cornell box geometry (x in [-1,1], floor y=0, ceiling y=1.5, back wall z=-1, open
+// front) with a 0.8 × 0.6 ceiling lamp of radiance 10.
+SceneDescription cornell_box();
+// The same with two analytic spheres (radius 0.3 and 0.25) on the floor.
+SceneDescription cornell_spheres();
+// A closed cube of half-size `half` centred at `center` whose walls all emit `emission` and
+// reflect with `albedo` (white furnace); the camera looks from inside.
+SceneDescription furnace_box(float albedo, float emission, float half = 1.f, glm::vec3 center = glm::vec3(0.f));
+// A noisy subdivided sphere with at least `min_triangles` triangles and a directional light.
+SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed = 1);
+
+// "builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace",
+// "builtin:displaced_sphere?triangles=N" (N ≤ 20 million). Throws SceneError for other names.
+SceneDescription builtin_scene(const std::string& name);
+
+}  // namespace tessera

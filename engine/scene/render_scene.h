@@ -1,0 +1,112 @@
+#pragma once
+// The immutable scene a render reads: primitives laid out for intersection in BVH leaf order,
+// their shading data, runtime materials and the camera. Built once per job from a
+// SceneDescription, and only from what that scene and job use (see BuildReport).
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "engine/accel/bvh.h"
+#include "engine/accel/bvh_traverse.h"
+#include "engine/camera/camera.h"
+#include "engine/geometry/ray.h"
+#include "engine/scene/scene_description.h"
+
+namespace tessera {
+
+enum class TriangleTest { watertight, moller_trumbore };
+
+struct Material {
+    MaterialKind kind = MaterialKind::diffuse;
+    glm::vec3 albedo{0.5f};
+    glm::vec3 emission{0.f};
+    bool double_sided = false;
+    bool emissive() const { return emission.x > 0.f || emission.y > 0.f || emission.z > 0.f; }
+};
+
+struct TriangleVerts { glm::vec3 p0, p1, p2; };
+inline constexpr uint32_t kNoLight = ~0u;
+struct TriangleShading { uint32_t n0, n1, n2; uint32_t material; uint32_t light = kNoLight; };
+struct Sphere { glm::vec3 center; float radius; uint32_t material; };
+
+// An area light: the triangles of one emissive mesh, one of which is picked by area per sample.
+// A CS184 parallelogram light becomes such a mesh too, so that every strategy sees the same
+// emitters (hemisphere sampling finds them by hitting geometry).
+struct LightTriangle {
+    glm::vec3 p0, e1, e2;
+    float cdf;  // cumulative area fraction within its light, ending at 1
+};
+struct AreaLight {
+    uint32_t first, count;  // into RenderScene::light_triangles
+    float area;
+    glm::vec3 radiance;
+    bool double_sided;
+};
+enum class DeltaKind { point, directional };
+struct DeltaLight {
+    DeltaKind kind;
+    glm::vec3 position;   // point
+    glm::vec3 direction;  // directional: the direction light travels (unit)
+    glm::vec3 intensity;  // point: W/sr; directional: irradiance
+};
+
+// What building the render scene did and left out, and what it cost (reported per job).
+struct BuildReport {
+    std::vector<std::string> built;
+    std::vector<std::string> left_out;
+    std::vector<std::string> warnings;
+    double seconds = 0.0;
+};
+
+struct RenderSceneOptions {
+    BvhBuildOptions bvh;
+    TriangleTest triangle_test = TriangleTest::watertight;
+    // Below this many primitives a BVH costs more than it saves: one leaf holds them all.
+    size_t min_prims_for_bvh = 8;
+};
+
+struct RenderScene {
+    std::vector<TriangleVerts> triangles;       // BVH leaf order
+    std::vector<TriangleShading> tri_shading;   // same order
+    std::vector<glm::vec3> normals;             // shared vertex normals
+    Bvh tri_bvh;
+    std::vector<Sphere> spheres;                // BVH leaf order
+    Bvh sphere_bvh;
+    std::vector<Material> materials;            // last entry: the default grey
+    std::vector<AreaLight> area_lights;
+    std::vector<LightTriangle> light_triangles;
+    std::vector<DeltaLight> delta_lights;
+    glm::vec3 sky{0.f};                         // CS184 ambient light: radiance from the upper hemisphere
+    bool has_sky = false;
+    bool has_lights() const { return !area_lights.empty() || !delta_lights.empty() || has_sky; }
+    CameraDesc camera;
+    Aabb bounds;
+    TriangleTest triangle_test = TriangleTest::watertight;
+    BuildReport report;
+};
+
+RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOptions& options);
+
+// Closest hit, as found by traversal; the surface details are computed only for the final hit.
+struct Hit {
+    float t = INFINITY;
+    uint32_t prim = 0;
+    float b1 = 0.f, b2 = 0.f;  // barycentrics of p1, p2 (triangles)
+    bool sphere = false;
+};
+
+struct SurfaceInteraction {
+    glm::vec3 p;       // hit point, computed from the surface (barycentrics / sphere), not o + t·d
+    glm::vec3 p_err;   // conservative bound on p's rounding error (for spawn.h)
+    glm::vec3 ng;      // unit geometric normal (facing is not flipped)
+    glm::vec3 ns;      // unit shading normal, on the same side as ng
+    uint32_t material;
+    float t;
+};
+
+// Lowers ray.tmax to the hit distance.
+bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& counters);
+bool occluded(const RenderScene& scene, const Ray& ray, TraversalCounters& counters);
+SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hit& hit);
+
+}  // namespace tessera

@@ -1,0 +1,105 @@
+#pragma once
+// The plain description of a scene as loaders produce it: world-space geometry, materials,
+// lights and camera, each remembering where it came from. Nothing here is built for speed;
+// RenderScene is built from it once per job.
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "engine/core/scene_error.h"
+
+namespace tessera {
+
+enum class MaterialKind { diffuse, emission, mirror, glass, microfacet, glossy };
+
+struct MaterialDesc {
+    std::string name;
+    MaterialKind kind = MaterialKind::diffuse;
+    glm::vec3 albedo{0.5f};        // diffuse reflectance (or mirror/glass reflectance)
+    glm::vec3 emission{0.0f};      // emitted radiance; non-zero makes the surface a light
+    glm::vec3 transmittance{0.0f}; // glass
+    float ior = 1.5f;              // glass
+    float roughness = 0.0f;        // glass / microfacet alpha
+    float shininess = 0.0f;        // glossy
+    glm::vec3 eta{0.0f}, k{0.0f};  // microfacet conductor
+    bool double_sided = false;     // emission on both sides (glTF doubleSided)
+    SourceLocation origin;
+};
+
+// A triangle mesh already transformed to world space.
+struct MeshDesc {
+    std::string name;
+    std::vector<glm::vec3> positions;
+    std::vector<glm::vec3> normals;  // per vertex, empty when the file had none
+    std::vector<uint32_t> indices;   // three per triangle, all < positions.size()
+    int material = -1;               // index into SceneDescription::materials, -1 = default grey
+    SourceLocation origin;
+};
+
+struct SphereDesc {
+    glm::vec3 center{0.0f};
+    float radius = 1.0f;
+    int material = -1;
+    SourceLocation origin;
+};
+
+enum class LightKind { point, directional, area, ambient, spot };
+
+struct LightDesc {
+    LightKind kind = LightKind::point;
+    glm::vec3 radiance{1.0f};   // radiance (area, ambient) or intensity (point, spot) or irradiance (directional)
+    glm::vec3 position{0.0f};   // point, spot, area (centre of the parallelogram)
+    glm::vec3 direction{0.0f, -1.0f, 0.0f};  // directional: direction light travels; area: normal of the emitting side
+    glm::vec3 dim_x{0.0f}, dim_y{0.0f};       // area: full edge vectors of the parallelogram
+    SourceLocation origin;
+};
+
+struct CameraDesc {
+    glm::vec3 position{0.0f, 0.0f, 1.0f};
+    glm::vec3 look_at{0.0f};
+    glm::vec3 up{0.0f, 1.0f, 0.0f};
+    float hfov_deg = 50.0f;
+    float vfov_deg = 35.0f;
+    float znear = 0.001f;
+    float zfar = 1000.0f;
+    // CS184 convention: the focal length in pixels is fixed (fitted to 800x600) and a different
+    // output size crops or extends the view. Zero means: fit vfov to the output's aspect (glTF).
+    float focal_px = 0.0f;
+    // The CS184 app places the camera by orbiting the scene's bounding box along this direction
+    // (see CS184 README); when set, RenderScene computes position/look_at from the final bounds.
+    std::optional<glm::vec3> cs184_orbit_dir;
+    SourceLocation origin;
+};
+
+struct SceneDescription {
+    std::string source;                  // path or name it was loaded from
+    std::vector<MaterialDesc> materials;
+    std::vector<MeshDesc> meshes;
+    std::vector<SphereDesc> spheres;
+    std::vector<LightDesc> lights;
+    std::optional<CameraDesc> camera;    // absent: a default camera frames the scene
+    std::vector<std::string> warnings;   // things that were read but are not (yet) rendered as written
+
+    size_t triangle_count() const {
+        size_t n = 0;
+        for (const auto& m : meshes) n += m.indices.size() / 3;
+        return n;
+    }
+};
+
+// Limits that protect a loader from absurd or hostile input.
+struct LoadLimits {
+    uint64_t max_file_bytes = 1ull << 30;     // 1 GiB
+    uint64_t max_triangles = 50'000'000;
+    uint64_t max_vertices = 50'000'000;
+    int max_node_depth = 256;                 // nested scene-graph nodes
+};
+
+// Checks the invariants every consumer relies on (finite numbers, indices in range, positive
+// radii). Throws SceneError naming the item's origin. Loaders call it last.
+void validate(const SceneDescription& scene);
+
+}  // namespace tessera

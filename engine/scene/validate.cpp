@@ -1,0 +1,76 @@
+#include <cmath>
+#include <string>
+
+#include "engine/scene/scene_description.h"
+
+namespace tessera {
+namespace {
+
+bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+std::string vec_str(const glm::vec3& v) {
+    return "(" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " + std::to_string(v.z) + ")";
+}
+
+}  // namespace
+
+void validate(const SceneDescription& scene) {
+    const int nmat = static_cast<int>(scene.materials.size());
+    for (const auto& m : scene.materials) {
+        if (!finite(m.albedo) || !finite(m.emission) || !finite(m.transmittance) || !std::isfinite(m.ior) ||
+            !std::isfinite(m.roughness))
+            throw SceneError(m.origin, "material '" + m.name + "' has a non-finite parameter");
+        if (m.emission.x < 0 || m.emission.y < 0 || m.emission.z < 0)
+            throw SceneError(m.origin, "material '" + m.name + "' has negative emission " + vec_str(m.emission));
+        if (m.albedo.x < 0 || m.albedo.y < 0 || m.albedo.z < 0)
+            throw SceneError(m.origin, "material '" + m.name + "' has negative albedo " + vec_str(m.albedo));
+    }
+    for (const auto& mesh : scene.meshes) {
+        if (mesh.indices.size() % 3 != 0)
+            throw SceneError(mesh.origin, "mesh '" + mesh.name + "' has " + std::to_string(mesh.indices.size()) +
+                                              " indices, not a multiple of 3");
+        if (mesh.material < -1 || mesh.material >= nmat)
+            throw SceneError(mesh.origin, "mesh '" + mesh.name + "' refers to material " + std::to_string(mesh.material) +
+                                              " of " + std::to_string(nmat));
+        for (size_t i = 0; i < mesh.positions.size(); ++i)
+            if (!finite(mesh.positions[i]))
+                throw SceneError(mesh.origin, "mesh '" + mesh.name + "' vertex " + std::to_string(i) +
+                                                  " has a non-finite position " + vec_str(mesh.positions[i]));
+        if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
+            throw SceneError(mesh.origin, "mesh '" + mesh.name + "' has " + std::to_string(mesh.normals.size()) +
+                                              " normals for " + std::to_string(mesh.positions.size()) + " vertices");
+        for (size_t i = 0; i < mesh.normals.size(); ++i)
+            if (!finite(mesh.normals[i]))
+                throw SceneError(mesh.origin, "mesh '" + mesh.name + "' normal " + std::to_string(i) + " is not finite");
+        for (size_t i = 0; i < mesh.indices.size(); ++i)
+            if (mesh.indices[i] >= mesh.positions.size())
+                throw SceneError(mesh.origin, "mesh '" + mesh.name + "' index " + std::to_string(i) + " = " +
+                                                  std::to_string(mesh.indices[i]) + " is out of range (" +
+                                                  std::to_string(mesh.positions.size()) + " vertices)");
+    }
+    for (const auto& s : scene.spheres) {
+        if (!finite(s.center) || !std::isfinite(s.radius) || !(s.radius > 0))
+            throw SceneError(s.origin, "sphere needs a finite centre and a positive radius (centre " + vec_str(s.center) +
+                                           ", radius " + std::to_string(s.radius) + ")");
+        if (s.material < -1 || s.material >= nmat)
+            throw SceneError(s.origin, "sphere refers to material " + std::to_string(s.material));
+    }
+    for (const auto& l : scene.lights) {
+        if (!finite(l.radiance) || !finite(l.position) || !finite(l.direction) || !finite(l.dim_x) || !finite(l.dim_y))
+            throw SceneError(l.origin, "light has a non-finite parameter");
+        if (l.radiance.x < 0 || l.radiance.y < 0 || l.radiance.z < 0)
+            throw SceneError(l.origin, "light has negative radiance " + vec_str(l.radiance));
+    }
+    if (scene.camera) {
+        const auto& c = *scene.camera;
+        if (!finite(c.position) || !finite(c.look_at) || !finite(c.up) || !std::isfinite(c.hfov_deg) ||
+            !std::isfinite(c.vfov_deg) || !std::isfinite(c.znear) || !std::isfinite(c.zfar) || !std::isfinite(c.focal_px))
+            throw SceneError(c.origin, "camera has a non-finite parameter");
+        if (!(c.hfov_deg > 0 && c.hfov_deg < 180 && c.vfov_deg > 0 && c.vfov_deg < 180))
+            throw SceneError(c.origin, "camera field of view must lie in (0, 180) degrees");
+        if (!(c.znear >= 0 && c.zfar > c.znear))
+            throw SceneError(c.origin, "camera clip range must satisfy 0 <= near < far");
+    }
+}
+
+}  // namespace tessera

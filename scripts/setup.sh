@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Installs what Tessera needs to build and test, from Debian 12's packages only.
+# Idempotent: packages already present are left alone. Runs as root or through sudo.
+set -euo pipefail
+
+packages=(
+  # toolchain
+  build-essential cmake git pkg-config ninja-build
+  # the design card
+  libcpp-httplib-dev nlohmann-json3-dev libglm-dev libtinygltf-dev libstb-dev
+  libopenimageio-dev openimageio-tools libspdlog-dev libfmt-dev libgtest-dev libgmock-dev
+  # COLLADA is XML (pugixml); Google Benchmark for the micro benchmarks
+  libpugixml-dev libbenchmark-dev
+  # libFuzzer comes with clang's runtime
+  clang libclang-rt-14-dev
+  # the end-to-end scripts
+  curl
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed'; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} packages already installed"
+  exit 0
+fi
+
+sudo=""
+if [ "$(id -u)" -ne 0 ]; then
+  command -v sudo >/dev/null || { echo "setup: need root or sudo to install: ${missing[*]}" >&2; exit 1; }
+  sudo="sudo"
+fi
+echo "setup: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+echo "setup: done"

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# The README's second command: install what is missing, build, and run every test — the unit
+# tests in a Release build and again under ASan+UBSan, then each loader's libFuzzer target for
+# a bounded time on the broken-file corpus.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+fuzz_seconds="${TESSERA_FUZZ_SECONDS:-60}"
+
+echo "== release build and tests"
+bash scripts/build.sh release
+ctest --test-dir build/release --output-on-failure -j 2
+
+echo "== ASan+UBSan build and tests"
+bash scripts/build.sh asan
+ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+  ctest --test-dir build/asan --output-on-failure -j 2 -LE slow
+
+echo "== fuzzers (${fuzz_seconds}s each)"
+bash scripts/build.sh fuzz
+for target in collada gltf; do
+  mkdir -p "build/fuzz/corpus-$target"
+  ./build/fuzz/tests/fuzz/fuzz_$target -max_total_time="$fuzz_seconds" -rss_limit_mb=2048 -max_len=65536 \
+    "build/fuzz/corpus-$target" "tests/corpus/$target" 2>&1 | tail -n 3
+done
+echo "all tests passed"

@@ -1,0 +1,34 @@
+// tessera: one executable with subcommands.
+#include <cstdio>
+#include <cstring>
+#include <exception>
+
+#include "server/commands.h"
+
+namespace {
+
+void usage() {
+    std::puts(
+        "usage: tessera <command> [options]\n"
+        "  render [flags] SCENE   render a scene to PNG/EXR (CS184 flags; 'tessera render --help')\n"
+        "  bench bvh [options]    the BVH table (build time, render time, speedup, cost per ray)\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
+        usage();
+        return argc < 2 ? 2 : 0;
+    }
+    try {
+        if (!std::strcmp(argv[1], "render")) return tessera::cli::render_command(argc - 2, argv + 2);
+        if (!std::strcmp(argv[1], "bench")) return tessera::cli::bench_command(argc - 2, argv + 2);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "tessera: %s\n", e.what());
+        return 1;
+    }
+    std::fprintf(stderr, "tessera: unknown command '%s'\n", argv[1]);
+    usage();
+    return 2;
+}

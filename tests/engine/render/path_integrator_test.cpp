@@ -1,0 +1,202 @@
+#include "engine/render/path_integrator.h"
+
+#include <gtest/gtest.h>
+
+#include "engine/io/scene_loader.h"
+#include "engine/scene/procedural.h"
+#include "tests/engine/render/render_test_util.h"
+#include "tests/test_paths.h"
+#include "tests/test_scale.h"
+
+namespace tessera {
+namespace {
+
+constexpr DirectLighting kStrategies[] = {DirectLighting::hemisphere, DirectLighting::importance, DirectLighting::mis};
+const char* name(DirectLighting d) {
+    return d == DirectLighting::hemisphere ? "hemisphere" : d == DirectLighting::importance ? "importance" : "mis";
+}
+
+RenderSettings furnace_settings(DirectLighting direct, int depth, float rr) {
+    RenderSettings s;
+    s.width = 32 / (test::kWorkScale > 1 ? 2 : 1);
+    s.height = s.width;
+    s.spp = 16;
+    s.max_depth = depth;
+    s.direct = direct;
+    s.russian_roulette = rr;
+    s.seed = 17;
+    return s;
+}
+
+// White furnace: walls that emit 1 and reflect with albedo a give Σ_{k ≤ depth} a^k exactly,
+// at every pixel, for every strategy, with and without Russian roulette.
+TEST(PathIntegrator, WhiteFurnace) {
+    const float a = 0.5f;
+    for (int depth : {0, 1, 3, 6}) {
+        double expected = 0;
+        for (int k = 0; k <= depth; ++k) expected += std::pow(a, k);
+        for (DirectLighting d : kStrategies) {
+            for (float rr : {0.f, 0.6f}) {
+                const Image img = test::render_desc(furnace_box(a, 1.f), furnace_settings(d, depth, rr)).image;
+                const test::MeanEstimate m = test::iid_pixel_mean(img);
+                // 5 standard errors, plus float rounding of the sums.
+                EXPECT_NEAR(m.mean, expected, 5 * m.se + 1e-5 * expected)
+                    << name(d) << " depth " << depth << " rr " << rr << " se " << m.se;
+            }
+        }
+    }
+}
+
+// The estimate stays finite and unbiased at depth 1000 with Russian roulette, and for albedo
+// 0 and 1 (albedo 1 with depth n gives exactly n + 1).
+TEST(PathIntegrator, FurnaceExtremes) {
+    {
+        const Image img = test::render_desc(furnace_box(0.8f, 1.f), furnace_settings(DirectLighting::importance, 1000, 0.8f)).image;
+        const test::MeanEstimate m = test::iid_pixel_mean(img);
+        EXPECT_NEAR(m.mean, (1 - std::pow(0.8, 1001)) / 0.2, 5 * m.se + 1e-4);
+    }
+    {
+        const Image img = test::render_desc(furnace_box(1.f, 1.f), furnace_settings(DirectLighting::mis, 10, 0.f)).image;
+        const test::MeanEstimate m = test::iid_pixel_mean(img);
+        EXPECT_NEAR(m.mean, 11.0, 5 * m.se + 1e-4);
+    }
+    {
+        const Image img = test::render_desc(furnace_box(0.f, 1.f), furnace_settings(DirectLighting::importance, 5, 0.f)).image;
+        EXPECT_NEAR(test::iid_pixel_mean(img).mean, 1.0, 1e-6);
+    }
+}
+
+// The furnace at 1e-4 and 1e4 and far from the origin: self-intersection would darken it.
+TEST(PathIntegrator, FurnaceAtExtremeScales) {
+    for (auto [scale, offset] : {std::pair{1e-4f, 0.f}, {1e4f, 0.f}, {1.f, 1e4f}, {1.f, 1e5f}}) {
+        const Image img = test::render_desc(furnace_box(0.5f, 1.f, scale, glm::vec3(offset)),
+                                            furnace_settings(DirectLighting::importance, 4, 0.f)).image;
+        const test::MeanEstimate m = test::iid_pixel_mean(img);
+        EXPECT_NEAR(m.mean, 1.9375, 5 * m.se + 1e-5) << "scale " << scale << " offset " << offset;
+    }
+}
+
+// Bounce-by-bounce images sum to the accumulated one (equal means; same seeds differ in paths,
+// so compare within noise).
+TEST(PathIntegrator, NthBouncesSumToAccumulate) {
+    const float a = 0.6f;
+    for (int k = 0; k <= 3; ++k) {
+        RenderSettings s = furnace_settings(DirectLighting::importance, k, 0.f);
+        s.bounces = BounceMode::nth;
+        const test::MeanEstimate m = test::iid_pixel_mean(test::render_desc(furnace_box(a, 1.f), s).image);
+        EXPECT_NEAR(m.mean, std::pow(a, k), 5 * m.se + 1e-6) << "bounce " << k;
+    }
+}
+
+// Known irradiance: a Lambertian floor under a square lamp of side 2s at height h, seen at the
+// point below the lamp's centre, reflects albedo · L · F with F the point-to-square form
+// factor (four corner rectangles, Howell's catalogue C-11).
+TEST(PathIntegrator, KnownIrradianceUnderSquareLight) {
+    const float s = 0.5f, h = 1.f, L = 4.f, albedo = 0.8f;
+    SceneDescription d;
+    d.materials.push_back({});
+    d.materials[0].albedo = glm::vec3(albedo);
+    MaterialDesc lamp;
+    lamp.kind = MaterialKind::emission;
+    lamp.albedo = glm::vec3(0.f);
+    lamp.emission = glm::vec3(L);
+    d.materials.push_back(lamp);
+    MeshDesc floor;
+    floor.positions = {{-50, 0, -50}, {50, 0, -50}, {50, 0, 50}, {-50, 0, 50}};
+    floor.indices = {0, 2, 1, 0, 3, 2};
+    floor.material = 0;
+    MeshDesc light;
+    light.positions = {{-s, h, -s}, {s, h, -s}, {s, h, s}, {-s, h, s}};
+    light.indices = {0, 1, 2, 0, 2, 3};  // normal −y: emits downward
+    light.material = 1;
+    d.meshes = {floor, light};
+    CameraDesc c;
+    c.position = {0, 0.5f, 0};
+    c.look_at = {0, 0, 0};
+    c.up = {0, 0, -1};
+    c.focal_px = 1e7f;  // a pencil of rays: every pixel sees the point below the centre
+    d.camera = c;
+    const double X = s / h;
+    const double Fc = 1 / (2 * M_PI) * 2 * (X / std::sqrt(1 + X * X) * std::atan(X / std::sqrt(1 + X * X)));
+    const double expected = albedo * L * 4 * Fc;
+    for (DirectLighting dl : kStrategies) {
+        RenderSettings st;
+        st.width = st.height = 16;
+        st.spp = 64;
+        st.light_rays = 4;
+        st.max_depth = 1;
+        st.direct = dl;
+        const test::MeanEstimate m = test::iid_pixel_mean(test::render_desc(d, st).image);
+        EXPECT_NEAR(m.mean, expected, 5 * m.se + 1e-5) << name(dl) << " se " << m.se;
+    }
+}
+
+// All three strategies estimate the same image of CBspheres_lambertian (the CS184 starter's
+// light pdf error makes light sampling ~35% too bright; this catches anything near that).
+TEST(PathIntegrator, StrategiesAgreeOnCBspheresLambertian) {
+    TESSERA_REQUIRE_CS184(dir);
+    const SceneDescription d = load_scene(dir + "/sky/CBspheres_lambertian.dae");
+    const RenderScene scene = build_render_scene(d, {});
+    double means[3], ses[3];
+    for (int i = 0; i < 3; ++i) {
+        RenderSettings st;
+        st.width = 64;
+        st.height = 48;
+        st.spp = 32 / test::kWorkScale + 2;
+        st.light_rays = 2;
+        st.max_depth = 2;
+        st.direct = kStrategies[i];
+        st.seed = 1;
+        const Image a = render(scene, st).image;
+        st.seed = 2;
+        const Image b = render(scene, st).image;
+        const test::MeanEstimate m = test::paired_mean(a, b);
+        means[i] = m.mean;
+        ses[i] = m.se;
+    }
+    for (int i = 1; i < 3; ++i)
+        EXPECT_NEAR(means[i], means[0], 5 * std::hypot(ses[i], ses[0]))
+            << name(kStrategies[i]) << " vs hemisphere: " << means[i] << " vs " << means[0];
+    EXPECT_GT(means[0], 0.01);
+}
+
+// Russian roulette changes the variance, never the mean (a Cornell box, depth 4).
+TEST(PathIntegrator, RussianRouletteIsUnbiased) {
+    const RenderScene scene = build_render_scene(cornell_spheres(), {});
+    double means[2], ses[2];
+    int i = 0;
+    for (float rr : {0.f, 0.5f}) {
+        RenderSettings st;
+        st.width = 48;
+        st.height = 36;
+        st.spp = 32 / test::kWorkScale + 2;
+        st.max_depth = 4;
+        st.russian_roulette = rr;
+        st.seed = 3;
+        const Image a = render(scene, st).image;
+        st.seed = 4;
+        const Image b = render(scene, st).image;
+        const test::MeanEstimate m = test::paired_mean(a, b);
+        means[i] = m.mean;
+        ses[i++] = m.se;
+    }
+    EXPECT_NEAR(means[1], means[0], 5 * std::hypot(ses[0], ses[1]));
+}
+
+TEST(PathIntegrator, NoLightsGivesBlackWithoutShadowRays) {
+    SceneDescription d = cornell_spheres();
+    d.materials[3].emission = glm::vec3(0.f);  // the lamp
+    d.materials[3].kind = MaterialKind::diffuse;
+    const RenderScene scene = build_render_scene(d, {});
+    EXPECT_FALSE(scene.has_lights());
+    RenderSettings st;
+    st.width = 16;
+    st.height = 12;
+    st.max_depth = 3;
+    const RenderResult r = render(scene, st);
+    EXPECT_EQ(r.stats.shadow_rays, 0u);
+    for (float v : r.image.rgb) ASSERT_EQ(v, 0.f);
+}
+
+}  // namespace
+}  // namespace tessera

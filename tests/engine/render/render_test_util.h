@@ -1,0 +1,49 @@
+#pragma once
+// Helpers for statistical render tests: tolerances come from the measured variance.
+#include <cmath>
+
+#include "engine/render/renderer.h"
+#include "engine/scene/render_scene.h"
+
+namespace tessera::test {
+
+struct MeanEstimate {
+    double mean = 0;
+    double se = 0;  // standard error of `mean`
+};
+
+// Mean luminance-free (channel 0) pixel value over an image whose pixels share one
+// expectation (a furnace): pixels are independent, so se = sd/√n.
+inline MeanEstimate iid_pixel_mean(const Image& img, int channel = 0) {
+    const size_t n = size_t(img.width) * img.height;
+    double s = 0, s2 = 0;
+    for (size_t i = 0; i < n; ++i) {
+        const double v = img.rgb[i * 3 + channel];
+        s += v;
+    }
+    const double m = s / double(n);
+    for (size_t i = 0; i < n; ++i) {
+        const double d = img.rgb[i * 3 + channel] - m;
+        s2 += d * d;
+    }
+    return {m, std::sqrt(s2 / double(n - 1) / double(n))};
+}
+
+// Mean over all channels and pixels of an image whose pixels differ in expectation: the noise
+// is measured from two renders with different seeds (var of a pixel ≈ (a − b)²/2).
+inline MeanEstimate paired_mean(const Image& a, const Image& b) {
+    const size_t n = a.rgb.size();
+    double s = 0, var = 0;
+    for (size_t i = 0; i < n; ++i) {
+        s += 0.5 * (double(a.rgb[i]) + b.rgb[i]);
+        const double d = double(a.rgb[i]) - b.rgb[i];
+        var += d * d / 2.0 / 2.0;  // variance of the pair's average
+    }
+    return {s / double(n), std::sqrt(var) / double(n)};
+}
+
+inline RenderResult render_desc(const SceneDescription& d, const RenderSettings& st, RenderSceneOptions o = {}) {
+    return render(build_render_scene(d, o), st);
+}
+
+}  // namespace tessera::test
