@@ -36,19 +36,34 @@ struct RayInv {
     glm::vec3 inv_d;
 };
 
-inline RayInv make_ray_inv(const glm::vec3& o, const glm::vec3& d) { return {o, 1.0f / d}; }
+// A zero component (of either sign) becomes +∞, so that near/far can be chosen by the sign of
+// inv_d alone (see intersect_aabb).
+inline RayInv make_ray_inv(const glm::vec3& o, const glm::vec3& d) {
+    glm::vec3 inv;
+    for (int a = 0; a < 3; ++a) inv[a] = d[a] == 0.f ? INFINITY : 1.0f / d[a];
+    return {o, inv};
+}
 
 // Slab test; returns the entry distance or INFINITY on a miss. tfar is widened by 2·gamma(3)
 // so that rounding never culls a box a ray really touches (pbrt-v4 Bounds3::IntersectP).
+// A ray lying in a slab's plane gives 0·∞ = NaN there; the comparisons are ordered so that a
+// NaN always loses to the finite operand, which treats that slab as containing the ray (the
+// bounds are closed). std::max would return the NaN and miss the box: a leak.
+inline float max_nan_loses(float a, float b) { return a > b ? a : b; }
+inline float min_nan_loses(float a, float b) { return a < b ? a : b; }
+
 inline float intersect_aabb(const glm::vec3& lo, const glm::vec3& hi, const RayInv& r, float tmin, float tmax) {
     const glm::vec3 t0 = (lo - r.o) * r.inv_d;
     const glm::vec3 t1 = (hi - r.o) * r.inv_d;
-    const glm::vec3 tn = glm::min(t0, t1);
-    const glm::vec3 tf = glm::max(t0, t1);
-    // max/min written so that a NaN (0·inf on a slab boundary) loses to the other operand.
-    float enter = std::max(std::max(tn.x, tn.y), std::max(tn.z, tmin));
-    float leave = std::min(std::min(tf.x, tf.y), std::min(tf.z, tmax)) * (1.f + 2.f * gamma(3));
-    return enter <= leave ? enter : INFINITY;
+    float enter = tmin, leave = tmax;
+    for (int a = 0; a < 3; ++a) {
+        const bool forward = r.inv_d[a] >= 0.f;  // never compare t0, t1: either may be NaN
+        const float n = forward ? t0[a] : t1[a];
+        const float f = forward ? t1[a] : t0[a];
+        enter = max_nan_loses(n, enter);
+        leave = min_nan_loses(f, leave);
+    }
+    return enter <= leave * (1.f + 2.f * gamma(3)) ? enter : INFINITY;
 }
 
 }  // namespace tessera

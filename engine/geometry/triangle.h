@@ -2,11 +2,13 @@
 // Ray–triangle tests. The watertight test (Woop, Benthin, Wald, "Watertight Ray/Triangle
 // Intersection", JCGT 2013) never lets a ray slip between triangles that share an edge or a
 // vertex; Möller–Trumbore is kept for comparison (it can leak on shared edges).
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
 #include <glm/glm.hpp>
 
+#include "engine/core/float_util.h"
 #include "engine/geometry/ray.h"
 
 namespace tessera {
@@ -55,6 +57,18 @@ inline bool intersect_triangle_watertight(const Ray& ray, const WatertightRay& w
     const float inv_det = 1.f / det;
     const float t = T * inv_det;
     if (!(t > ray.tmin && t < ray.tmax)) return false;
+    // Reject t within its own rounding error of zero (pbrt-v4, section 6.8.4): a ray spawned
+    // from this very plane, whose computed t may come out a hair positive, cannot re-hit it.
+    const float max_zt = std::max(std::abs(az), std::max(std::abs(bz), std::abs(cz)));
+    const float max_xt = std::max(std::abs(ax), std::max(std::abs(bx), std::abs(cx)));
+    const float max_yt = std::max(std::abs(ay), std::max(std::abs(by), std::abs(cy)));
+    const float delta_z = gamma(3) * max_zt;
+    const float delta_x = gamma(5) * (max_xt + max_zt);
+    const float delta_y = gamma(5) * (max_yt + max_zt);
+    const float delta_e = 2.f * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    const float max_e = std::max(std::abs(u), std::max(std::abs(v), std::abs(e)));
+    const float delta_t = 3.f * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * std::abs(inv_det);
+    if (t <= delta_t) return false;
     hit = {t, u * inv_det, v * inv_det, e * inv_det};
     return true;
 }

@@ -270,8 +270,6 @@ struct Ctx {
     std::vector<char> on_path{}, visited{};
     int points_lines = 0, no_position = 0, spots = 0, extra_cameras = 0, dropped_normals = 0;
     std::string first_dropped{};
-    bool skinned = false;
-    std::vector<std::string> morphed{};
 };
 
 [[noreturn]] void fail(const Ctx& c, const std::string& pointer, const std::string& what) { fail(c.file, pointer, what); }
@@ -381,7 +379,6 @@ void emit_primitive(Ctx& c, size_t mi, size_t pi, const glm::dmat4& world) {
         return;
     }
     if (mode > TINYGLTF_MODE_TRIANGLE_FAN) fail(c, pp + "/mode", "unknown primitive mode " + std::to_string(mode));
-    if (!prim.targets.empty()) c.morphed.push_back(mesh.name.empty() ? "mesh " + str(mi) : clip(mesh.name, 200));
     const auto pos_it = prim.attributes.find("POSITION");
     if (pos_it == prim.attributes.end()) {
         ++c.no_position;
@@ -427,6 +424,7 @@ void emit_primitive(Ctx& c, size_t mi, size_t pi, const glm::dmat4& world) {
     out.name = mesh.name.empty() ? "mesh " + str(mi) : clip(mesh.name, 200);
     if (mesh.primitives.size() > 1) out.name += " [primitive " + str(pi) + "]";
     out.material = prim.material;
+    out.flat_normals = true;  // glTF: without NORMAL, shade with face normals
     out.origin = at(c.file, pp);
 
     out.positions.resize(pos.count);
@@ -613,7 +611,6 @@ void visit(Ctx& c, int node, const glm::dmat4& parent, int depth, const std::str
     }
     if (n.camera != -1) add_camera(c, ni, world);
     add_light(c, ni, world);
-    if (n.skin != -1) c.skinned = true;
     for (size_t k = 0; k < n.children.size(); ++k) visit(c, n.children[k], world, depth + 1, np + "/children/" + str(k));
     c.on_path[ni] = 0;
 }
@@ -706,14 +703,18 @@ void summarise(Ctx& c) {
     if (c.spots) w.push_back("spot lights are rendered as point lights for now (cone angles are ignored)");
     if (c.extra_cameras)
         w.push_back("the scene has " + str(static_cast<size_t>(c.extra_cameras) + 1) + " perspective cameras; the first is used");
-    if (c.skinned || !c.m.skins.empty()) w.push_back("skins are not supported: skinned geometry is rendered in its bind pose");
-    if (!c.morphed.empty()) {
-        std::sort(c.morphed.begin(), c.morphed.end());
-        c.morphed.erase(std::unique(c.morphed.begin(), c.morphed.end()), c.morphed.end());
-        w.push_back("morph targets are not supported: '" + clip(c.morphed.front()) + "'" +
-                    (c.morphed.size() > 1 ? " and " + str(c.morphed.size() - 1) + " more mesh(es)" : "") +
+    if (!c.m.skins.empty()) w.push_back("skins are not supported: skinned geometry is rendered in its bind pose");
+    std::vector<std::string> morphed;
+    for (size_t i = 0; i < c.m.meshes.size(); ++i)
+        for (const auto& prim : c.m.meshes[i].primitives)
+            if (!prim.targets.empty()) {
+                morphed.push_back(c.m.meshes[i].name.empty() ? "mesh " + str(i) : clip(c.m.meshes[i].name, 200));
+                break;
+            }
+    if (!morphed.empty())
+        w.push_back("morph targets are not supported: '" + morphed.front() + "'" +
+                    (morphed.size() > 1 ? " and " + str(morphed.size() - 1) + " more mesh(es)" : "") +
                     " rendered with the base shape");
-    }
     if (!c.m.animations.empty()) w.push_back("animations are ignored: the scene is rendered at rest");
     if (c.out.meshes.empty()) w.push_back("the scene has no triangle geometry");
     const bool emitter = std::any_of(c.out.meshes.begin(), c.out.meshes.end(), [&](const MeshDesc& m) {

@@ -29,6 +29,7 @@ void add_quad(SceneDescription& s, const std::string& name, int material, glm::v
     m.name = name;
     m.positions = {a, b, c, d};
     m.indices = {0, 1, 2, 0, 2, 3};
+    m.flat_normals = true;
     m.material = material;
     m.origin = here(name);
     s.meshes.push_back(std::move(m));
@@ -86,6 +87,7 @@ SceneDescription furnace_box(float albedo, float emission, float half, glm::vec3
     cube.name = "walls";
     cube.material = 0;
     cube.origin = here("walls");
+    cube.flat_normals = true;
     for (int i = 0; i < 8; ++i)
         cube.positions.push_back(center + half * glm::vec3(i & 1 ? 1.f : -1.f, i & 2 ? 1.f : -1.f, i & 4 ? 1.f : -1.f));
     cube.indices = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,

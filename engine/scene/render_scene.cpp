@@ -119,6 +119,8 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
         const uint32_t base = uint32_t(s.normals.size());
         if (!mesh.normals.empty()) {
             s.normals.insert(s.normals.end(), mesh.normals.begin(), mesh.normals.end());
+        } else if (mesh.flat_normals) {
+            s.normals.resize(base + mesh.positions.size(), glm::vec3(0.f));  // zero: use the face normal
         } else {
             s.normals.resize(base + mesh.positions.size(), glm::vec3(0.f));
             for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
@@ -130,7 +132,7 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
         }
         for (size_t i = base; i < s.normals.size(); ++i) {
             const float len = glm::length(s.normals[i]);
-            s.normals[i] = len > 0.f && std::isfinite(len) ? s.normals[i] / len : glm::vec3(0.f);
+            s.normals[i] = len > 0.f && std::isfinite(len) ? s.normals[i] / len : glm::vec3(0.f);  // zero: face normal
         }
         const uint32_t m = mat(mesh.material);
         uint32_t light = kNoLight;
@@ -298,14 +300,26 @@ SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hi
     const TriangleVerts& t = scene.triangles[hit.prim];
     const TriangleShading& sh = scene.tri_shading[hit.prim];
     const float b0 = 1.f - hit.b1 - hit.b2;
-    si.p = b0 * t.p0 + hit.b1 * t.p1 + hit.b2 * t.p2;
+    // Relative to p0: edges of nearby vertices subtract exactly, so far from the origin p is
+    // within half an ulp of the true point and cannot fall outside a neighbouring face.
+    si.p = t.p0 + (hit.b1 * (t.p1 - t.p0) + hit.b2 * (t.p2 - t.p0));
     si.p_err = gamma(7) * (glm::abs(b0 * t.p0) + glm::abs(hit.b1 * t.p1) + glm::abs(hit.b2 * t.p2));
+    // A hit on a shared edge may round onto the plane of the neighbouring face; a ray spawned
+    // there and leaving through that face meets it at t ≈ 0 with either sign. Pulling the
+    // point toward its triangle's interior by the error bound moves it off that plane.
+    const glm::vec3 to_centroid = t.p0 + ((t.p1 - t.p0) + (t.p2 - t.p0)) * (1.f / 3.f) - si.p;
+    const float dist = glm::length(to_centroid);
+    const float need = 2.f * std::max(si.p_err.x, std::max(si.p_err.y, si.p_err.z));
+    if (dist > 0.f) {
+        si.p += to_centroid * std::min(0.5f, need / dist);
+        si.p_err += gamma(2) * glm::abs(si.p);
+    }
     glm::vec3 ng = glm::cross(t.p1 - t.p0, t.p2 - t.p0);
     const float len = glm::length(ng);
     si.ng = len > 0.f ? ng / len : glm::vec3(0, 1, 0);
     glm::vec3 ns = b0 * scene.normals[sh.n0] + hit.b1 * scene.normals[sh.n1] + hit.b2 * scene.normals[sh.n2];
     const float nlen = glm::length(ns);
-    ns = nlen > 0.f ? ns / nlen : si.ng;
+    ns = nlen > 1e-6f ? ns / nlen : si.ng;
     si.ns = glm::dot(ns, si.ng) < 0.f ? -ns : ns;
     si.material = sh.material;
     return si;

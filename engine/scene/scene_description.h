@@ -34,6 +34,9 @@ struct MeshDesc {
     std::string name;
     std::vector<glm::vec3> positions;
     std::vector<glm::vec3> normals;  // per vertex, empty when the file had none
+    // Without normals: true shades with face normals (glTF's rule), false with area-weighted
+    // vertex normals (what the CS184 loader does).
+    bool flat_normals = false;
     std::vector<uint32_t> indices;   // three per triangle, all < positions.size()
     int material = -1;               // index into SceneDescription::materials, -1 = default grey
     SourceLocation origin;

@@ -154,6 +154,7 @@ TEST(GltfSamples, TriangleWithoutIndices) {
     EXPECT_EQ(s.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2}));
     EXPECT_EQ(s.meshes[0].material, -1);
     EXPECT_TRUE(s.meshes[0].normals.empty());
+    EXPECT_TRUE(s.meshes[0].flat_normals);  // glTF's rule for meshes without NORMAL
 }
 
 TEST(GltfSamples, SimpleMeshesInstancesOneMeshTwice) {
