@@ -11,7 +11,9 @@ void usage() {
     std::puts(
         "usage: tessera <command> [options]\n"
         "  render [flags] SCENE   render a scene to PNG/EXR (CS184 flags; 'tessera render --help')\n"
-        "  bench bvh [options]    the BVH table (build time, render time, speedup, cost per ray)\n");
+        "  bench bvh [options]    the BVH table (build time, render time, speedup, cost per ray)\n"
+        "  generate NAME FILE     write a built-in scene as glTF (cornell_box, cornell_spheres,\n"
+        "                         displaced_sphere [--triangles N]); how scenes/ is made\n");
 }
 
 }  // namespace
@@ -24,6 +26,7 @@ int main(int argc, char** argv) {
     try {
         if (!std::strcmp(argv[1], "render")) return tessera::cli::render_command(argc - 2, argv + 2);
         if (!std::strcmp(argv[1], "bench")) return tessera::cli::bench_command(argc - 2, argv + 2);
+        if (!std::strcmp(argv[1], "generate")) return tessera::cli::generate_command(argc - 2, argv + 2);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "tessera: %s\n", e.what());
         return 1;

@@ -37,7 +37,8 @@ More:
   --job FILE    a JSON job (the server's fields); flags given here override it
   --bvh none|midpoint|median|sah   --max-leaf N   --triangle-test watertight|moller_trumbore
   --direct hemisphere|importance|mis   --rr P (Russian roulette continuation, 0 = off)
-  --bounces accumulate|nth   --integrator path|normals   --seed N   --tile N
+  --bounces accumulate|nth   --lighting all|direct|indirect   --integrator path|normals
+  --seed N   --tile N
   --tonemap srgb|cs184 (PNG encoding)
 )";
 
@@ -97,6 +98,7 @@ int render_command(int argc, char** argv) {
             else if (a == "--direct") { need(i, 1, a); flags["direct"] = argv[++i]; }
             else if (a == "--rr") { need(i, 1, a); flags["russian_roulette"] = to_double(a, argv[++i]); }
             else if (a == "--bounces") { need(i, 1, a); flags["bounces"] = argv[++i]; }
+            else if (a == "--lighting") { need(i, 1, a); flags["lighting"] = argv[++i]; }
             else if (a == "--integrator") { need(i, 1, a); flags["integrator"] = argv[++i]; }
             else if (a == "--seed") { need(i, 1, a); flags["seed"] = to_int(a, argv[++i]); }
             else if (a == "--tile") { need(i, 1, a); flags["tile_size"] = to_int(a, argv[++i]); }

@@ -53,6 +53,8 @@ public:
 
 private:
     bool include(int bounce) const {
+        if (st_.output == LightingOutput::direct && bounce > 1) return false;
+        if (st_.output == LightingOutput::indirect && bounce < 2) return false;
         return st_.bounces == BounceMode::accumulate ? bounce <= st_.max_depth : bounce == st_.max_depth;
     }
 

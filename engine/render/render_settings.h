@@ -8,6 +8,9 @@ namespace tessera {
 enum class Integrator { normals, path };
 enum class DirectLighting { hemisphere, importance, mis };
 enum class BounceMode { accumulate, nth };
+// Which bounces reach the image (the write-ups' direct-only and indirect-only renders):
+// direct = bounces 0 and 1, indirect = bounces 2 and up.
+enum class LightingOutput { all, direct, indirect };
 
 struct AdaptiveSettings {
     int batch = 32;           // samples between convergence checks
@@ -24,6 +27,7 @@ struct RenderSettings {
     DirectLighting direct = DirectLighting::importance;
     float russian_roulette = 0.f;  // continuation probability; 0 disables
     BounceMode bounces = BounceMode::accumulate;
+    LightingOutput output = LightingOutput::all;
     std::optional<AdaptiveSettings> adaptive;
     int tile_size = 32;
     uint64_t seed = 0;

@@ -61,7 +61,9 @@ void check_mesh(const SceneDescription& d, int brute_rays, int builder_rays) {
         for (size_t k = 0; k < scenes.size(); ++k) {
             const Closest c = trace(scenes[k], rays[i]);
             ASSERT_EQ(c.hit, ref.hit) << to_string(kBuilders[k]) << " ray " << i;
-            if (ref.hit) ASSERT_EQ(c.t, ref.t) << to_string(kBuilders[k]) << " ray " << i;
+            if (ref.hit) {
+                ASSERT_EQ(c.t, ref.t) << to_string(kBuilders[k]) << " ray " << i;
+            }
         }
     }
     EXPECT_GT(hits, builder_rays / 20) << "the rays should hit the mesh often enough to test something";
@@ -92,7 +94,9 @@ TEST(Bvh, NodesAreFlatAndStatsConsistent) {
         for (const BvhNode& n : s.tri_bvh.nodes) {
             if (n.is_leaf()) {
                 prims += n.count;
-                if (t != BvhType::sah) EXPECT_LE(n.count, 4u);
+                if (t != BvhType::sah) {
+                    EXPECT_LE(n.count, 4u);
+                }
             }
         }
         EXPECT_EQ(prims, s.triangles.size()) << "every triangle in exactly one leaf";

@@ -200,3 +200,21 @@ TEST(PathIntegrator, NoLightsGivesBlackWithoutShadowRays) {
 
 }  // namespace
 }  // namespace tessera
+
+namespace tessera {
+namespace {
+
+// Direct-only plus indirect-only equals everything, in the furnace: 1 + a and Σ_{k=2..d} a^k.
+TEST(PathIntegrator, DirectPlusIndirectIsAll) {
+    const float a = 0.5f;
+    RenderSettings s = furnace_settings(DirectLighting::importance, 4, 0.f);
+    s.output = LightingOutput::direct;
+    const test::MeanEstimate direct = test::iid_pixel_mean(test::render_desc(furnace_box(a, 1.f), s).image);
+    s.output = LightingOutput::indirect;
+    const test::MeanEstimate indirect = test::iid_pixel_mean(test::render_desc(furnace_box(a, 1.f), s).image);
+    EXPECT_NEAR(direct.mean, 1.5, 5 * direct.se + 1e-6);
+    EXPECT_NEAR(indirect.mean, 0.25 + 0.125 + 0.0625, 5 * indirect.se + 1e-6);
+}
+
+}  // namespace
+}  // namespace tessera
