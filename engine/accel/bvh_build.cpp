@@ -47,7 +47,24 @@ struct Builder {
     struct Split {
         int axis = -1;
         size_t mid = 0;  // refs[begin, mid) go left after partitioning
+        Aabb lb, lcb, rb, rcb;  // children's bounds and centroid bounds (SAH only)
+        bool bounds_known = false;
     };
+
+    // Partitions by `goes_left` and accumulates both sides' bounds in the same pass, so the
+    // children need no pass of their own to find them.
+    template <class Pred>
+    size_t partition_with_bounds(size_t begin, size_t end, Pred goes_left, Split& s) {
+        size_t i = begin, j = end;
+        for (;;) {
+            while (i < j && goes_left(refs[i])) { s.lb.expand(refs[i].bounds); s.lcb.expand(refs[i].centroid); ++i; }
+            while (i < j && !goes_left(refs[j - 1])) { s.rb.expand(refs[j - 1].bounds); s.rcb.expand(refs[j - 1].centroid); --j; }
+            if (i >= j) break;
+            std::swap(refs[i], refs[j - 1]);
+        }
+        s.bounds_known = true;
+        return i;
+    }
 
     void make_leaf(uint32_t node, const Aabb& b, size_t begin, size_t end) {
         nodes[node] = BvhNode{b.lo, uint32_t(begin), b.hi, uint32_t(end - begin)};
@@ -71,7 +88,9 @@ struct Builder {
 
     // Returns the SAH split, or axis -1 when a leaf is cheaper (and allowed).
     Split sah_split(size_t begin, size_t end, const Aabb& b, const Aabb& cb) {
-        const int nbins = std::max(2, opt.sah_bins);
+        // Small nodes get fewer bins: more bins than primitives only add fixed cost, and the
+        // ~n/2 nodes near the leaves would otherwise dominate the build.
+        const int nbins = std::max(2, std::min(opt.sah_bins, int(end - begin)));
         bins.assign(size_t(nbins) * 3, Bin{});
         glm::vec3 scale;
         const glm::vec3 ext = cb.extent();
@@ -111,19 +130,28 @@ struct Builder {
         float split_cost = area > 0.f ? opt.traversal_cost + opt.intersection_cost * best_cost / area : INFINITY;
         if (best_axis < 0 || (n <= size_t(opt.max_leaf_size) && leaf_cost <= split_cost)) return {};
         const int axis = best_axis;
-        const float lo = cb.lo[axis], s = scale[axis];
-        auto it = std::partition(refs.begin() + begin, refs.begin() + end, [&](const PrimRef& r) {
-            return std::min(nbins - 1, int((r.centroid[axis] - lo) * s)) <= best_bin;
-        });
-        size_t mid = size_t(it - refs.begin());
-        if (mid == begin || mid == end) mid = median_split(begin, end, axis);
-        return {axis, mid};
+        const float lo = cb.lo[axis], sc = scale[axis];
+        Split split;
+        split.axis = axis;
+        split.mid = partition_with_bounds(begin, end, [&](const PrimRef& r) {
+            return std::min(nbins - 1, int((r.centroid[axis] - lo) * sc)) <= best_bin;
+        }, split);
+        if (split.mid == begin || split.mid == end) {
+            split.mid = median_split(begin, end, axis);
+            split.bounds_known = false;
+        }
+        return split;
     }
 
-    void build(uint32_t node, size_t begin, size_t end, int depth) {
-        max_depth_seen = std::max(max_depth_seen, depth);
-        Aabb b, cb;
+    void bounds_of(size_t begin, size_t end, Aabb& b, Aabb& cb) const {
+        b = Aabb{};
+        cb = Aabb{};
         for (size_t i = begin; i < end; ++i) { b.expand(refs[i].bounds); cb.expand(refs[i].centroid); }
+    }
+
+    // `b` and `cb` are the bounds and centroid bounds of refs[begin, end).
+    void build(uint32_t node, size_t begin, size_t end, int depth, const Aabb& b, const Aabb& cb) {
+        max_depth_seen = std::max(max_depth_seen, depth);
         const size_t n = end - begin;
         if (opt.type == BvhType::none || n <= 1 ||
             (n <= size_t(opt.max_leaf_size) && opt.type != BvhType::sah)) {
@@ -132,6 +160,7 @@ struct Builder {
         }
         const int axis = cb.largest_axis();
         size_t mid;
+        Split split;
         if (cb.extent()[axis] <= 0.f) {
             // All centroids coincide: no plane separates them, so only the leaf-size limit matters.
             if (n <= size_t(opt.max_leaf_size)) { make_leaf(node, b, begin, end); return; }
@@ -143,20 +172,24 @@ struct Builder {
         } else if (opt.type == BvhType::midpoint) {
             mid = midpoint_split(begin, end, axis, cb);
         } else {
-            const Split s = sah_split(begin, end, b, cb);
-            if (s.axis < 0) { make_leaf(node, b, begin, end); return; }
-            mid = s.mid;
+            split = sah_split(begin, end, b, cb);
+            if (split.axis < 0) { make_leaf(node, b, begin, end); return; }
+            mid = split.mid;
+        }
+        if (!split.bounds_known) {
+            bounds_of(begin, mid, split.lb, split.lcb);
+            bounds_of(mid, end, split.rb, split.rcb);
         }
         nodes[node].lo = b.lo;
         nodes[node].hi = b.hi;
         nodes[node].count = 0;
         const uint32_t left = uint32_t(nodes.size());
         nodes.emplace_back();
-        build(left, begin, mid, depth + 1);
+        build(left, begin, mid, depth + 1, split.lb, split.lcb);
         const uint32_t right = uint32_t(nodes.size());
         nodes.emplace_back();
         nodes[node].offset = right;
-        build(right, mid, end, depth + 1);
+        build(right, mid, end, depth + 1, split.rb, split.rcb);
     }
 };
 
@@ -183,7 +216,9 @@ Bvh build_bvh(std::span<const Aabb> prim_bounds, const BvhBuildOptions& options)
     bvh.nodes.reserve(std::max<size_t>(1, 2 * prim_bounds.size() / std::max(1, options.max_leaf_size / 2 + 1)));
     bvh.nodes.emplace_back();
     Builder builder{options, refs, bvh.nodes, 0, {}, {}, {}};
-    builder.build(0, 0, refs.size(), 0);
+    Aabb b, cb;
+    builder.bounds_of(0, refs.size(), b, cb);
+    builder.build(0, 0, refs.size(), 0, b, cb);
     bvh.nodes.shrink_to_fit();
     bvh.prim_index.resize(refs.size());
     for (size_t i = 0; i < refs.size(); ++i) bvh.prim_index[i] = refs[i].id;

@@ -60,32 +60,40 @@ bool bvh_closest_hit(const Bvh& bvh, Ray& ray, PrimTest&& test, TraversalCounter
     }
 }
 
-// Any-hit traversal for shadow rays: stops at the first primitive that reports a hit.
+// Any-hit traversal for shadow rays: stops at the first primitive that reports a hit. Child
+// boxes are tested before they are pushed, as in bvh_closest_hit; order does not matter here.
 template <class PrimTest>
 bool bvh_any_hit(const Bvh& bvh, const Ray& ray, PrimTest&& test, TraversalCounters& counters) {
     if (bvh.nodes.empty()) return false;
     const RayInv ri = make_ray_inv(ray.o, ray.d);
     const BvhNode* nodes = bvh.nodes.data();
     const uint32_t* prims = bvh.prim_index.data();
+    if (intersect_aabb(nodes[0].lo, nodes[0].hi, ri, ray.tmin, ray.tmax) == INFINITY) return false;
     uint32_t stack[kMaxBvhDepth];
     int sp = 0;
-    stack[sp++] = 0;
+    uint32_t current = 0;
     uint64_t visited = 0, tests = 0;
     bool hit = false;
-    while (sp > 0 && !hit) {
-        const BvhNode& n = nodes[stack[--sp]];
+    for (;;) {
+        const BvhNode& n = nodes[current];
         ++visited;
-        if (intersect_aabb(n.lo, n.hi, ri, ray.tmin, ray.tmax) == INFINITY) continue;
         if (n.is_leaf()) {
             for (uint32_t i = n.offset, end = n.offset + n.count; i < end; ++i) {
                 ++tests;
                 if (test(prims[i], ray)) { hit = true; break; }
             }
-        } else {
-            const uint32_t self = static_cast<uint32_t>(&n - nodes);
-            stack[sp++] = n.offset;
-            stack[sp++] = self + 1;
+            if (hit || sp == 0) break;
+            current = stack[--sp];
+            continue;
         }
+        const uint32_t l = current + 1, r = n.offset;
+        const bool hl = intersect_aabb(nodes[l].lo, nodes[l].hi, ri, ray.tmin, ray.tmax) != INFINITY;
+        const bool hr = intersect_aabb(nodes[r].lo, nodes[r].hi, ri, ray.tmin, ray.tmax) != INFINITY;
+        if (hl && hr) { stack[sp++] = r; current = l; }
+        else if (hl) current = l;
+        else if (hr) current = r;
+        else if (sp == 0) break;
+        else current = stack[--sp];
     }
     counters.nodes_visited += visited;
     counters.prim_tests += tests;

@@ -30,39 +30,42 @@ struct Aabb {
 
 inline Aabb merge(Aabb a, const Aabb& b) { a.expand(b); return a; }
 
-// Per-ray data for slab tests, computed once per ray.
+// Per-ray data for slab tests, computed once per ray. A zero direction component (of either
+// sign) becomes +∞, so that near/far planes are chosen by the sign of inv_d alone; comparing
+// the two slab distances instead would go wrong when one of them is NaN.
 struct RayInv {
     glm::vec3 o;
     glm::vec3 inv_d;
+    bool near_x, near_y, near_z;  // false: the near plane is lo, true: hi
 };
 
-// A zero component (of either sign) becomes +∞, so that near/far can be chosen by the sign of
-// inv_d alone (see intersect_aabb).
 inline RayInv make_ray_inv(const glm::vec3& o, const glm::vec3& d) {
-    glm::vec3 inv;
-    for (int a = 0; a < 3; ++a) inv[a] = d[a] == 0.f ? INFINITY : 1.0f / d[a];
-    return {o, inv};
+    RayInv r;
+    r.o = o;
+    for (int a = 0; a < 3; ++a) r.inv_d[a] = d[a] == 0.f ? INFINITY : 1.0f / d[a];
+    r.near_x = r.inv_d.x < 0.f;
+    r.near_y = r.inv_d.y < 0.f;
+    r.near_z = r.inv_d.z < 0.f;
+    return r;
 }
 
-// Slab test; returns the entry distance or INFINITY on a miss. tfar is widened by 2·gamma(3)
-// so that rounding never culls a box a ray really touches (pbrt-v4 Bounds3::IntersectP).
-// A ray lying in a slab's plane gives 0·∞ = NaN there; the comparisons are ordered so that a
-// NaN always loses to the finite operand, which treats that slab as containing the ray (the
-// bounds are closed). std::max would return the NaN and miss the box: a leak.
+// Slab test on bounds given as {lo, hi}; returns the entry distance or INFINITY on a miss.
+// tfar is widened by 2·gamma(3) so that rounding never culls a box a ray really touches
+// (pbrt-v4 Bounds3::IntersectP). A ray lying in a slab's plane gives 0·∞ = NaN there; the
+// comparisons are ordered so that a NaN always loses to the finite operand, which treats that
+// slab as containing the ray (the bounds are closed); std::max would keep the NaN and miss.
 inline float max_nan_loses(float a, float b) { return a > b ? a : b; }
 inline float min_nan_loses(float a, float b) { return a < b ? a : b; }
 
 inline float intersect_aabb(const glm::vec3& lo, const glm::vec3& hi, const RayInv& r, float tmin, float tmax) {
-    const glm::vec3 t0 = (lo - r.o) * r.inv_d;
-    const glm::vec3 t1 = (hi - r.o) * r.inv_d;
-    float enter = tmin, leave = tmax;
-    for (int a = 0; a < 3; ++a) {
-        const bool forward = r.inv_d[a] >= 0.f;  // never compare t0, t1: either may be NaN
-        const float n = forward ? t0[a] : t1[a];
-        const float f = forward ? t1[a] : t0[a];
-        enter = max_nan_loses(n, enter);
-        leave = min_nan_loses(f, leave);
-    }
+    const float nx = ((r.near_x ? hi.x : lo.x) - r.o.x) * r.inv_d.x;
+    const float fx = ((r.near_x ? lo.x : hi.x) - r.o.x) * r.inv_d.x;
+    const float ny = ((r.near_y ? hi.y : lo.y) - r.o.y) * r.inv_d.y;
+    const float fy = ((r.near_y ? lo.y : hi.y) - r.o.y) * r.inv_d.y;
+    const float nz = ((r.near_z ? hi.z : lo.z) - r.o.z) * r.inv_d.z;
+    const float fz = ((r.near_z ? lo.z : hi.z) - r.o.z) * r.inv_d.z;
+    const float enter = max_nan_loses(nz, max_nan_loses(ny, max_nan_loses(nx, tmin)));
+    const float leave = min_nan_loses(fz, min_nan_loses(fy, min_nan_loses(fx, tmax)));
     return enter <= leave * (1.f + 2.f * gamma(3)) ? enter : INFINITY;
 }
 

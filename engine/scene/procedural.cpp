@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
+#include <unordered_map>
 #include <utility>
 
 #include "engine/sampling/rng.h"
@@ -106,29 +106,36 @@ SceneDescription furnace_box(float albedo, float emission, float half, glm::vec3
 }
 
 SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed) {
-    // A subdivided octahedron: 8·4^k triangles, then vertices pushed along the normal by a sum
-    // of random sinusoids, so the surface is bumpy but closed.
-    int level = 0;
-    while ((8ull << (2 * level)) < min_triangles) ++level;
-    std::vector<glm::vec3> pos = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-    std::vector<uint32_t> idx = {0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5};
-    for (int l = 0; l < level; ++l) {
-        std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
-        auto midpoint = [&](uint32_t a, uint32_t b) {
-            auto key = std::minmax(a, b);
-            auto it = mid.find(key);
-            if (it != mid.end()) return it->second;
-            pos.push_back(glm::normalize(pos[a] + pos[b]));
-            return mid[key] = uint32_t(pos.size() - 1);
+    // A geodesic octahedron of frequency k (8·k² triangles, the fewest at or above the request):
+    // each octant's face is a triangular lattice whose points (i, j, k−i−j) are keyed by signed
+    // integer coordinates, so points on shared edges are one vertex and the mesh is closed.
+    // Vertices are then pushed along the normal by a sum of random sinusoids.
+    const int k = std::max(1, int(std::ceil(std::sqrt(double(min_triangles) / 8.0))));
+    std::vector<glm::vec3> pos;
+    std::vector<uint32_t> idx;
+    idx.reserve(size_t(8) * k * k * 3);
+    std::unordered_map<uint64_t, uint32_t> lattice;
+    lattice.reserve(size_t(4) * k * k + 2);
+    auto vertex = [&](int x, int y, int z) {
+        const uint64_t key = (uint64_t(uint32_t(x + k)) << 42) | (uint64_t(uint32_t(y + k)) << 21) | uint64_t(uint32_t(z + k));
+        auto [it, inserted] = lattice.try_emplace(key, uint32_t(pos.size()));
+        if (inserted) pos.push_back(glm::normalize(glm::vec3(float(x), float(y), float(z))));
+        return it->second;
+    };
+    for (int oct = 0; oct < 8; ++oct) {
+        const int sx = oct & 1 ? -1 : 1, sy = oct & 2 ? -1 : 1, sz = oct & 4 ? -1 : 1;
+        const bool flip = sx * sy * sz < 0;  // keep every face wound outward
+        auto at = [&](int i, int j) { return vertex(sx * i, sy * j, sz * (k - i - j)); };
+        auto tri = [&](uint32_t a, uint32_t b, uint32_t c) {
+            if (flip) idx.insert(idx.end(), {a, c, b});
+            else idx.insert(idx.end(), {a, b, c});
         };
-        std::vector<uint32_t> next;
-        next.reserve(idx.size() * 4);
-        for (size_t i = 0; i < idx.size(); i += 3) {
-            const uint32_t a = idx[i], b = idx[i + 1], c = idx[i + 2];
-            const uint32_t ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
-            next.insert(next.end(), {a, ab, ca, ab, b, bc, ca, bc, c, ab, bc, ca});
+        for (int i = 0; i < k; ++i) {
+            for (int j = 0; i + j < k; ++j) {
+                tri(at(i, j), at(i + 1, j), at(i, j + 1));
+                if (i + j + 1 < k) tri(at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            }
         }
-        idx.swap(next);
     }
     Pcg32 rng(seed, 7);
     glm::vec3 freq[8];

@@ -144,7 +144,7 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
                 const float a = 0.5f * glm::length(glm::cross(e1, e2));
                 if (!(a > 0.f)) continue;  // degenerate triangles cannot be sampled
                 al.area += a;
-                s.light_triangles.push_back({p0, e1, e2, al.area});
+                s.light_triangles.push_back({p0, e1, e2, glm::normalize(glm::cross(e1, e2)), al.area});
             }
             al.count = uint32_t(s.light_triangles.size()) - al.first;
             if (al.count > 0) {

@@ -34,7 +34,8 @@ struct Sphere { glm::vec3 center; float radius; uint32_t material; };
 // emitters (hemisphere sampling finds them by hitting geometry).
 struct LightTriangle {
     glm::vec3 p0, e1, e2;
-    float cdf;  // cumulative area fraction within its light, ending at 1
+    glm::vec3 n;  // unit normal, cross(e1, e2) direction
+    float cdf;    // cumulative area fraction within its light, ending at 1
 };
 struct AreaLight {
     uint32_t first, count;  // into RenderScene::light_triangles
