@@ -12,6 +12,7 @@
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
 #include "engine/scene/procedural.h"
+#include "server/bench_common.h"
 #include "server/commands.h"
 
 namespace tessera::cli {
@@ -21,11 +22,6 @@ struct BenchScene {
     std::string label;
     SceneDescription desc;
 };
-
-std::string default_cs184_dir() {
-    if (const char* e = std::getenv("TESSERA_CS184_DIR"); e && *e) return e;
-    return TESSERA_DEFAULT_CS184_DIR;
-}
 
 struct Row {
     std::string scene;
@@ -153,7 +149,8 @@ int bench_bvh(int argc, char** argv) {
 
 int bench_command(int argc, char** argv) {
     if (argc >= 1 && !std::strcmp(argv[0], "bvh")) return bench_bvh(argc - 1, argv + 1);
-    std::fprintf(stderr, "usage: tessera bench bvh [options]\n");
+    if (argc >= 1 && !std::strcmp(argv[0], "figures")) return bench_figures(argc - 1, argv + 1);
+    std::fprintf(stderr, "usage: tessera bench bvh|figures [options]\n");
     return 2;
 }
 

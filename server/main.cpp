@@ -12,6 +12,7 @@ void usage() {
         "usage: tessera <command> [options]\n"
         "  render [flags] SCENE   render a scene to PNG/EXR (CS184 flags; 'tessera render --help')\n"
         "  bench bvh [options]    the BVH table (build time, render time, speedup, cost per ray)\n"
+        "  bench figures [opts]   the write-ups' comparison images and tables (docs/figures)\n"
         "  generate NAME FILE     write a built-in scene as glTF (cornell_box, cornell_spheres,\n"
         "                         displaced_sphere [--triangles N]); how scenes/ is made\n");
 }

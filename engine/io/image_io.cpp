@@ -55,6 +55,7 @@ std::vector<unsigned char> rate_colors8(const Image& image, int max_spp) {
     return px;
 }
 
+// PNG, or any 8-bit format OIIO picks by the extension (the docs' figures are JPEG).
 void write_png(const std::string& path, const Image& image, ToneCurve curve, const Metadata& meta) {
     const auto px = encode_srgb8(image, curve);
     OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
@@ -78,7 +79,7 @@ void write_exr(const std::string& path, const Image& image, const Metadata& meta
 }
 
 void write_image(const std::string& path, const Image& image, const Metadata& meta) {
-    if (ends_with(path, ".png")) write_png(path, image, ToneCurve::srgb, meta);
+    if (ends_with(path, ".png") || ends_with(path, ".jpg")) write_png(path, image, ToneCurve::srgb, meta);
     else if (ends_with(path, ".exr")) write_exr(path, image, meta);
     else throw std::runtime_error(path + ": unknown image format (use .png or .exr)");
 }

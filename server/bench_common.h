@@ -1,0 +1,16 @@
+#pragma once
+// Shared by the bench subcommands.
+#include <cstdlib>
+#include <string>
+
+namespace tessera::cli {
+
+// The CS184 scene folder: TESSERA_CS184_DIR, else the path configured at build time.
+inline std::string default_cs184_dir() {
+    if (const char* e = std::getenv("TESSERA_CS184_DIR"); e && *e) return e;
+    return TESSERA_DEFAULT_CS184_DIR;
+}
+
+int bench_figures(int argc, char** argv);
+
+}  // namespace tessera::cli
