@@ -185,13 +185,24 @@ int render_command(int argc, char** argv) {
     std::printf("timings: load %.3f s, BVH build %.3f s (%s, %zu nodes, depth %d, SAH cost %.2f), render %.3f s (%d threads), write %.3f s\n",
                 load_s, rs.report.seconds, to_string(job.scene_options.bvh.type), rs.tri_bvh.stats.node_count,
                 rs.tri_bvh.stats.depth, rs.tri_bvh.stats.sah_cost, st.render_seconds, st.threads, write_s);
+    if (!rs.tri_bvh.empty()) {
+        const auto& hist = rs.tri_bvh.stats.leaf_size_histogram;
+        std::printf("BVH leaves: %zu; by size:", rs.tri_bvh.stats.leaf_count);
+        for (size_t k = 1; k < hist.size(); ++k)
+            if (hist[k]) std::printf(" %zu%s:%zu", k, k + 1 == hist.size() ? "+" : "", hist[k]);
+        std::printf("; %.1f MiB with the triangles\n",
+                    double(rs.tri_bvh.stats.memory_bytes + rs.tri_bvh4.memory_bytes() + rs.triangles.size() * sizeof(TriangleVerts)) / (1 << 20));
+    }
     std::printf("rays: %llu (camera %llu, shadow %llu, bounce %llu), %.2f Mrays/s, %.1f nodes and %.1f primitive tests per ray\n",
                 (unsigned long long)st.rays(), (unsigned long long)st.camera_rays, (unsigned long long)st.shadow_rays,
                 (unsigned long long)st.bounce_rays, mrays, double(st.traversal.nodes_visited) * per_ray,
                 double(st.traversal.prim_tests) * per_ray);
     const double npx = double(job.render.width) * job.render.height;
-    std::printf("samples: %llu (%.2f per pixel), non-finite samples dropped: %llu\n", (unsigned long long)st.samples,
-                double(st.samples) / npx, (unsigned long long)st.nonfinite_samples);
+    double mean = 0;
+    for (float v : result.image.rgb) mean += v;
+    mean /= double(result.image.rgb.size());
+    std::printf("samples: %llu (%.2f per pixel), non-finite samples dropped: %llu, mean linear radiance %.4f\n",
+                (unsigned long long)st.samples, double(st.samples) / npx, (unsigned long long)st.nonfinite_samples, mean);
     std::printf("wrote %s\n", output.c_str());
     return 0;
 }

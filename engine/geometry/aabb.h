@@ -2,6 +2,10 @@
 #include <algorithm>
 #include <cmath>
 
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
 #include <glm/glm.hpp>
 
 #include "engine/core/float_util.h"
@@ -42,7 +46,17 @@ struct RayInv {
 inline RayInv make_ray_inv(const glm::vec3& o, const glm::vec3& d) {
     RayInv r;
     r.o = o;
+#if defined(__SSE2__)
+    // One packed division instead of three scalar ones (this runs once per ray).
+    const __m128 dv = _mm_set_ps(1.f, d.z, d.y, d.x);
+    const __m128 q = _mm_div_ps(_mm_set1_ps(1.f), dv);
+    const __m128 zero = _mm_cmpeq_ps(dv, _mm_setzero_ps());
+    alignas(16) float inv[4];
+    _mm_store_ps(inv, _mm_or_ps(_mm_and_ps(zero, _mm_set1_ps(INFINITY)), _mm_andnot_ps(zero, q)));
+    r.inv_d = glm::vec3(inv[0], inv[1], inv[2]);
+#else
     for (int a = 0; a < 3; ++a) r.inv_d[a] = d[a] == 0.f ? INFINITY : 1.0f / d[a];
+#endif
     r.near_x = r.inv_d.x < 0.f;
     r.near_y = r.inv_d.y < 0.f;
     r.near_z = r.inv_d.z < 0.f;

@@ -30,7 +30,10 @@ inline WatertightRay make_watertight_ray(const glm::vec3& d) {
     int kx = kz + 1 == 3 ? 0 : kz + 1;
     int ky = kx + 1 == 3 ? 0 : kx + 1;
     if (d[kz] < 0.f) std::swap(kx, ky);  // keep the winding, so the sign tests stay consistent
-    return {kx, ky, kz, d[kx] / d[kz], d[ky] / d[kz], 1.f / d[kz]};
+    // One division: the shear only has to be the same for every triangle a ray meets, which
+    // multiplying by the reciprocal keeps.
+    const float sz = 1.f / d[kz];
+    return {kx, ky, kz, d[kx] * sz, d[ky] * sz, sz};
 }
 
 inline bool intersect_triangle_watertight(const Ray& ray, const WatertightRay& w, const glm::vec3& p0,

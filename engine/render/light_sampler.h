@@ -29,7 +29,7 @@ inline bool sample_area_light(const RenderScene& s, const AreaLight& light, cons
     const glm::vec3 d = out.point - p;
     out.dist2 = glm::dot(d, d);
     if (!(out.dist2 > 0.f)) return false;
-    out.wi = d / std::sqrt(out.dist2);
+    out.wi = d * (1.f / std::sqrt(out.dist2));
     const float cos_l = -glm::dot(tri->n, out.wi);
     if (cos_l == 0.f || (!light.double_sided && cos_l < 0.f)) return false;
     out.pdf_w = out.dist2 / (std::abs(cos_l) * light.area);

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "engine/accel/bvh4_traverse.h"
 #include "engine/core/float_util.h"
 #include "engine/geometry/sphere.h"
 #include "engine/geometry/triangle.h"
@@ -175,9 +176,11 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     if (!s.triangles.empty()) {
         s.tri_bvh = build_bvh(bounds, options_for(s.triangles.size(), options, "triangles", s.report));
         to_leaf_order(s.tri_bvh, s.triangles, s.tri_shading);
+        s.tri_bvh4 = collapse_to_bvh4(s.tri_bvh);
         s.report.built.push_back("triangle BVH (" + std::string(to_string(options.bvh.type)) + "): " +
                                  std::to_string(s.triangles.size()) + " triangles, " +
-                                 std::to_string(s.tri_bvh.stats.node_count) + " nodes");
+                                 std::to_string(s.tri_bvh.stats.node_count) + " binary nodes, " +
+                                 std::to_string(s.tri_bvh4.nodes.size()) + " 4-wide nodes");
     } else {
         options_for(0, options, "triangles", s.report);
     }
@@ -223,7 +226,7 @@ bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& 
         const TriangleVerts* tris = scene.triangles.data();
         if (scene.triangle_test == TriangleTest::watertight) {
             const WatertightRay w = make_watertight_ray(ray.d);
-            found = bvh_closest_hit(scene.tri_bvh, ray, [&](uint32_t i, Ray& r) {
+            found = bvh4_closest_hit(scene.tri_bvh4, scene.tri_bvh.prim_index.data(), ray, [&](uint32_t i, Ray& r) {
                 TriangleHit th;
                 if (!intersect_triangle_watertight(r, w, tris[i].p0, tris[i].p1, tris[i].p2, th)) return false;
                 r.tmax = th.t;
@@ -231,7 +234,7 @@ bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& 
                 return true;
             }, counters);
         } else {
-            found = bvh_closest_hit(scene.tri_bvh, ray, [&](uint32_t i, Ray& r) {
+            found = bvh4_closest_hit(scene.tri_bvh4, scene.tri_bvh.prim_index.data(), ray, [&](uint32_t i, Ray& r) {
                 TriangleHit th;
                 if (!intersect_triangle_moller_trumbore(r, tris[i].p0, tris[i].p1, tris[i].p2, th)) return false;
                 r.tmax = th.t;
@@ -254,31 +257,30 @@ bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& 
 }
 
 bool occluded(const RenderScene& scene, const Ray& ray, TraversalCounters& counters) {
-    if (!scene.triangles.empty()) {
-        const TriangleVerts* tris = scene.triangles.data();
-        bool hit;
-        if (scene.triangle_test == TriangleTest::watertight) {
-            const WatertightRay w = make_watertight_ray(ray.d);
-            hit = bvh_any_hit(scene.tri_bvh, ray, [&](uint32_t i, const Ray& r) {
-                TriangleHit th;
-                return intersect_triangle_watertight(r, w, tris[i].p0, tris[i].p1, tris[i].p2, th);
-            }, counters);
-        } else {
-            hit = bvh_any_hit(scene.tri_bvh, ray, [&](uint32_t i, const Ray& r) {
-                TriangleHit th;
-                return intersect_triangle_moller_trumbore(r, tris[i].p0, tris[i].p1, tris[i].p2, th);
-            }, counters);
-        }
-        if (hit) return true;
-    }
+    // Spheres first: there are few of them and, where there are any, they are the likely
+    // occluders; an early hit skips the triangle BVH altogether.
     if (!scene.spheres.empty()) {
         const Sphere* sph = scene.spheres.data();
-        return bvh_any_hit(scene.sphere_bvh, ray, [&](uint32_t i, const Ray& r) {
-            float t;
-            return intersect_sphere(r, sph[i].center, sph[i].radius, t);
+        if (bvh_any_hit(scene.sphere_bvh, ray, [&](uint32_t i, const Ray& r) {
+                float t;
+                return intersect_sphere(r, sph[i].center, sph[i].radius, t);
+            }, counters))
+            return true;
+    }
+    if (scene.triangles.empty()) return false;
+    const TriangleVerts* tris = scene.triangles.data();
+    const uint32_t* prims = scene.tri_bvh.prim_index.data();
+    if (scene.triangle_test == TriangleTest::watertight) {
+        const WatertightRay w = make_watertight_ray(ray.d);
+        return bvh4_any_hit(scene.tri_bvh4, prims, ray, [&](uint32_t i, const Ray& r) {
+            TriangleHit th;
+            return intersect_triangle_watertight(r, w, tris[i].p0, tris[i].p1, tris[i].p2, th);
         }, counters);
     }
-    return false;
+    return bvh4_any_hit(scene.tri_bvh4, prims, ray, [&](uint32_t i, const Ray& r) {
+        TriangleHit th;
+        return intersect_triangle_moller_trumbore(r, tris[i].p0, tris[i].p1, tris[i].p2, th);
+    }, counters);
 }
 
 SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hit& hit) {

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "engine/accel/bvh.h"
+#include "engine/accel/bvh4.h"
 #include "engine/accel/bvh_traverse.h"
 #include "engine/camera/camera.h"
 #include "engine/geometry/ray.h"
@@ -70,7 +71,8 @@ struct RenderScene {
     std::vector<TriangleVerts> triangles;       // BVH leaf order
     std::vector<TriangleShading> tri_shading;   // same order
     std::vector<glm::vec3> normals;             // shared vertex normals
-    Bvh tri_bvh;
+    Bvh tri_bvh;                                // as built (statistics, and the tree for `none`)
+    Bvh4 tri_bvh4;                              // the same tree collapsed 4-wide: what traversal uses
     std::vector<Sphere> spheres;                // BVH leaf order
     Bvh sphere_bvh;
     std::vector<Material> materials;            // last entry: the default grey

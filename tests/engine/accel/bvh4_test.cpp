@@ -1,0 +1,63 @@
+#include "engine/accel/bvh4.h"
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "engine/scene/procedural.h"
+#include "engine/scene/render_scene.h"
+
+namespace tessera {
+namespace {
+
+// The collapsed tree covers every primitive exactly once, inside its parent's boxes, and is
+// about half as deep. (Hit-for-hit equality with brute force is in bvh_test.cpp, since
+// intersect() traverses this tree.)
+TEST(Bvh4, CollapseKeepsEveryPrimitiveOnce) {
+    for (BvhType t : {BvhType::midpoint, BvhType::median, BvhType::sah}) {
+        RenderSceneOptions o;
+        o.bvh.type = t;
+        const RenderScene s = build_render_scene(displaced_sphere(20000), o);
+        const Bvh4& b = s.tri_bvh4;
+        ASSERT_FALSE(b.nodes.empty());
+        std::vector<int> seen(s.triangles.size(), 0);
+        struct Item { uint32_t node; int depth; };
+        std::vector<Item> todo = {{0, 1}};
+        int depth = 0;
+        while (!todo.empty()) {
+            const Item it = todo.back();
+            todo.pop_back();
+            depth = std::max(depth, it.depth);
+            const Bvh4Node& n = b.nodes[it.node];
+            for (int c = 0; c < 4; ++c) {
+                if (n.bounds[0][c] > n.bounds[3][c]) continue;  // empty slot
+                if (n.count[c]) {
+                    for (uint32_t i = n.child[c]; i < n.child[c] + n.count[c]; ++i) {
+                        const TriangleVerts& tv = s.triangles[s.tri_bvh.prim_index[i]];
+                        for (const glm::vec3& p : {tv.p0, tv.p1, tv.p2})
+                            for (int a = 0; a < 3; ++a) {
+                                EXPECT_GE(p[a], n.bounds[a][c]);
+                                EXPECT_LE(p[a], n.bounds[a + 3][c]);
+                            }
+                        ++seen[s.tri_bvh.prim_index[i]];
+                    }
+                } else {
+                    todo.push_back({n.child[c], it.depth + 1});
+                }
+            }
+        }
+        for (int v : seen) ASSERT_EQ(v, 1);
+        EXPECT_LE(depth, s.tri_bvh.stats.depth / 2 + 2) << to_string(t);
+    }
+}
+
+TEST(Bvh4, SingleLeafTreeIsKeptAsOneLeaf) {
+    RenderSceneOptions o;
+    o.bvh.type = BvhType::none;
+    const RenderScene s = build_render_scene(displaced_sphere(200), o);
+    EXPECT_TRUE(s.tri_bvh4.nodes.empty());
+    EXPECT_EQ(s.tri_bvh4.root_leaf_count, s.triangles.size());
+}
+
+}  // namespace
+}  // namespace tessera
