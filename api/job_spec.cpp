@@ -52,6 +52,7 @@ constexpr std::pair<const char*, DirectLighting> kDirect[] = {
 constexpr std::pair<const char*, BounceMode> kBounces[] = {{"accumulate", BounceMode::accumulate}, {"nth", BounceMode::nth}};
 constexpr std::pair<const char*, LightingOutput> kOutput[] = {
     {"all", LightingOutput::all}, {"direct", LightingOutput::direct}, {"indirect", LightingOutput::indirect}};
+constexpr std::pair<const char*, LightSelection> kSelection[] = {{"all", LightSelection::all}, {"power", LightSelection::power}};
 constexpr std::pair<const char*, Integrator> kIntegrator[] = {{"path", Integrator::path}, {"normals", Integrator::normals}};
 constexpr std::pair<const char*, TriangleTest> kTriangle[] = {
     {"watertight", TriangleTest::watertight}, {"moller_trumbore", TriangleTest::moller_trumbore}};
@@ -90,6 +91,7 @@ JobSpec parse_job(const json& body, const JobLimits& limits) {
         else if (key == "russian_roulette") r.russian_roulette = float(get_number(v, ptr, 0.0, 1.0));
         else if (key == "bounces") r.bounces = get_enum(v, ptr, kBounces);
         else if (key == "lighting") r.output = get_enum(v, ptr, kOutput);
+        else if (key == "light_selection") r.light_selection = get_enum(v, ptr, kSelection);
         else if (key == "adaptive") {
             if (v.is_null()) { r.adaptive.reset(); continue; }
             if (!v.is_object()) throw InvalidJob(ptr, "/adaptive must be an object {\"batch\", \"tolerance\"} or null");
@@ -131,6 +133,7 @@ json to_json(const JobSpec& job) {
         {"russian_roulette", r.russian_roulette},
         {"bounces", enum_name(r.bounces, kBounces)},
         {"lighting", enum_name(r.output, kOutput)},
+        {"light_selection", enum_name(r.light_selection, kSelection)},
         {"adaptive", r.adaptive ? json{{"batch", r.adaptive->batch}, {"tolerance", r.adaptive->tolerance}} : json(nullptr)},
         {"tile_size", r.tile_size},
         {"seed", r.seed},

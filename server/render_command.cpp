@@ -1,5 +1,6 @@
 // `tessera render`: the CS184 PathTracer flags on top of the same job fields the server takes.
 // The flags become a JSON job that goes through api::parse_job, so both paths validate alike.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -38,7 +39,7 @@ More:
   --bvh none|midpoint|median|sah   --max-leaf N   --triangle-test watertight|moller_trumbore
   --direct hemisphere|importance|mis   --rr P (Russian roulette continuation, 0 = off)
   --bounces accumulate|nth   --lighting all|direct|indirect   --integrator path|normals
-  --seed N   --tile N
+  --light-selection all|power   --seed N   --tile N
   --tonemap srgb|cs184 (PNG encoding)
 )";
 
@@ -99,6 +100,7 @@ int render_command(int argc, char** argv) {
             else if (a == "--rr") { need(i, 1, a); flags["russian_roulette"] = to_double(a, argv[++i]); }
             else if (a == "--bounces") { need(i, 1, a); flags["bounces"] = argv[++i]; }
             else if (a == "--lighting") { need(i, 1, a); flags["lighting"] = argv[++i]; }
+            else if (a == "--light-selection") { need(i, 1, a); flags["light_selection"] = argv[++i]; }
             else if (a == "--integrator") { need(i, 1, a); flags["integrator"] = argv[++i]; }
             else if (a == "--seed") { need(i, 1, a); flags["seed"] = to_int(a, argv[++i]); }
             else if (a == "--tile") { need(i, 1, a); flags["tile_size"] = to_int(a, argv[++i]); }
@@ -198,6 +200,12 @@ int render_command(int argc, char** argv) {
                 (unsigned long long)st.bounce_rays, mrays, double(st.traversal.nodes_visited) * per_ray,
                 double(st.traversal.prim_tests) * per_ray);
     const double npx = double(job.render.width) * job.render.height;
+    if (!st.tile_seconds.empty()) {
+        std::vector<double> t = st.tile_seconds;
+        std::sort(t.begin(), t.end());
+        std::printf("tiles: %zu of %d px, seconds per tile min %.4f, median %.4f, max %.4f\n", t.size(), job.render.tile_size,
+                    t.front(), t[t.size() / 2], t.back());
+    }
     double mean = 0;
     for (float v : result.image.rgb) mean += v;
     mean /= double(result.image.rgb.size());

@@ -117,17 +117,30 @@ private:
             return Ld;
         }
         const bool mis = st_.direct == DirectLighting::mis;
-        for (const AreaLight& light : s_.area_lights) {
+        const bool by_power = st_.light_selection == LightSelection::power && s_.area_lights.size() > 1;
+        // One light sample toward `light`, chosen with probability `pick` among the lights.
+        auto light_sample = [&](const AreaLight& light, float pick) {
+            LightSample ls;
+            if (!sample_area_light(s_, light, si.p, rng, ls)) return;
+            const float c = glm::dot(si.ns, ls.wi);
+            if (c <= 0.f || glm::dot(si.ng, ls.wi) <= 0.f) return;
+            ++stats_.shadow_rays;
+            if (occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, ls.point), stats_.traversal)) return;
+            const float pdf = ls.pdf_w * pick;
+            const float w = mis ? power_heuristic(pdf, cosine_hemisphere_pdf(c)) : 1.f;
+            Ld += f * ls.Le * (w * c / (pdf * float(n)));
+        };
+        if (by_power) {
             for (int i = 0; i < n; ++i) {
-                LightSample ls;
-                if (!sample_area_light(s_, light, si.p, rng, ls)) continue;
-                const float c = glm::dot(si.ns, ls.wi);
-                if (c <= 0.f || glm::dot(si.ng, ls.wi) <= 0.f) continue;
-                ++stats_.shadow_rays;
-                if (occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, ls.point), stats_.traversal)) continue;
-                const float w = mis ? power_heuristic(ls.pdf_w, cosine_hemisphere_pdf(c)) : 1.f;
-                Ld += f * ls.Le * (w * c / (ls.pdf_w * float(n)));
+                const float u = rng.next_float();
+                const auto it = std::lower_bound(s_.area_lights.begin(), s_.area_lights.end(), u,
+                                                 [](const AreaLight& l, float v) { return l.power_cdf <= v; });
+                const AreaLight& light = it == s_.area_lights.end() ? s_.area_lights.back() : *it;
+                light_sample(light, light.power_pmf);
             }
+        } else {
+            for (const AreaLight& light : s_.area_lights)
+                for (int i = 0; i < n; ++i) light_sample(light, 1.f);
         }
         if (mis && !s_.area_lights.empty()) {
             // BSDF samples, shared by all area lights; each hit counts for the light it found.
@@ -145,7 +158,8 @@ private:
                 const glm::vec3 Le = emitted(hs, h, -wi);
                 if (Le == glm::vec3(0.f)) continue;
                 const float pdf_b = cosine_hemisphere_pdf(wl.z);
-                const float pdf_l = area_light_pdf(s_.area_lights[li], hs.ng, wi, h.t);
+                const AreaLight& hit_light = s_.area_lights[li];
+                const float pdf_l = area_light_pdf(hit_light, hs.ng, wi, h.t) * (by_power ? hit_light.power_pmf : 1.f);
                 Ld += f * Le * (power_heuristic(pdf_b, pdf_l) * wl.z / (pdf_b * float(n)));
             }
         }

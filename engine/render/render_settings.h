@@ -8,6 +8,10 @@ namespace tessera {
 enum class Integrator { normals, path };
 enum class DirectLighting { hemisphere, importance, mis };
 enum class BounceMode { accumulate, nth };
+// How area lights share the light samples: `all` gives every light `light_rays` samples
+// (CS184); `power` draws `light_rays` samples in all, each from one light chosen with
+// probability proportional to its emitted power (better when there are many lights).
+enum class LightSelection { all, power };
 // Which bounces reach the image (the write-ups' direct-only and indirect-only renders):
 // direct = bounces 0 and 1, indirect = bounces 2 and up.
 enum class LightingOutput { all, direct, indirect };
@@ -28,6 +32,7 @@ struct RenderSettings {
     float russian_roulette = 0.f;  // continuation probability; 0 disables
     BounceMode bounces = BounceMode::accumulate;
     LightingOutput output = LightingOutput::all;
+    LightSelection light_selection = LightSelection::all;
     std::optional<AdaptiveSettings> adaptive;
     int tile_size = 32;
     uint64_t seed = 0;

@@ -72,6 +72,23 @@ SceneDescription cornell_spheres() {
     return s;
 }
 
+SceneDescription many_lights(int lamps) {
+    SceneDescription s = cornell_spheres();
+    s.source = "builtin:many_lights";
+    s.meshes.pop_back();  // the big lamp
+    Pcg32 rng(11, 3);
+    const int side = int(std::ceil(std::sqrt(double(lamps))));
+    for (int i = 0; i < lamps; ++i) {
+        const float x = -0.9f + 1.8f * (float(i % side) + 0.5f) / float(side);
+        const float z = -0.9f + 1.8f * (float(i / side) + 0.5f) / float(side);
+        const float radiance = 1.f * std::pow(100.f, rng.next_float());  // 1 to 100
+        const int m = add_material(s, "lamp" + std::to_string(i), glm::vec3(0.f), glm::vec3(radiance));
+        const float h = 0.04f, y = 1.49f;
+        add_quad(s, "lamp" + std::to_string(i), m, {x - h, y, z - h}, {x + h, y, z - h}, {x + h, y, z + h}, {x - h, y, z + h});
+    }
+    return s;
+}
+
 SceneDescription furnace_box(float albedo, float emission, float half, glm::vec3 center) {
     SceneDescription s;
     s.source = "builtin:furnace";
@@ -172,6 +189,7 @@ SceneDescription builtin_scene(const std::string& name) {
     if (name == "builtin:cornell_box") return cornell_box();
     if (name == "builtin:cornell_spheres") return cornell_spheres();
     if (name == "builtin:furnace") return furnace_box(0.5f, 1.f);
+    if (name == "builtin:many_lights") return many_lights();
     const std::string prefix = "builtin:displaced_sphere";
     if (name.rfind(prefix, 0) == 0) {
         uint64_t tris = 1'000'000;
@@ -188,7 +206,7 @@ SceneDescription builtin_scene(const std::string& name) {
         return displaced_sphere(tris);
     }
     throw SceneError(where, "unknown built-in scene (builtin:cornell_box, builtin:cornell_spheres, builtin:furnace, "
-                            "builtin:displaced_sphere?triangles=N)");
+                            "builtin:many_lights, builtin:displaced_sphere?triangles=N)");
 }
 
 }  // namespace tessera

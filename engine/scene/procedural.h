@@ -13,13 +13,16 @@ namespace tessera {
 SceneDescription cornell_box();
 // The same with two analytic spheres (radius 0.3 and 0.25) on the floor.
 SceneDescription cornell_spheres();
+// The Cornell box with spheres lit by `lamps` small ceiling lamps whose radiance spans two
+// orders of magnitude (for light selection by power).
+SceneDescription many_lights(int lamps = 32);
 // A closed cube of half-size `half` centred at `center` whose walls all emit `emission` and
 // reflect with `albedo` (white furnace); the camera looks from inside.
 SceneDescription furnace_box(float albedo, float emission, float half = 1.f, glm::vec3 center = glm::vec3(0.f));
 // A noisy subdivided sphere with at least `min_triangles` triangles and a directional light.
 SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed = 1);
 
-// "builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace",
+// "builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace", "builtin:many_lights",
 // "builtin:displaced_sphere?triangles=N" (N ≤ 20 million). Throws SceneError for other names.
 SceneDescription builtin_scene(const std::string& name);
 

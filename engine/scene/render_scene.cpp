@@ -138,7 +138,7 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
         const uint32_t m = mat(mesh.material);
         uint32_t light = kNoLight;
         if (s.materials[m].emissive()) {
-            AreaLight al{uint32_t(s.light_triangles.size()), 0, 0.f, s.materials[m].emission, s.materials[m].double_sided};
+            AreaLight al{uint32_t(s.light_triangles.size()), 0, 0.f, s.materials[m].emission, s.materials[m].double_sided, 0.f, 0.f};
             for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
                 const glm::vec3& p0 = mesh.positions[mesh.indices[i]];
                 const glm::vec3 e1 = mesh.positions[mesh.indices[i + 1]] - p0, e2 = mesh.positions[mesh.indices[i + 2]] - p0;
@@ -161,6 +161,22 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
             s.tri_shading.push_back({base + i0, base + i1, base + i2, m, light});
         }
     }
+    // Power of each area light (luminance × area × π, doubled for two-sided emitters), for
+    // selection by power.
+    double total_power = 0.0;
+    for (const AreaLight& l : s.area_lights)
+        total_power += double(0.2126f * l.radiance.x + 0.7152f * l.radiance.y + 0.0722f * l.radiance.z) * l.area *
+                       (l.double_sided ? 2.0 : 1.0);
+    double running = 0.0;
+    for (AreaLight& l : s.area_lights) {
+        const double p = double(0.2126f * l.radiance.x + 0.7152f * l.radiance.y + 0.0722f * l.radiance.z) * l.area *
+                         (l.double_sided ? 2.0 : 1.0);
+        const double share = total_power > 0.0 ? p / total_power : 1.0 / double(s.area_lights.size());
+        running += share;
+        l.power_pmf = float(share);
+        l.power_cdf = float(running);
+    }
+    if (!s.area_lights.empty()) s.area_lights.back().power_cdf = 1.f;
     for (const SphereDesc& sd : desc.spheres)
         if (sd.material >= 0 && s.materials[size_t(sd.material)].emissive())
             s.report.warnings.push_back("emissive sphere at " + sd.origin.str() + " is not a light yet; its emission is ignored");

@@ -43,6 +43,8 @@ struct AreaLight {
     float area;
     glm::vec3 radiance;
     bool double_sided;
+    float power_cdf;        // cumulative share of the total emitted power, ending at 1
+    float power_pmf;        // this light's share
 };
 enum class DeltaKind { point, directional };
 struct DeltaLight {

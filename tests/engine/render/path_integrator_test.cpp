@@ -218,3 +218,36 @@ TEST(PathIntegrator, DirectPlusIndirectIsAll) {
 
 }  // namespace
 }  // namespace tessera
+
+namespace tessera {
+namespace {
+
+// Choosing one light by power per sample estimates the same image as sampling every light.
+TEST(PathIntegrator, LightSelectionByPowerIsUnbiased) {
+    const RenderScene scene = build_render_scene(many_lights(16), {});
+    ASSERT_EQ(scene.area_lights.size(), 16u);
+    double means[2][2], ses[2][2];
+    for (int mis = 0; mis < 2; ++mis) {
+        for (int k = 0; k < 2; ++k) {
+            RenderSettings st;
+            st.width = 40;
+            st.height = 30;
+            st.spp = 16 / test::kWorkScale + 2;
+            st.light_rays = 4;
+            st.max_depth = 2;
+            st.direct = mis ? DirectLighting::mis : DirectLighting::importance;
+            st.light_selection = k ? LightSelection::power : LightSelection::all;
+            st.seed = 5;
+            const Image a = render(scene, st).image;
+            st.seed = 6;
+            const Image b = render(scene, st).image;
+            const test::MeanEstimate m = test::paired_mean(a, b);
+            means[mis][k] = m.mean;
+            ses[mis][k] = m.se;
+        }
+        EXPECT_NEAR(means[mis][1], means[mis][0], 5 * std::hypot(ses[mis][0], ses[mis][1])) << (mis ? "mis" : "importance");
+    }
+}
+
+}  // namespace
+}  // namespace tessera
