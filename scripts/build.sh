@@ -4,7 +4,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 preset="${1:-release}"
 jobs="${TESSERA_BUILD_JOBS:-$(nproc)}"
+# TESSERA_NATIVE=OFF builds for any x86-64 (the container image); the default tunes for this CPU.
 if [ ! -f "build/$preset/CMakeCache.txt" ]; then
-  cmake --preset "$preset" >/dev/null
+  cmake --preset "$preset" -DTESSERA_NATIVE="${TESSERA_NATIVE:-ON}" >/dev/null
 fi
 cmake --build --preset "$preset" -j "$jobs"

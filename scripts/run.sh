@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
-# The README's first command: install what is missing, build, and run the main job — a demo
-# render of the built-in Cornell box with two spheres (out/cornell_spheres.png and .exr).
+# The README's first command: install what is missing, build, and start the render server on
+# its embedded defaults (http://127.0.0.1:8080, data in ./data, our scenes/ plus the shared
+# CS184 scenes when they are beside the repository). Stop it with Ctrl-C (SIGTERM-safe: jobs
+# are kept and resumed on the next start).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 bash scripts/build.sh release
-mkdir -p out
-./build/release/server/tessera render -s 64 -l 4 -m 5 -r 480 360 -f out/cornell_spheres.png builtin:cornell_spheres
-./build/release/server/tessera render -s 64 -l 4 -m 5 -r 480 360 -f out/cornell_spheres.exr builtin:cornell_spheres
+args=()
+[ -d ../shared/scenes/cs184 ] && args+=(--scenes ../shared/scenes/cs184)
+exec ./build/release/server/tessera serve "${args[@]}" "$@"

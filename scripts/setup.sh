@@ -11,6 +11,8 @@ packages=(
   libopenimageio-dev openimageio-tools libspdlog-dev libfmt-dev libgtest-dev libgmock-dev
   # COLLADA is XML (pugixml); Google Benchmark for the micro benchmarks
   libpugixml-dev libbenchmark-dev
+  # the server's durable job records
+  libsqlite3-dev
   # libFuzzer comes with clang's runtime
   clang libclang-rt-14-dev
   # the end-to-end scripts

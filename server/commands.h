@@ -5,5 +5,6 @@ namespace tessera::cli {
 int render_command(int argc, char** argv);
 int bench_command(int argc, char** argv);
 int generate_command(int argc, char** argv);
+int serve_command(int argc, char** argv);
 
 }  // namespace tessera::cli

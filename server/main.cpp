@@ -10,6 +10,7 @@ namespace {
 void usage() {
     std::puts(
         "usage: tessera <command> [options]\n"
+        "  serve [options]        the HTTP render server ('tessera serve --help')\n"
         "  render [flags] SCENE   render a scene to PNG/EXR (CS184 flags; 'tessera render --help')\n"
         "  bench bvh [options]    the BVH table (build time, render time, speedup, cost per ray)\n"
         "  bench figures [opts]   the write-ups' comparison images and tables (docs/figures)\n"
@@ -26,6 +27,7 @@ int main(int argc, char** argv) {
     }
     try {
         if (!std::strcmp(argv[1], "render")) return tessera::cli::render_command(argc - 2, argv + 2);
+        if (!std::strcmp(argv[1], "serve")) return tessera::cli::serve_command(argc - 2, argv + 2);
         if (!std::strcmp(argv[1], "bench")) return tessera::cli::bench_command(argc - 2, argv + 2);
         if (!std::strcmp(argv[1], "generate")) return tessera::cli::generate_command(argc - 2, argv + 2);
     } catch (const std::exception& e) {

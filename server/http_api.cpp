@@ -1,0 +1,241 @@
+#include "server/http_api.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "server/problem.h"
+
+namespace tessera::server {
+using nlohmann::json;
+
+namespace {
+
+thread_local std::chrono::steady_clock::time_point request_start;
+
+void send_json(httplib::Response& res, int status, const json& body) {
+    res.status = status;
+    res.set_content(body.dump(), "application/json");
+}
+
+void send_problem(httplib::Response& res, const Problem& p) {
+    json body = {{"type", "/problems/" + p.slug}, {"title", p.title}, {"status", p.status}, {"detail", p.what()}};
+    if (!p.field.empty()) body["field"] = p.field;
+    if (!p.location.empty()) body["location"] = p.location;
+    if (p.retry_after > 0) res.set_header("Retry-After", std::to_string(p.retry_after));
+    res.status = p.status;
+    res.set_content(body.dump(), "application/problem+json");
+}
+
+std::string read_file(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+size_t size_param(const httplib::Request& req, const char* name, size_t fallback, size_t lo, size_t hi) {
+    if (!req.has_param(name)) return fallback;
+    const std::string v = req.get_param_value(name);
+    if (v.empty() || v.size() > 9 || v.find_first_not_of("0123456789") != std::string::npos)
+        throw Problem(400, "invalid-parameter", "Invalid query parameter", std::string(name) + " must be a whole number").with_field(name);
+    const size_t n = std::stoul(v);
+    if (n < lo || n > hi)
+        throw Problem(400, "invalid-parameter", "Invalid query parameter",
+                      std::string(name) + " must lie in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]").with_field(name);
+    return n;
+}
+
+std::string scene_format(const CatalogEntry& e) {
+    if (e.source == "builtin") return "builtin";
+    const std::string ext = std::filesystem::path(e.path).extension().string();
+    return ext == ".dae" ? "collada" : ext == ".glb" ? "glb" : "gltf";
+}
+
+json parse_body(const httplib::Request& req) {
+    // curl -d sends application/x-www-form-urlencoded unless told otherwise: take it as JSON.
+    const std::string ct = req.get_header_value("Content-Type");
+    if (!ct.empty() && ct.find("json") == std::string::npos && ct.find("x-www-form-urlencoded") == std::string::npos)
+        throw Problem(415, "unsupported-media-type", "Unsupported media type", "send the job as application/json");
+    json body = json::parse(req.body, nullptr, false);
+    if (body.is_discarded())
+        throw Problem(400, "malformed-json", "Malformed JSON", "the request body is not valid JSON");
+    return body;
+}
+
+}  // namespace
+
+HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_path)
+    : service_(service), limits_(limits), openapi_path_(std::move(openapi_path)), server_(std::make_unique<httplib::Server>()) {
+    const int threads = std::max(2, limits_.http_threads);
+    server_->new_task_queue = [threads] { return new httplib::ThreadPool(size_t(threads)); };
+    server_->set_payload_max_length(std::max(limits_.max_upload, limits_.max_job_body));
+    server_->set_pre_routing_handler([](const httplib::Request&, httplib::Response&) {
+        request_start = std::chrono::steady_clock::now();
+        return httplib::Server::HandlerResponse::Unhandled;
+    });
+    server_->set_logger([this](const httplib::Request& req, const httplib::Response& res) {
+        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - request_start).count();
+        spdlog::info("{} {} {} {:.2f} ms", req.method, req.path, res.status, ms);
+        std::lock_guard<std::mutex> lock(status_mutex_);
+        ++responses_by_status_[res.status];
+    });
+    // Errors httplib raises itself (unknown route, body too large) get a problem body too.
+    server_->set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+        if (!res.body.empty()) return;
+        const char* title = res.status == 404 ? "Not found" : res.status == 413 ? "Payload too large" : "Request error";
+        send_problem(res, Problem(res.status, res.status == 404 ? "not-found" : "request-error", title,
+                                  res.status == 404 ? "no route for " + req.method + " " + req.path : "the request was refused with status " + std::to_string(res.status)));
+    });
+    server_->set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+        try {
+            std::rethrow_exception(ep);
+        } catch (const Problem& p) {
+            send_problem(res, p);
+        } catch (const std::exception& e) {
+            spdlog::error("internal error: {}", e.what());
+            send_problem(res, Problem(500, "internal", "Internal server error", e.what()));
+        } catch (...) {
+            send_problem(res, Problem(500, "internal", "Internal server error", "unknown exception"));
+        }
+    });
+    routes();
+}
+
+HttpApi::~HttpApi() { stop(); }
+
+namespace {
+
+// Debian's libcpp-httplib is compiled with a listen backlog of 5 (CPPHTTPLIB_LISTEN_BACKLOG),
+// so a burst of clients overflows the accept queue and connections are dropped. Linux lets a
+// second listen() on the listening socket raise the backlog; the library offers no other hook.
+void raise_listen_backlog(int port) {
+    for (int fd = 3; fd < 4096; ++fd) {
+        int listening = 0;
+        socklen_t len = sizeof listening;
+        if (getsockopt(fd, SOL_SOCKET, SO_ACCEPTCONN, &listening, &len) != 0 || !listening) continue;
+        sockaddr_storage addr{};
+        socklen_t alen = sizeof addr;
+        if (getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &alen) != 0) continue;
+        const int p = addr.ss_family == AF_INET ? ntohs(reinterpret_cast<sockaddr_in*>(&addr)->sin_port)
+                    : addr.ss_family == AF_INET6 ? ntohs(reinterpret_cast<sockaddr_in6*>(&addr)->sin6_port) : -1;
+        if (p == port) ::listen(fd, SOMAXCONN);
+    }
+}
+
+}  // namespace
+
+int HttpApi::bind(const std::string& host, int port) {
+    const int bound = port == 0 ? server_->bind_to_any_port(host) : (server_->bind_to_port(host, port) ? port : -1);
+    if (bound <= 0) throw std::runtime_error("cannot listen on " + host + ":" + std::to_string(port));
+    raise_listen_backlog(bound);
+    return bound;
+}
+
+void HttpApi::serve() { server_->listen_after_bind(); }
+void HttpApi::stop() { if (server_) server_->stop(); }
+bool HttpApi::ready() const { return service_.accepting(); }
+
+void HttpApi::routes() {
+    auto& s = *server_;
+    s.Get("/healthz", [](const httplib::Request&, httplib::Response& res) { send_json(res, 200, {{"status", "ok"}}); });
+    s.Get("/readyz", [this](const httplib::Request&, httplib::Response& res) {
+        if (!ready()) throw Problem(503, "not-ready", "Not ready", "the server is shutting down").with_retry_after(5);
+        send_json(res, 200, {{"status", "ready"}});
+    });
+    s.Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
+        res.set_content(metrics_text(), "text/plain; version=0.0.4");
+    });
+    s.Get("/v1/openapi.yaml", [this](const httplib::Request&, httplib::Response& res) {
+        const std::string text = read_file(openapi_path_);
+        if (text.empty()) throw Problem(404, "not-found", "Not found", "the OpenAPI description is not installed");
+        res.set_content(text, "application/yaml");
+    });
+
+    s.Post("/v1/jobs", [this](const httplib::Request& req, httplib::Response& res) {
+        if (req.body.size() > limits_.max_job_body)
+            throw Problem(413, "payload-too-large", "Payload too large",
+                          "a job body may be at most " + std::to_string(limits_.max_job_body) + " bytes");
+        const json status = service_.submit(parse_body(req));
+        res.set_header("Location", status["links"]["self"].get<std::string>());
+        send_json(res, 202, status);
+    });
+    s.Get("/v1/jobs", [this](const httplib::Request& req, httplib::Response& res) {
+        const size_t limit = size_param(req, "limit", 50, 1, 1000);
+        const size_t offset = size_param(req, "offset", 0, 0, 1'000'000'000);
+        send_json(res, 200, service_.list(req.has_param("state") ? req.get_param_value("state") : "", offset, limit));
+    });
+    s.Get(R"(/v1/jobs/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
+        send_json(res, 200, service_.status(req.matches[1]));
+    });
+    s.Delete(R"(/v1/jobs/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
+        send_json(res, 200, service_.cancel(req.matches[1]));
+    });
+    s.Delete(R"(/v1/jobs/([^/]+)/results)", [this](const httplib::Request& req, httplib::Response& res) {
+        service_.delete_results(req.matches[1]);
+        res.status = 204;
+    });
+    s.Get(R"(/v1/jobs/([^/]+)/(image\.png|image\.exr|rate\.png|report\.json))", [this](const httplib::Request& req, httplib::Response& res) {
+        const std::string file = req.matches[2];
+        const std::string path = service_.result_path(req.matches[1], file);
+        const char* type = file == "image.exr" ? "image/x-exr" : file == "report.json" ? "application/json" : "image/png";
+        res.set_content(read_file(path), type);
+    });
+
+    s.Get("/v1/scenes", [this](const httplib::Request&, httplib::Response& res) {
+        json scenes = json::array();
+        for (const CatalogEntry& e : service_.catalog().entries()) {
+            json j = {{"name", e.name}, {"source", e.source}, {"format", scene_format(e)}};
+            try {
+                // Bound first: a range-for over .items() of a temporary would dangle.
+                const json details = service_.catalog().describe(e, service_.config().load_limits);
+                for (auto& [k, v] : details.items()) j[k] = v;
+            } catch (const SceneError& err) {
+                j["error"] = err.what();
+            }
+            scenes.push_back(j);
+        }
+        send_json(res, 200, {{"scenes", scenes}});
+    });
+    s.Post("/v1/scenes", [this](const httplib::Request& req, httplib::Response& res) {
+        if (!req.has_param("name"))
+            throw Problem(400, "invalid-parameter", "Missing scene name", "give the file name as ?name=FILE.gltf|.glb|.dae").with_field("name");
+        if (req.body.size() > limits_.max_upload)
+            throw Problem(413, "payload-too-large", "Payload too large",
+                          "an upload may be at most " + std::to_string(limits_.max_upload) + " bytes");
+        const CatalogEntry e = service_.catalog().add_upload(req.get_param_value("name"), req.body, service_.config().load_limits);
+        json j = {{"id", e.name}, {"name", e.name}, {"source", e.source}, {"format", scene_format(e)}};
+        const json details = service_.catalog().describe(e, service_.config().load_limits);
+        for (auto& [k, v] : details.items()) j[k] = v;
+        send_json(res, 201, j);
+    });
+}
+
+std::string HttpApi::metrics_text() {
+    std::ostringstream m;
+    m << "# HELP tessera_jobs Jobs by state.\n# TYPE tessera_jobs gauge\n";
+    for (const auto& [state, n] : service_.counts_by_state()) m << "tessera_jobs{state=\"" << state << "\"} " << n << "\n";
+    m << "# HELP tessera_queue_depth Jobs waiting to run.\n# TYPE tessera_queue_depth gauge\ntessera_queue_depth "
+      << service_.queue_depth() << "\n";
+    m << "# HELP tessera_rays_total Rays traced by finished jobs.\n# TYPE tessera_rays_total counter\ntessera_rays_total "
+      << service_.metrics().rays.load() << "\n";
+    m << "# HELP tessera_render_seconds_total Render time of finished jobs.\n# TYPE tessera_render_seconds_total counter\n"
+      << "tessera_render_seconds_total " << double(service_.metrics().render_micros.load()) * 1e-6 << "\n";
+    m << "# HELP tessera_jobs_submitted_total Jobs accepted since start.\n# TYPE tessera_jobs_submitted_total counter\n"
+      << "tessera_jobs_submitted_total " << service_.metrics().jobs_submitted.load() << "\n";
+    m << "# HELP tessera_http_requests_total HTTP responses by status.\n# TYPE tessera_http_requests_total counter\n";
+    std::lock_guard<std::mutex> lock(status_mutex_);
+    for (const auto& [status, n] : responses_by_status_) m << "tessera_http_requests_total{status=\"" << status << "\"} " << n << "\n";
+    return m.str();
+}
+
+}  // namespace tessera::server

@@ -1,0 +1,44 @@
+#pragma once
+// The HTTP API v1 over a JobService (routes in http_api.cpp, described in api/openapi.yaml).
+#include <atomic>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "server/job_service.h"
+
+namespace httplib { class Server; }
+
+namespace tessera::server {
+
+struct HttpLimits {
+    size_t max_job_body = 1 << 20;         // bytes of a job's JSON
+    size_t max_upload = 256ull << 20;      // bytes of an uploaded scene
+    int http_threads = 16;
+};
+
+class HttpApi {
+public:
+    HttpApi(JobService& service, HttpLimits limits, std::string openapi_path);
+    ~HttpApi();
+    // Binds (port 0 picks a free port) and returns the port; throws on failure.
+    int bind(const std::string& host, int port);
+    // Serves until stop(); call from the thread that should block.
+    void serve();
+    void stop();
+    bool ready() const;
+
+private:
+    void routes();
+    std::string metrics_text();
+
+    JobService& service_;
+    HttpLimits limits_;
+    std::string openapi_path_;
+    std::unique_ptr<httplib::Server> server_;
+    std::mutex status_mutex_;
+    std::map<int, uint64_t> responses_by_status_;
+};
+
+}  // namespace tessera::server

@@ -1,0 +1,98 @@
+#pragma once
+// The job queue and its workers, knowing nothing of HTTP: jobs are accepted into the durable
+// store first, then queued in memory (priority, then first come); workers render them with
+// the engine and write the results under <data-dir>/jobs/<id>/.
+#include <atomic>
+#include <condition_variable>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "api/job_spec.h"
+#include "server/job_store.h"
+#include "server/scene_catalog.h"
+
+namespace tessera::server {
+
+struct ServiceConfig {
+    std::string data_dir = "./data";
+    std::string project_scenes;            // our scenes/ folder
+    std::vector<std::string> scene_dirs;   // --scenes
+    int render_threads = 0;                // 0: all cores
+    int concurrent_jobs = 1;
+    size_t max_queued = 1000;
+    api::JobLimits job_limits;
+    LoadLimits load_limits;
+};
+
+struct ServiceMetrics {
+    std::atomic<uint64_t> rays{0};
+    std::atomic<uint64_t> render_micros{0};
+    std::atomic<uint64_t> jobs_submitted{0};
+};
+
+class JobService {
+public:
+    explicit JobService(ServiceConfig config);  // opens the store, re-queues interrupted jobs, starts workers
+    ~JobService();
+
+    // Validates and stores a job; throws Problem. Returns its status.
+    nlohmann::json submit(const nlohmann::json& body);
+    nlohmann::json status(const std::string& id);  // throws Problem 404
+    nlohmann::json list(const std::string& state, size_t offset, size_t limit);
+    nlohmann::json cancel(const std::string& id);  // idempotent; throws Problem 404
+    void delete_results(const std::string& id);    // throws Problem 404 / 409
+    // The path of a finished job's result file ("image.png", ...); throws Problem 404/409/410.
+    std::string result_path(const std::string& id, const std::string& file);
+
+    // Stops accepting jobs; running renders are interrupted and their jobs re-queued in the
+    // store (they run again after a restart). Blocks until the workers have stopped.
+    void shutdown();
+    bool accepting() const { return accepting_; }
+    size_t queue_depth();
+    std::map<std::string, size_t> counts_by_state();
+    ServiceMetrics& metrics() { return metrics_; }
+    SceneCatalog& catalog() { return catalog_; }
+    const ServiceConfig& config() const { return config_; }
+
+private:
+    struct Running {
+        std::atomic<bool> stop{false};  // what the renderer checks between tiles; set with a reason below
+        std::atomic<bool> cancel{false};
+        std::atomic<bool> shutdown{false};
+        std::atomic<bool> timed_out{false};
+        std::atomic<size_t> tiles_done{0}, tiles_total{0};
+        std::atomic<uint64_t> samples{0};
+    };
+    struct QueueKey {
+        int priority;
+        int64_t seq;
+        std::string id;
+        bool operator<(const QueueKey& o) const { return priority != o.priority ? priority > o.priority : seq < o.seq; }
+    };
+
+    void worker();
+    void run_job(const JobRecord& rec, Running& running);
+    nlohmann::json status_json(const JobRecord& rec);
+    std::string job_dir(const std::string& id) const;
+
+    ServiceConfig config_;
+    JobStore store_;
+    SceneCatalog catalog_;
+    ServiceMetrics metrics_;
+    std::mutex mutex_;
+    std::condition_variable cv_;
+    std::set<QueueKey> queue_;
+    std::map<std::string, std::shared_ptr<Running>> running_;
+    std::atomic<bool> accepting_{true};
+    bool stopping_ = false;
+    std::vector<std::thread> workers_;
+};
+
+}  // namespace tessera::server

@@ -1,0 +1,158 @@
+#include "server/scene_catalog.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "engine/geometry/aabb.h"
+#include "engine/io/scene_loader.h"
+#include "server/problem.h"
+
+namespace tessera::server {
+namespace fs = std::filesystem;
+
+namespace {
+
+bool scene_extension(const fs::path& p) {
+    std::string e = p.extension().string();
+    std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    return e == ".dae" || e == ".gltf" || e == ".glb";
+}
+
+std::string random_hex(size_t n) {
+    static thread_local std::mt19937_64 rng(std::random_device{}());
+    static const char* hex = "0123456789abcdef";
+    std::string s(n, '0');
+    for (auto& c : s) c = hex[rng() & 15];
+    return s;
+}
+
+}  // namespace
+
+nlohmann::json describe_scene(const SceneDescription& s) {
+    Aabb b;
+    for (const auto& m : s.meshes) for (const auto& p : m.positions) b.expand(p);
+    for (const auto& sp : s.spheres) { b.expand(sp.center - glm::vec3(sp.radius)); b.expand(sp.center + glm::vec3(sp.radius)); }
+    nlohmann::json j = {{"triangles", s.triangle_count()}, {"spheres", s.spheres.size()}, {"lights", s.lights.size()},
+                        {"warnings", s.warnings}};
+    size_t emissive = 0;
+    for (const auto& m : s.meshes)
+        if (m.material >= 0 && s.materials[size_t(m.material)].kind == MaterialKind::emission) ++emissive;
+    j["emissive_meshes"] = emissive;
+    if (!b.empty()) j["bounds"] = {{"min", {b.lo.x, b.lo.y, b.lo.z}}, {"max", {b.hi.x, b.hi.y, b.hi.z}}};
+    else j["bounds"] = nullptr;
+    return j;
+}
+
+SceneCatalog::SceneCatalog(std::string project_dir, std::vector<std::string> dirs, std::string upload_dir)
+    : project_dir_(std::move(project_dir)), dirs_(std::move(dirs)), upload_dir_(std::move(upload_dir)) {
+    refresh();
+}
+
+void SceneCatalog::refresh() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    scan_locked();
+}
+
+void SceneCatalog::scan_locked() {
+    entries_.clear();
+    for (const char* b : {"builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace", "builtin:many_lights",
+                          "builtin:displaced_sphere"})
+        entries_[b] = {b, b, "builtin"};
+    auto add_dir = [&](const std::string& dir, const std::string& source, const std::string& prefix) {
+        std::error_code ec;
+        if (dir.empty() || !fs::is_directory(dir, ec)) return;
+        for (auto it = fs::recursive_directory_iterator(dir, fs::directory_options::skip_permission_denied, ec);
+             !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+            if (it.depth() > 8) { it.disable_recursion_pending(); continue; }
+            if (!it->is_regular_file(ec) || !scene_extension(it->path())) continue;
+            fs::path rel = fs::relative(it->path(), dir, ec);
+            if (ec) continue;
+            std::string name = prefix + (rel.parent_path() / rel.stem()).generic_string();
+            entries_.try_emplace(name, CatalogEntry{name, it->path().string(), source});
+        }
+    };
+    add_dir(project_dir_, "project", "");
+    for (const auto& d : dirs_) add_dir(d, "directory", "");
+    add_dir(upload_dir_, "upload", "upload/");
+}
+
+std::optional<CatalogEntry> SceneCatalog::find(const std::string& name) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = entries_.find(name);
+    if (it == entries_.end()) {
+        scan_locked();  // a file added since the last scan
+        it = entries_.find(name);
+        if (it == entries_.end()) return std::nullopt;
+    }
+    return it->second;
+}
+
+std::vector<CatalogEntry> SceneCatalog::entries() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    scan_locked();
+    std::vector<CatalogEntry> out;
+    for (const auto& [k, v] : entries_) out.push_back(v);
+    return out;
+}
+
+nlohmann::json SceneCatalog::describe(const CatalogEntry& e, const LoadLimits& limits) {
+    long long mtime = 0;
+    if (e.source != "builtin") {
+        std::error_code ec;
+        mtime = (long long)fs::last_write_time(e.path, ec).time_since_epoch().count();
+    }
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        auto it = details_.find(e.path);
+        if (it != details_.end() && it->second.first == mtime) return it->second.second;
+    }
+    nlohmann::json d = e.path == "builtin:displaced_sphere"
+                           ? nlohmann::json{{"triangles", 1002528}, {"spheres", 0}, {"lights", 1}, {"note", "?triangles=N sets the size"}}
+                           : describe_scene(load_scene(e.path, limits));
+    std::lock_guard<std::mutex> lock(mutex_);
+    details_[e.path] = {mtime, d};
+    return d;
+}
+
+CatalogEntry SceneCatalog::add_upload(const std::string& filename, const std::string& bytes, const LoadLimits& limits) {
+    const fs::path p(filename);
+    const bool clean = !filename.empty() && filename.size() <= 128 && p.filename().string() == filename &&
+                       filename.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") ==
+                           std::string::npos &&
+                       filename[0] != '.';
+    if (!clean)
+        throw Problem(400, "invalid-scene-name", "Invalid scene file name",
+                      "the name must be a plain file name of letters, digits, '.', '_' and '-' (no path)")
+            .with_field("name");
+    if (!scene_extension(p))
+        throw Problem(400, "invalid-scene-name", "Unsupported scene format", "the name must end in .gltf, .glb or .dae")
+            .with_field("name");
+    const std::string id = random_hex(16);
+    const fs::path dir = fs::path(upload_dir_) / id;
+    fs::create_directories(dir);
+    const fs::path file = dir / filename;
+    {
+        std::ofstream out(file, std::ios::binary);
+        out.write(bytes.data(), std::streamsize(bytes.size()));
+        if (!out) throw std::runtime_error("cannot write upload " + file.string());
+    }
+    try {
+        load_scene(file.string(), limits);  // validation: a broken upload is refused, not stored
+    } catch (const SceneError& e) {
+        std::error_code ec;
+        fs::remove_all(dir, ec);
+        throw Problem(422, "invalid-scene", "The scene file is broken", e.detail()).with_location(
+            filename + (e.where().line ? ":" + std::to_string(e.where().line) : "") +
+            (e.where().pointer.empty() ? "" : "#" + e.where().pointer));
+    }
+    const std::string name = "upload/" + id + "/" + p.stem().string();
+    std::lock_guard<std::mutex> lock(mutex_);
+    scan_locked();
+    CatalogEntry entry{name, file.string(), "upload"};
+    entries_[name] = entry;
+    return entry;
+}
+
+}  // namespace tessera::server

@@ -1,0 +1,50 @@
+#pragma once
+// The scenes a job may name: our `scenes/` folder, folders given with --scenes, uploads, and
+// the built-in procedural scenes. A job's `scene` is looked up here by name and never used as
+// a path, so no name can reach a file outside the catalog.
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "engine/scene/scene_description.h"
+
+namespace tessera::server {
+
+struct CatalogEntry {
+    std::string name;    // what a job names: "cornell_box", "sky/CBbunny", "upload/<id>", "builtin:furnace"
+    std::string path;    // file path, or the built-in name
+    std::string source;  // "project", "directory", "upload", "builtin"
+};
+
+class SceneCatalog {
+public:
+    SceneCatalog(std::string project_dir, std::vector<std::string> dirs, std::string upload_dir);
+    // Rescans the folders (uploads included).
+    void refresh();
+    std::optional<CatalogEntry> find(const std::string& name);
+    std::vector<CatalogEntry> entries();
+    // Counts and bounds of a scene, loading it once (cached by path and modification time).
+    // Throws SceneError for a broken file.
+    nlohmann::json describe(const CatalogEntry& e, const LoadLimits& limits);
+    // Stores an uploaded scene after validating its name and content; returns its entry.
+    // Throws Problem (400 bad name, 422 broken scene).
+    CatalogEntry add_upload(const std::string& filename, const std::string& bytes, const LoadLimits& limits);
+
+private:
+    void scan_locked();
+    std::string project_dir_;
+    std::vector<std::string> dirs_;
+    std::string upload_dir_;
+    std::mutex mutex_;
+    std::map<std::string, CatalogEntry> entries_;
+    std::map<std::string, std::pair<long long, nlohmann::json>> details_;  // path → (mtime, details)
+};
+
+// A scene's counts and bounds as the API reports them.
+nlohmann::json describe_scene(const SceneDescription& s);
+
+}  // namespace tessera::server

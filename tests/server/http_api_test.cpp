@@ -1,0 +1,320 @@
+// The HTTP API against a real server started in-process on an ephemeral port.
+#include "server/http_api.h"
+
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "engine/io/gltf_writer.h"
+#include "engine/scene/procedural.h"
+
+namespace tessera::server {
+namespace {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+// A long render: cancellation and priorities need a job that is still running.
+const json kLongJob = {{"scene", "builtin:cornell_spheres"}, {"width", 400}, {"height", 300}, {"spp", 4096}, {"max_depth", 5}, {"tile_size", 16}};
+const json kSmallJob = {{"scene", "builtin:cornell_box"}, {"width", 32}, {"height", 24}, {"spp", 2}};
+
+class Server : public ::testing::Test {
+protected:
+    void start(size_t max_queued = 1000) {
+        dir_ = fs::temp_directory_path() / ("tessera_http_" + std::to_string(::getpid()) + "_" +
+                                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+        fs::remove_all(dir_);
+        ServiceConfig cfg;
+        cfg.data_dir = dir_.string();
+        cfg.project_scenes = TESSERA_PROJECT_SCENES;
+        cfg.render_threads = 2;
+        cfg.max_queued = max_queued;
+        service_ = std::make_unique<JobService>(cfg);
+        std::ofstream(dir_ / "openapi.yaml") << "openapi: 3.0.3\n";
+        HttpLimits limits;
+        limits.max_job_body = 4096;
+        limits.max_upload = 1 << 20;
+        api_ = std::make_unique<HttpApi>(*service_, limits, (dir_ / "openapi.yaml").string());
+        port_ = api_->bind("127.0.0.1", 0);
+        thread_ = std::thread([this] { api_->serve(); });
+        client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
+        client_->set_read_timeout(30, 0);
+        for (int i = 0; i < 100 && !client_->Get("/healthz"); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    void TearDown() override {
+        if (service_) service_->shutdown();
+        if (api_) api_->stop();
+        if (thread_.joinable()) thread_.join();
+        api_.reset();
+        service_.reset();
+        std::error_code ec;
+        fs::remove_all(dir_, ec);
+    }
+    httplib::Result post_job(const json& j) { return client_->Post("/v1/jobs", j.dump(), "application/json"); }
+    std::string submit(const json& j) {
+        auto r = post_job(j);
+        EXPECT_TRUE(r);
+        EXPECT_EQ(r->status, 202) << r->body;
+        return json::parse(r->body)["id"];
+    }
+    json status(const std::string& id) {
+        auto r = client_->Get("/v1/jobs/" + id);
+        EXPECT_TRUE(r && r->status == 200);
+        return json::parse(r->body);
+    }
+    json wait_state(const std::string& id, const std::vector<std::string>& states, double timeout_s = 60) {
+        const auto t0 = std::chrono::steady_clock::now();
+        for (;;) {
+            json s = status(id);
+            for (const auto& st : states) if (s["state"] == st) return s;
+            if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > timeout_s) {
+                ADD_FAILURE() << "timed out waiting for " << id << ": " << s.dump();
+                return s;
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+    }
+    void expect_problem(const httplib::Result& r, int status, const std::string& field = "") {
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->status, status) << r->body;
+        EXPECT_EQ(r->get_header_value("Content-Type"), "application/problem+json") << r->body;
+        const json p = json::parse(r->body, nullptr, false);
+        ASSERT_FALSE(p.is_discarded()) << r->body;
+        EXPECT_EQ(p["status"], status);
+        EXPECT_TRUE(p.contains("type") && p.contains("title") && p.contains("detail")) << r->body;
+        if (!field.empty()) {
+            EXPECT_EQ(p.value("field", ""), field) << r->body;
+        }
+    }
+
+    fs::path dir_;
+    std::unique_ptr<JobService> service_;
+    std::unique_ptr<HttpApi> api_;
+    std::unique_ptr<httplib::Client> client_;
+    std::thread thread_;
+    int port_ = 0;
+};
+
+TEST_F(Server, JobLifecycleAndResults) {
+    start();
+    auto r = post_job(kSmallJob);
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 202);
+    const json accepted = json::parse(r->body);
+    EXPECT_EQ(r->get_header_value("Location"), "/v1/jobs/" + accepted["id"].get<std::string>());
+    EXPECT_TRUE(accepted["state"] == "queued" || accepted["state"] == "running");
+    const json done = wait_state(accepted["id"], {"succeeded", "failed"});
+    ASSERT_EQ(done["state"], "succeeded") << done.dump();
+    EXPECT_EQ(done["progress"]["fraction"], 1.0);
+    for (const char* k : {"queued_s", "load_s", "bvh_s", "render_s", "write_s", "total_s"}) EXPECT_TRUE(done["timings"][k].is_number()) << k;
+    EXPECT_GT(done["stats"]["rays_camera"].get<double>(), 0);
+    const std::string base = "/v1/jobs/" + accepted["id"].get<std::string>();
+    auto png = client_->Get(base + "/image.png");
+    ASSERT_TRUE(png && png->status == 200);
+    EXPECT_EQ(png->body.substr(1, 3), "PNG");
+    auto exr = client_->Get(base + "/image.exr");
+    ASSERT_TRUE(exr && exr->status == 200);
+    EXPECT_EQ(exr->body.substr(0, 4), std::string("\x76\x2f\x31\x01", 4));
+    auto rate = client_->Get(base + "/rate.png");
+    ASSERT_TRUE(rate && rate->status == 200);
+    auto report = client_->Get(base + "/report.json");
+    ASSERT_TRUE(report && report->status == 200);
+    EXPECT_TRUE(json::parse(report->body).contains("timings"));
+    // Deleting the files: 204, then 410 for the results; the record stays.
+    auto del = client_->Delete(base + "/results");
+    ASSERT_TRUE(del);
+    EXPECT_EQ(del->status, 204);
+    expect_problem(client_->Get(base + "/image.png"), 410);
+    EXPECT_EQ(status(accepted["id"])["state"], "succeeded");
+}
+
+TEST_F(Server, ErrorsAreProblemJsonNamingTheField) {
+    start();
+    expect_problem(client_->Post("/v1/jobs", "{not json", "application/json"), 400);
+    expect_problem(post_job({{"scene", "cornell_box"}, {"spp", "many"}}), 400, "/spp");
+    expect_problem(post_job({{"scene", "cornell_box"}, {"colour", 1}}), 400, "/colour");
+    expect_problem(post_job({{"spp", 4}}), 400, "/scene");
+    expect_problem(post_job({{"scene", "cornell_box"}, {"width", 100000}}), 400, "/width");
+    expect_problem(post_job({{"scene", "../../etc/passwd"}}), 404, "/scene");
+    expect_problem(post_job({{"scene", "no_such_scene"}}), 404, "/scene");
+    expect_problem(client_->Post("/v1/jobs", kSmallJob.dump(), "text/plain"), 415);
+    expect_problem(client_->Post("/v1/jobs", std::string(8000, ' ') + "{}", "application/json"), 413);
+    expect_problem(client_->Get("/v1/jobs/0123456789abcdef"), 404);
+    expect_problem(client_->Get("/v1/jobs/not-an-id"), 404);
+    expect_problem(client_->Get("/v1/jobs?state=sleeping"), 400, "state");
+    expect_problem(client_->Get("/v1/jobs?limit=0"), 400, "limit");
+    expect_problem(client_->Get("/v1/nothing"), 404);
+    expect_problem(client_->Delete("/v1/jobs/0123456789abcdef"), 404);
+    // curl's default form content type is taken as JSON.
+    auto r = client_->Post("/v1/jobs", kSmallJob.dump(), "application/x-www-form-urlencoded");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 202);
+}
+
+TEST_F(Server, CancelQueuedAndRunningJobs) {
+    start();
+    const std::string running = submit(kLongJob);
+    wait_state(running, {"running"});
+    const std::string queued = submit(kSmallJob);
+    EXPECT_EQ(status(queued)["queue_position"], 0);
+    expect_problem(client_->Get("/v1/jobs/" + queued + "/image.png"), 409);
+    auto c1 = client_->Delete("/v1/jobs/" + queued);
+    ASSERT_TRUE(c1 && c1->status == 200);
+    EXPECT_EQ(json::parse(c1->body)["state"], "canceled");
+    const auto t0 = std::chrono::steady_clock::now();
+    auto c2 = client_->Delete("/v1/jobs/" + running);
+    ASSERT_TRUE(c2 && c2->status == 200);
+    const json s = wait_state(running, {"canceled"}, 10);
+    EXPECT_EQ(s["state"], "canceled");
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0) << "within a tile's time";
+    // Idempotent.
+    auto again = client_->Delete("/v1/jobs/" + running);
+    ASSERT_TRUE(again && again->status == 200);
+    EXPECT_EQ(json::parse(again->body)["state"], "canceled");
+    expect_problem(client_->Get("/v1/jobs/" + running + "/image.png"), 410);
+}
+
+TEST_F(Server, HigherPriorityRunsFirst) {
+    start();
+    const std::string blocker = submit(kLongJob);
+    wait_state(blocker, {"running"});
+    json low = kSmallJob, high = kSmallJob;
+    low["priority"] = -5;
+    high["priority"] = 7;
+    const std::string a = submit(low), b = submit(high), c = submit(kSmallJob);
+    EXPECT_EQ(status(b)["queue_position"], 0);
+    EXPECT_EQ(status(c)["queue_position"], 1);
+    EXPECT_EQ(status(a)["queue_position"], 2);
+    client_->Delete("/v1/jobs/" + blocker);
+    const double ta = wait_state(a, {"succeeded"})["started_at"], tb = wait_state(b, {"succeeded"})["started_at"],
+                 tc = wait_state(c, {"succeeded"})["started_at"];
+    EXPECT_LT(tb, tc);
+    EXPECT_LT(tc, ta);
+}
+
+TEST_F(Server, FullQueueAnswers429WithRetryAfter) {
+    start(2);
+    const std::string blocker = submit(kLongJob);
+    wait_state(blocker, {"running"});
+    submit(kSmallJob);
+    submit(kSmallJob);
+    auto r = post_job(kSmallJob);
+    expect_problem(r, 429);
+    EXPECT_FALSE(r->get_header_value("Retry-After").empty());
+    client_->Delete("/v1/jobs/" + blocker);
+}
+
+// A hundred clients submit and poll at once; every job is accounted for, and malformed
+// requests in between do not stop the server from serving good ones.
+TEST_F(Server, HundredConcurrentClients) {
+    start();
+    std::vector<std::string> ids(100);
+    std::vector<std::thread> clients;
+    std::atomic<int> bad_rejected{0};
+    for (int i = 0; i < 100; ++i) {
+        clients.emplace_back([&, i] {
+            httplib::Client c("127.0.0.1", port_);
+            c.set_read_timeout(30, 0);
+            if (i % 10 == 0) {
+                auto bad = c.Post("/v1/jobs", "{\"scene\": [", "application/json");
+                if (bad && bad->status == 400) ++bad_rejected;
+                else ADD_FAILURE() << "bad request " << i << ": " << (bad ? std::to_string(bad->status) : httplib::to_string(bad.error()));
+            }
+            json j = kSmallJob;
+            j["seed"] = i;
+            auto r = c.Post("/v1/jobs", j.dump(), "application/json");
+            if (!r || r->status != 202) {
+                ADD_FAILURE() << "client " << i << ": " << (r ? std::to_string(r->status) : httplib::to_string(r.error()));
+                return;
+            }
+            ids[size_t(i)] = json::parse(r->body)["id"];
+            for (int k = 0; k < 5; ++k) c.Get("/v1/jobs/" + ids[size_t(i)]);
+        });
+    }
+    for (auto& t : clients) t.join();
+    EXPECT_EQ(bad_rejected.load(), 10);
+    std::set<std::string> unique;
+    for (const auto& id : ids) {
+        ASSERT_FALSE(id.empty());
+        unique.insert(id);
+    }
+    EXPECT_EQ(unique.size(), 100u);
+    for (const auto& id : ids) EXPECT_EQ(wait_state(id, {"succeeded", "failed"}, 120)["state"], "succeeded");
+    auto list = client_->Get("/v1/jobs?state=succeeded&limit=1000");
+    ASSERT_TRUE(list && list->status == 200);
+    EXPECT_EQ(json::parse(list->body)["total"], 100);
+    auto metrics = client_->Get("/metrics");
+    ASSERT_TRUE(metrics && metrics->status == 200);
+    EXPECT_NE(metrics->body.find("tessera_jobs{state=\"succeeded\"} 100"), std::string::npos) << metrics->body;
+}
+
+TEST_F(Server, UploadedScenesRenderAndHostileNamesAreRefused) {
+    start();
+    const std::string gltf = to_gltf(cornell_box());
+    auto up = client_->Post("/v1/scenes?name=box.gltf", gltf, "model/gltf+json");
+    ASSERT_TRUE(up);
+    ASSERT_EQ(up->status, 201) << up->body;
+    const json scene = json::parse(up->body);
+    EXPECT_EQ(scene["triangles"], 12);
+    json job = kSmallJob;
+    job["scene"] = scene["id"];
+    EXPECT_EQ(wait_state(submit(job), {"succeeded", "failed"})["state"], "succeeded");
+    expect_problem(client_->Post("/v1/scenes?name=../evil.gltf", gltf, "model/gltf+json"), 400, "name");
+    expect_problem(client_->Post("/v1/scenes?name=evil.exe", gltf, "application/octet-stream"), 400, "name");
+    expect_problem(client_->Post("/v1/scenes?name=broken.gltf", gltf.substr(0, gltf.size() / 2), "model/gltf+json"), 422);
+    expect_problem(client_->Post("/v1/scenes", gltf, "model/gltf+json"), 400, "name");
+    auto list = client_->Get("/v1/scenes");
+    ASSERT_TRUE(list && list->status == 200);
+    bool found = false;
+    const json scenes = json::parse(list->body);
+    for (const auto& s : scenes["scenes"]) found |= s["name"] == scene["id"];
+    EXPECT_TRUE(found);
+}
+
+TEST_F(Server, FailedJobKeepsItsReason) {
+    start();
+    // A scene that exists in the catalog but is broken: the job fails, the server goes on.
+    fs::create_directories(dir_ / "broken");
+    json job = kSmallJob;
+    job["time_limit_s"] = 0.001;
+    job["scene"] = "builtin:cornell_spheres";
+    job["spp"] = 4096;
+    job["width"] = 400;
+    job["height"] = 300;
+    const json s = wait_state(submit(job), {"failed", "succeeded"});
+    EXPECT_EQ(s["state"], "failed");
+    EXPECT_NE(s["error"].get<std::string>().find("time limit"), std::string::npos) << s.dump();
+    auto health = client_->Get("/healthz");
+    ASSERT_TRUE(health && health->status == 200);
+}
+
+// Every route the server answers is described in api/openapi.yaml.
+TEST(OpenApi, DescribesEveryRoute) {
+    std::ifstream in(TESSERA_OPENAPI_FILE);
+    ASSERT_TRUE(in) << TESSERA_OPENAPI_FILE;
+    std::stringstream ss;
+    ss << in.rdbuf();
+    const std::string yaml = ss.str();
+    const std::vector<std::pair<std::string, std::string>> routes = {
+        {"/v1/jobs", "post"}, {"/v1/jobs", "get"}, {"/v1/jobs/{id}", "get"}, {"/v1/jobs/{id}", "delete"},
+        {"/v1/jobs/{id}/results", "delete"}, {"/v1/jobs/{id}/image.png", "get"}, {"/v1/jobs/{id}/image.exr", "get"},
+        {"/v1/jobs/{id}/rate.png", "get"}, {"/v1/jobs/{id}/report.json", "get"}, {"/v1/scenes", "get"},
+        {"/v1/scenes", "post"}, {"/healthz", "get"}, {"/readyz", "get"}, {"/metrics", "get"}, {"/v1/openapi.yaml", "get"}};
+    for (const auto& [path, method] : routes) {
+        const size_t at = yaml.find("\n  " + path + ":");
+        ASSERT_NE(at, std::string::npos) << path << " is not under paths";
+        const size_t next = yaml.find("\n  /", at + 1);
+        const std::string block = yaml.substr(at, next == std::string::npos ? std::string::npos : next - at);
+        EXPECT_NE(block.find("\n    " + method + ":"), std::string::npos) << method << " " << path;
+    }
+}
+
+}  // namespace
+}  // namespace tessera::server
