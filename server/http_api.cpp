@@ -79,6 +79,9 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
     const int threads = std::max(2, limits_.http_threads);
     server_->new_task_queue = [threads] { return new httplib::ThreadPool(size_t(threads)); };
     server_->set_payload_max_length(std::max(limits_.max_upload, limits_.max_job_body));
+    // Small JSON responses must not wait for Nagle's algorithm and the client's delayed ACK
+    // (measured: 43 ms per status poll without this, 0.1 ms of work).
+    server_->set_tcp_nodelay(true);
     server_->set_pre_routing_handler([](const httplib::Request&, httplib::Response&) {
         request_start = std::chrono::steady_clock::now();
         return httplib::Server::HandlerResponse::Unhandled;

@@ -11,6 +11,7 @@
 #include "engine/io/image_io.h"
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
+#include "engine/scene/procedural.h"
 #include "server/problem.h"
 
 namespace tessera::server {
@@ -78,11 +79,21 @@ json JobService::submit(const json& body) {
     } catch (const api::InvalidJob& e) {
         throw Problem(400, "invalid-field", "Invalid job", e.what()).with_field(e.pointer());
     }
-    // Built-in names may carry parameters (builtin:displaced_sphere?triangles=N).
+    // Built-in names may carry parameters (builtin:displaced_sphere?triangles=N): checked now,
+    // not when the job runs.
     const std::string base = spec.scene.substr(0, spec.scene.find('?'));
-    if (!catalog_.find(base) || (base != spec.scene && base != "builtin:displaced_sphere"))
+    if (!catalog_.find(base))
         throw Problem(404, "unknown-scene", "Unknown scene",
                       "no scene named '" + spec.scene + "' (GET /v1/scenes lists them)").with_field("/scene");
+    if (base.rfind("builtin:", 0) == 0) {
+        try {
+            check_builtin_name(spec.scene);
+        } catch (const SceneError& e) {
+            throw Problem(400, "invalid-field", "Invalid job", e.detail()).with_field("/scene");
+        }
+    } else if (base != spec.scene) {
+        throw Problem(404, "unknown-scene", "Unknown scene", "only built-in scenes take parameters").with_field("/scene");
+    }
     JobRecord rec;
     rec.id = new_id();
     rec.state = JobState::queued;

@@ -184,29 +184,43 @@ SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed) {
     return s;
 }
 
-SceneDescription builtin_scene(const std::string& name) {
+namespace {
+
+// The triangle count of "builtin:displaced_sphere[?triangles=N]", or 0 for another name.
+uint64_t displaced_sphere_triangles(const std::string& name) {
     const SourceLocation where{name, 0, ""};
+    const std::string prefix = "builtin:displaced_sphere";
+    if (name.rfind(prefix, 0) != 0) return 0;
+    const std::string rest = name.substr(prefix.size());
+    if (rest.empty()) return 1'000'000;
+    const std::string key = "?triangles=";
+    if (rest.rfind(key, 0) != 0) throw SceneError(where, "expected '?triangles=N' after " + prefix);
+    const std::string num = rest.substr(key.size());
+    if (num.empty() || num.size() > 9 || num.find_first_not_of("0123456789") != std::string::npos)
+        throw SceneError(where, "triangles must be a whole number up to 20000000");
+    const uint64_t tris = std::stoull(num);
+    if (tris < 8 || tris > 20'000'000) throw SceneError(where, "triangles must lie in [8, 20000000]");
+    return tris;
+}
+
+const char* const kBuiltins[] = {"builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace", "builtin:many_lights"};
+
+}  // namespace
+
+void check_builtin_name(const std::string& name) {
+    for (const char* b : kBuiltins) if (name == b) return;
+    if (displaced_sphere_triangles(name)) return;
+    throw SceneError(SourceLocation{name, 0, ""}, "unknown built-in scene (builtin:cornell_box, builtin:cornell_spheres, "
+                                                  "builtin:furnace, builtin:many_lights, builtin:displaced_sphere?triangles=N)");
+}
+
+SceneDescription builtin_scene(const std::string& name) {
+    check_builtin_name(name);
     if (name == "builtin:cornell_box") return cornell_box();
     if (name == "builtin:cornell_spheres") return cornell_spheres();
     if (name == "builtin:furnace") return furnace_box(0.5f, 1.f);
     if (name == "builtin:many_lights") return many_lights();
-    const std::string prefix = "builtin:displaced_sphere";
-    if (name.rfind(prefix, 0) == 0) {
-        uint64_t tris = 1'000'000;
-        const std::string rest = name.substr(prefix.size());
-        if (!rest.empty()) {
-            const std::string key = "?triangles=";
-            if (rest.rfind(key, 0) != 0) throw SceneError(where, "expected '?triangles=N' after " + prefix);
-            const std::string num = rest.substr(key.size());
-            if (num.empty() || num.size() > 9 || num.find_first_not_of("0123456789") != std::string::npos)
-                throw SceneError(where, "triangles must be a whole number up to 20000000");
-            tris = std::stoull(num);
-            if (tris < 8 || tris > 20'000'000) throw SceneError(where, "triangles must lie in [8, 20000000]");
-        }
-        return displaced_sphere(tris);
-    }
-    throw SceneError(where, "unknown built-in scene (builtin:cornell_box, builtin:cornell_spheres, builtin:furnace, "
-                            "builtin:many_lights, builtin:displaced_sphere?triangles=N)");
+    return displaced_sphere(displaced_sphere_triangles(name));
 }
 
 }  // namespace tessera

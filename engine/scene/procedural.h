@@ -25,5 +25,7 @@ SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed = 1);
 // "builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace", "builtin:many_lights",
 // "builtin:displaced_sphere?triangles=N" (N ≤ 20 million). Throws SceneError for other names.
 SceneDescription builtin_scene(const std::string& name);
+// Checks a built-in name and its parameters without building the scene; throws SceneError.
+void check_builtin_name(const std::string& name);
 
 }  // namespace tessera

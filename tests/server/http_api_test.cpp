@@ -318,3 +318,27 @@ TEST(OpenApi, DescribesEveryRoute) {
 
 }  // namespace
 }  // namespace tessera::server
+
+namespace tessera::server {
+namespace {
+
+// Every file in tests/corpus/requests/ is a job body that must be refused with the status its
+// name starts with, as problem+json; the server keeps serving good requests afterwards.
+TEST_F(Server, BadRequestCorpus) {
+    start();
+    int n = 0;
+    for (const auto& e : fs::directory_iterator(fs::path(TESSERA_CORPUS_DIR) / "requests")) {
+        std::ifstream in(e.path(), std::ios::binary);
+        std::stringstream ss;
+        ss << in.rdbuf();
+        const int expected = std::stoi(e.path().filename().string().substr(0, 3));
+        SCOPED_TRACE(e.path().filename().string());
+        expect_problem(client_->Post("/v1/jobs", ss.str(), "application/json"), expected);
+        ++n;
+    }
+    EXPECT_GE(n, 20);
+    EXPECT_EQ(wait_state(submit(kSmallJob), {"succeeded", "failed"})["state"], "succeeded");
+}
+
+}  // namespace
+}  // namespace tessera::server
