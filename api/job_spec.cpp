@@ -106,7 +106,14 @@ JobSpec parse_job(const json& body, const JobLimits& limits) {
         } else if (key == "tile_size") r.tile_size = int(get_int(v, ptr, 1, 4096));
         else if (key == "seed") r.seed = uint64_t(get_int(v, ptr, 0, std::numeric_limits<int64_t>::max()));
         else if (key == "priority") job.priority = int(get_int(v, ptr, -1000, 1000));
-        else if (key == "time_limit_s") job.time_limit_s = get_number(v, ptr, 0.0, limits.max_time_limit_s);
+        else if (key == "time_limit_s") job.time_limit_s = r.time_limit_s = get_number(v, ptr, 0.0, limits.max_time_limit_s);
+        else if (key == "target_error") r.target_error = get_number(v, ptr, 0.0, 1e6);
+        else if (key == "reference") {
+            if (v.is_null()) { job.reference.clear(); continue; }
+            job.reference = get_string(v, ptr);
+            if (job.reference.size() != 16 || job.reference.find_first_not_of("0123456789abcdef") != std::string::npos)
+                throw InvalidJob(ptr, ptr + " must be the id of a finished job (16 hex digits) or null");
+        }
         else throw InvalidJob(ptr, "unknown field " + ptr);
     }
     if (!have_scene) throw InvalidJob("/scene", "/scene is required");
@@ -139,6 +146,8 @@ json to_json(const JobSpec& job) {
         {"seed", r.seed},
         {"priority", job.priority},
         {"time_limit_s", job.time_limit_s},
+        {"target_error", r.target_error},
+        {"reference", job.reference.empty() ? json(nullptr) : json(job.reference)},
     };
     return j;
 }

@@ -36,7 +36,8 @@ struct JobSpec {
     RenderSettings render;
     RenderSceneOptions scene_options;
     int priority = 0;
-    double time_limit_s = 0.0;  // 0: none
+    double time_limit_s = 0.0;  // 0: none (also in render.time_limit_s)
+    std::string reference;      // a finished job whose image is the reference for the error curve
 };
 
 // Throws InvalidJob. Only "scene" is required; unknown fields are errors.

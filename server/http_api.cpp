@@ -187,10 +187,11 @@ void HttpApi::routes() {
         service_.delete_results(req.matches[1]);
         res.status = 204;
     });
-    s.Get(R"(/v1/jobs/([^/]+)/(image\.png|image\.exr|rate\.png|report\.json))", [this](const httplib::Request& req, httplib::Response& res) {
+    s.Get(R"(/v1/jobs/([^/]+)/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg))", [this](const httplib::Request& req, httplib::Response& res) {
         const std::string file = req.matches[2];
         const std::string path = service_.result_path(req.matches[1], file);
-        const char* type = file == "image.exr" ? "image/x-exr" : file == "report.json" ? "application/json" : "image/png";
+        const char* type = file == "image.exr" ? "image/x-exr" : file == "report.json" ? "application/json"
+                         : file == "convergence.csv" ? "text/csv" : file == "convergence.svg" ? "image/svg+xml" : "image/png";
         res.set_content(read_file(path), type);
     });
 

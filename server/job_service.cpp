@@ -94,6 +94,16 @@ json JobService::submit(const json& body) {
     } else if (base != spec.scene) {
         throw Problem(404, "unknown-scene", "Unknown scene", "only built-in scenes take parameters").with_field("/scene");
     }
+    if (!spec.reference.empty()) {
+        auto ref = store_.get(spec.reference);
+        if (!ref) throw Problem(400, "invalid-field", "Invalid job", "no job " + spec.reference + " to use as reference").with_field("/reference");
+        if (ref->state != JobState::succeeded)
+            throw Problem(409, "not-finished", "The reference job has not succeeded", "job " + spec.reference + " is " + to_string(ref->state)).with_field("/reference");
+        const json rs = json::parse(ref->spec_json);
+        if (rs["width"] != spec.render.width || rs["height"] != spec.render.height)
+            throw Problem(400, "invalid-field", "Invalid job", "the reference is " + rs["width"].dump() + "×" + rs["height"].dump() +
+                                                                  ", the job " + std::to_string(spec.render.width) + "×" + std::to_string(spec.render.height)).with_field("/reference");
+    }
     JobRecord rec;
     rec.id = new_id();
     rec.state = JobState::queued;
@@ -147,8 +157,9 @@ json JobService::status_json(const JobRecord& rec) {
         auto it = running_.find(rec.id);
         if (it != running_.end()) {
             const size_t done = it->second->tiles_done, total = it->second->tiles_total;
-            progress = {{"fraction", total ? double(done) / double(total) : 0.0}, {"tiles_done", done},
-                        {"tiles_total", total}, {"samples_done", it->second->samples.load()}};
+            const double budget = it->second->sample_budget;
+            progress = {{"fraction", budget > 0 ? std::min(1.0, double(it->second->samples.load()) / budget) : 0.0},
+                        {"tiles_done", done}, {"tiles_total", total}, {"samples_done", it->second->samples.load()}};
         }
     }
     j["progress"] = progress;
@@ -269,15 +280,26 @@ void JobService::run_job(const JobRecord& rec, Running& running) {
         const auto t_built = Clock::now();
         RenderSettings settings = spec.render;
         settings.threads = config_.render_threads;
+        running.sample_budget = double(settings.spp) * settings.width * settings.height;
+        settings.estimate_error = true;  // every job records its convergence curve
+        Image reference_image;
         RenderCallbacks cb;
         cb.cancel = &running.stop;
+        if (!spec.reference.empty()) {
+            const fs::path ref = fs::path(job_dir(spec.reference)) / "image.exr";
+            if (!fs::exists(ref)) throw std::runtime_error("the reference job's image was deleted");
+            reference_image = read_image(ref.string());
+            cb.reference = &reference_image;
+        }
         const double limit = spec.time_limit_s;
         cb.progress = [&](const RenderProgress& p) {
             running.tiles_done = p.tiles_done;
             running.tiles_total = p.tiles_total;
             running.samples = p.samples_done;
-            if (limit > 0 && secs(t0, Clock::now()) > limit) { running.timed_out = true; running.stop = true; }
         };
+        // The time limit counts from the job's start (loading included); the renderer stops
+        // at it and keeps the samples it has.
+        if (limit > 0) settings.time_limit_s = std::max(1e-3, limit - secs(t0, Clock::now()));
         const RenderResult result = render(scene, settings, cb);
         const auto t_rendered = Clock::now();
         if (running.shutdown) {
@@ -290,7 +312,6 @@ void JobService::run_job(const JobRecord& rec, Running& running) {
             spdlog::info("job {} canceled while running", rec.id);
             return;
         }
-        if (running.timed_out) throw std::runtime_error("time limit of " + std::to_string(limit) + " s exceeded");
 
         const fs::path dir = job_dir(rec.id);
         fs::create_directories(dir);
@@ -300,6 +321,12 @@ void JobService::run_job(const JobRecord& rec, Running& running) {
         write_png((dir / "image.png").string(), result.image, ToneCurve::srgb, meta);
         write_exr((dir / "image.exr").string(), result.image, meta);
         write_rate_png((dir / "rate.png").string(), result.image, settings.spp, meta);
+        {
+            std::ofstream(dir / "convergence.csv") << convergence_csv(result.curve);
+            std::ofstream(dir / "convergence.svg")
+                << convergence_svg({result.curve}, {spec.reference.empty() ? "estimated (half buffers)" : "against job " + spec.reference},
+                                   "Job " + rec.id + ": error against time (" + spec.scene + ")");
+        }
         const auto t_written = Clock::now();
 
         float smin = INFINITY, smax = 0;
@@ -321,6 +348,20 @@ void JobService::run_job(const JobRecord& rec, Running& running) {
         report["scene"] = {{"name", spec.scene}, {"triangles", scene.triangles.size()}, {"spheres", scene.spheres.size()},
                            {"built", scene.report.built}, {"left_out", scene.report.left_out},
                            {"warnings", scene.report.warnings}, {"build_s", scene.report.seconds}};
+        json points = json::array();
+        for (const ConvergencePoint& p : result.curve.points) {
+            json jp = {{"seconds", p.seconds}, {"spp_mean", p.spp_mean}};
+            jp["est_rel_mse"] = p.est_rel_mse >= 0 ? json(p.est_rel_mse) : json(nullptr);
+            if (p.rel_mse >= 0) { jp["rel_mse"] = p.rel_mse; jp["mse"] = p.mse; jp["mae"] = p.mae; }
+            points.push_back(jp);
+        }
+        report["convergence"] = {
+            {"stop_reason", to_string(result.curve.stop)},
+            {"error_measure", spec.reference.empty()
+                                  ? "estimated relative MSE from the even- and odd-sample half buffers: mean ((A-B)^2/4)/(x^2+0.01)"
+                                  : "relative MSE against job " + spec.reference + ": mean (x-r)^2/(r^2+0.01); the half-buffer estimate too"},
+            {"points", points}};
+        report["film"] = {{"built", result.film_built}, {"left_out", result.film_left_out}};
         report["progress"] = {{"fraction", 1.0}, {"tiles_done", running.tiles_done.load()},
                               {"tiles_total", running.tiles_total.load()}, {"samples_done", st.samples}};
         {

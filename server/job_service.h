@@ -69,6 +69,7 @@ private:
         std::atomic<bool> timed_out{false};
         std::atomic<size_t> tiles_done{0}, tiles_total{0};
         std::atomic<uint64_t> samples{0};
+        std::atomic<double> sample_budget{0};  // spp × pixels: progress is samples over this
     };
     struct QueueKey {
         int priority;

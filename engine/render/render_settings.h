@@ -37,6 +37,12 @@ struct RenderSettings {
     int tile_size = 32;
     uint64_t seed = 0;
     int threads = 0;          // 0: all hardware threads
+    // Stop conditions besides spp (whichever comes first); 0 disables each. The render runs in
+    // passes (doubling spp, or one adaptive batch) and checks them between passes (time also
+    // between tiles).
+    double time_limit_s = 0;
+    double target_error = 0;   // relative MSE: against the reference if given, else estimated
+    bool estimate_error = false;  // keep the half-sample buffer and report the estimated error
 };
 
 }  // namespace tessera

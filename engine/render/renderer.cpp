@@ -6,6 +6,7 @@
 #include <mutex>
 #include <thread>
 
+#include "engine/render/film.h"
 #include "engine/render/tile_context.h"
 #include "engine/sampling/rng.h"
 
@@ -23,6 +24,8 @@ void RenderStats::add(const RenderStats& o) {
 
 namespace {
 
+using Clock = std::chrono::steady_clock;
+
 struct Tile { int x0, y0, x1, y1; };
 
 std::vector<Tile> make_tiles(int w, int h, int size) {
@@ -32,12 +35,58 @@ std::vector<Tile> make_tiles(int w, int h, int size) {
     return tiles;
 }
 
+// The error of the film so far (see convergence.h for the definitions).
+ConvergencePoint measure(const Film& film, const Image* reference) {
+    ConvergencePoint pt;
+    const size_t n = film.sum.size();
+    double spp = 0, est = 0, rel = 0, mse = 0, mae = 0;
+    size_t est_n = 0;
+    constexpr double eps = 0.01;
+    for (size_t i = 0; i < n; ++i) {
+        const double c = double(film.count[i]);
+        spp += c;
+        if (c == 0) continue;
+        const glm::dvec3 mean = film.sum[i] / c;
+        if (!film.sum_odd.empty() && film.count[i] >= 2) {
+            const double n_odd = std::floor(c / 2), n_even = c - n_odd;
+            const glm::dvec3 b = film.sum_odd[i] / n_odd, a = (film.sum[i] - film.sum_odd[i]) / n_even;
+            for (int k = 0; k < 3; ++k) est += (a[k] - b[k]) * (a[k] - b[k]) / 4.0 / (mean[k] * mean[k] + eps);
+            ++est_n;
+        }
+        if (reference) {
+            for (int k = 0; k < 3; ++k) {
+                const double r = reference->rgb[i * 3 + size_t(k)], d = mean[k] - r;
+                rel += d * d / (r * r + eps);
+                mse += d * d;
+                mae += std::abs(d);
+            }
+        }
+    }
+    pt.spp_mean = n ? spp / double(n) : 0;
+    if (!film.sum_odd.empty() && est_n) pt.est_rel_mse = est / double(3 * est_n);
+    if (reference) {
+        pt.rel_mse = rel / double(3 * n);
+        pt.mse = mse / double(3 * n);
+        pt.mae = mae / double(3 * n);
+    }
+    return pt;
+}
+
 }  // namespace
 
 RenderResult render(const RenderScene& scene, const RenderSettings& settings, const RenderCallbacks& callbacks) {
-    const auto t0 = std::chrono::steady_clock::now();
+    const auto t0 = Clock::now();
+    auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
     RenderResult result;
-    result.image = Image(settings.width, settings.height);
+    const bool adaptive = settings.adaptive.has_value();
+    const Image* reference = callbacks.reference && callbacks.reference->width == settings.width &&
+                                     callbacks.reference->height == settings.height ? callbacks.reference : nullptr;
+    const bool measure_error = settings.estimate_error || settings.target_error > 0 || callbacks.on_pass || reference;
+    // Passes of doubling spp only when something is measured or a time limit may cut the
+    // render short; otherwise one pass (nothing to report in between).
+    const bool progressive = measure_error || settings.time_limit_s > 0;
+    Film film(settings.width, settings.height, settings.estimate_error || (settings.target_error > 0 && !reference), adaptive);
+    film.describe(result.film_built, result.film_left_out);
     const Camera camera = make_camera(scene.camera, settings.width, settings.height);
     const std::vector<Tile> tiles = make_tiles(settings.width, settings.height, std::max(1, settings.tile_size));
     result.stats.tile_seconds.assign(tiles.size(), 0.0);
@@ -46,38 +95,75 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
     nthreads = std::max(1, std::min<int>(nthreads, int(tiles.size())));
     result.stats.threads = nthreads;
 
-    std::atomic<size_t> next_tile{0};
-    std::atomic<size_t> tiles_done{0};
+    std::vector<std::unique_ptr<TileContext>> contexts;
+    for (int i = 0; i < nthreads; ++i) contexts.push_back(std::make_unique<TileContext>(scene, settings, camera));
     std::atomic<uint64_t> samples_done{0};
-    std::atomic<bool> canceled{false};
-    std::mutex stats_mutex;
+    std::atomic<size_t> tiles_done_total{0};
+    bool stop_time = false, stop_cancel = false;
 
-    auto worker = [&]() {
-        TileContext ctx(scene, settings, camera);
-        for (;;) {
-            if (callbacks.cancel && callbacks.cancel->load(std::memory_order_relaxed)) { canceled = true; break; }
-            const size_t i = next_tile.fetch_add(1, std::memory_order_relaxed);
-            if (i >= tiles.size()) break;
-            const Tile& t = tiles[i];
-            const auto ts = std::chrono::steady_clock::now();
-            const uint64_t before = ctx.stats.samples;
-            for (int y = t.y0; y < t.y1; ++y)
-                for (int x = t.x0; x < t.x1; ++x) ctx.render_pixel(x, y, result.image);
-            result.stats.tile_seconds[i] = std::chrono::duration<double>(std::chrono::steady_clock::now() - ts).count();
-            samples_done += ctx.stats.samples - before;
-            const size_t done = tiles_done.fetch_add(1) + 1;
-            if (callbacks.progress) callbacks.progress({done, tiles.size(), samples_done.load()});
+    // Passes: uniform sampling doubles the samples per pixel (1, 2, 4, …, spp); adaptive
+    // sampling runs one batch per pass on the pixels that have not converged.
+    int target = 0;
+    const int max_passes = adaptive ? (settings.spp + std::max(1, settings.adaptive->batch) - 1) / std::max(1, settings.adaptive->batch) + 1
+                                    : 64;
+    for (int pass = 0; pass < max_passes; ++pass) {
+        target = adaptive ? settings.spp : (progressive ? std::min(settings.spp, target == 0 ? 1 : target * 2) : settings.spp);
+        std::atomic<size_t> next_tile{0};
+        std::atomic<bool> abort_pass{false};
+        auto worker = [&](TileContext& ctx) {
+            for (;;) {
+                if ((callbacks.cancel && callbacks.cancel->load(std::memory_order_relaxed)) ||
+                    (settings.time_limit_s > 0 && elapsed() > settings.time_limit_s)) {
+                    abort_pass = true;
+                    break;
+                }
+                const size_t i = next_tile.fetch_add(1, std::memory_order_relaxed);
+                if (i >= tiles.size()) break;
+                const Tile& t = tiles[i];
+                const auto ts = Clock::now();
+                const uint64_t before = ctx.stats.samples;
+                for (int y = t.y0; y < t.y1; ++y) {
+                    // Rows keep the samples of the previous pass when the time runs out mid-tile.
+                    if (settings.time_limit_s > 0 && elapsed() > settings.time_limit_s) { abort_pass = true; break; }
+                    for (int x = t.x0; x < t.x1; ++x) ctx.render_pixel(x, y, film, target);
+                }
+                result.stats.tile_seconds[i] += std::chrono::duration<double>(Clock::now() - ts).count();
+                samples_done += ctx.stats.samples - before;
+                const size_t done = tiles_done_total.fetch_add(1) + 1;
+                // Progress: tiles within the current pass, samples over the whole render.
+                if (callbacks.progress) callbacks.progress({done - tiles.size() * size_t(pass), tiles.size(), samples_done.load()});
+            }
+        };
+        std::vector<std::thread> pool;
+        for (int i = 1; i < nthreads; ++i) pool.emplace_back(worker, std::ref(*contexts[size_t(i)]));
+        worker(*contexts[0]);
+        for (auto& th : pool) th.join();
+        if (callbacks.cancel && callbacks.cancel->load()) stop_cancel = true;
+        if (abort_pass && !stop_cancel) stop_time = true;
+
+        ConvergencePoint pt;
+        if (measure_error) pt = measure(film, reference);
+        else pt.spp_mean = double(samples_done.load()) / (double(settings.width) * settings.height);
+        pt.seconds = elapsed();
+        result.curve.points.push_back(pt);
+        if (callbacks.on_pass) callbacks.on_pass(pt);
+
+        bool all_done = !adaptive ? target >= settings.spp
+                                  : std::all_of(film.done.begin(), film.done.end(), [](uint8_t d) { return d != 0; });
+        if (stop_cancel) { result.curve.stop = StopReason::canceled; break; }
+        if (stop_time) { result.curve.stop = StopReason::time_limit; break; }
+        const double err = pt.rel_mse >= 0 ? pt.rel_mse : pt.est_rel_mse;
+        if (settings.target_error > 0 && err >= 0 && err <= settings.target_error) { result.curve.stop = StopReason::target_error; break; }
+        if (all_done) {
+            result.curve.stop = adaptive && std::any_of(film.count.begin(), film.count.end(), [&](uint32_t c) { return int(c) < settings.spp; })
+                                    ? StopReason::converged : StopReason::spp;
+            break;
         }
-        std::lock_guard<std::mutex> lock(stats_mutex);
-        result.stats.add(ctx.stats);
-    };
-
-    std::vector<std::thread> pool;
-    for (int i = 1; i < nthreads; ++i) pool.emplace_back(worker);
-    worker();
-    for (auto& th : pool) th.join();
-    result.stats.canceled = canceled;
-    result.stats.render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+    for (auto& c : contexts) result.stats.add(c->stats);
+    result.image = film.resolve();
+    result.stats.canceled = stop_cancel;
+    result.stats.render_seconds = elapsed();
     return result;
 }
 

@@ -7,6 +7,7 @@
 #include <functional>
 #include <vector>
 
+#include "engine/render/convergence.h"
 #include "engine/render/image.h"
 #include "engine/render/render_settings.h"
 #include "engine/scene/render_scene.h"
@@ -38,13 +39,20 @@ struct RenderProgress {
 struct RenderCallbacks {
     // Called after each tile from the worker that finished it (keep it cheap and thread-safe).
     std::function<void(const RenderProgress&)> progress;
-    // Checked between tiles: a set flag stops the render, leaving unfinished tiles black.
+    // Checked between tiles: a set flag stops the render after the pass it is in (pixels keep
+    // the samples they have).
     const std::atomic<bool>* cancel = nullptr;
+    // Called after every pass with the error so far.
+    std::function<void(const ConvergencePoint&)> on_pass;
+    // An image of the same size to measure the error against (converged render); optional.
+    const Image* reference = nullptr;
 };
 
 struct RenderResult {
     Image image;
     RenderStats stats;
+    ConvergenceCurve curve;
+    std::vector<std::string> film_built, film_left_out;  // which per-pixel buffers this render needed
 };
 
 RenderResult render(const RenderScene& scene, const RenderSettings& settings, const RenderCallbacks& callbacks = {});

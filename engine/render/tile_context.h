@@ -1,36 +1,17 @@
 #pragma once
-// One worker's state while it renders tiles: its statistics and the per-pixel sample loop
-// (uniform or adaptive). Nothing here is shared between threads.
+// One worker's state while it renders tiles: its statistics and the per-pixel sample loop of
+// one pass. Nothing here is shared between threads; a pixel's film entries are written only by
+// the worker that owns its tile in that pass.
 #include <cmath>
 
+#include "engine/render/film.h"
 #include "engine/render/image.h"
-#include "engine/render/renderer.h"
 #include "engine/render/integrators.h"
 #include "engine/render/render_settings.h"
+#include "engine/render/renderer.h"
 #include "engine/sampling/rng.h"
 
 namespace tessera {
-
-
-// Welford's online mean and variance: numerically stable where S2 − S1²/n cancels to noise.
-struct RunningStats {
-    uint64_t n = 0;
-    double mean = 0.0;
-    double m2 = 0.0;
-    void add(double x) {
-        ++n;
-        const double d = x - mean;
-        mean += d / double(n);
-        m2 += d * (x - mean);
-    }
-    double variance() const { return n > 1 ? m2 / double(n - 1) : 0.0; }
-    // CS184's test, 1.96·σ/√n ≤ tolerance·μ, written without a division so that μ = 0 and
-    // σ = 0 both end sampling without producing NaN.
-    bool converged(double tolerance) const {
-        if (n < 2) return false;
-        return 1.96 * std::sqrt(variance() / double(n)) <= tolerance * mean;
-    }
-};
 
 inline float illuminance(const glm::vec3& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 
@@ -39,38 +20,37 @@ public:
     TileContext(const RenderScene& scene, const RenderSettings& settings, const Camera& camera)
         : scene_(scene), settings_(settings), camera_(camera), integrator_(scene, settings, stats) {}
 
-    void render_pixel(int x, int y, Image& image) {
-        const uint64_t pixel = uint64_t(y) * uint64_t(settings_.width) + uint64_t(x);
-        const float inv_w = 1.f / float(settings_.width), inv_h = 1.f / float(settings_.height);
-        glm::dvec3 sum(0.0);
-        RunningStats running;
+    // Takes pixel (x, y) to `target` samples (uniform), or by one batch (adaptive).
+    void render_pixel(int x, int y, Film& film, int target) {
+        const size_t p = size_t(y) * size_t(settings_.width) + size_t(x);
         const bool adaptive = settings_.adaptive.has_value();
-        const int batch = adaptive ? std::max(1, settings_.adaptive->batch) : settings_.spp;
-        int s = 0;
-        while (s < settings_.spp) {
-            const int batch_end = std::min(settings_.spp, s + batch);
-            for (; s < batch_end; ++s) {
-                Pcg32 rng = sample_rng(settings_.seed, pixel, uint64_t(s));
-                const float jx = rng.next_float(), jy = rng.next_float();
-                Ray ray = generate_ray(camera_, (float(x) + jx) * inv_w, 1.f - (float(y) + jy) * inv_h);
-                ++stats.camera_rays;
-                glm::vec3 L = integrator_.radiance(ray, rng);
-                if (!(std::isfinite(L.x) && std::isfinite(L.y) && std::isfinite(L.z))) {
-                    ++stats.nonfinite_samples;
-                    L = glm::vec3(0.f);
-                }
-                sum += glm::dvec3(L);
-                if (adaptive) running.add(illuminance(L));
-            }
-            if (adaptive && running.converged(settings_.adaptive->tolerance)) break;
+        if (adaptive) {
+            if (film.done[p]) return;
+            target = std::min(settings_.spp, int(film.count[p]) + std::max(1, settings_.adaptive->batch));
         }
-        stats.samples += uint64_t(s);
-        const double inv_n = s > 0 ? 1.0 / double(s) : 0.0;
-        float* out = image.pixel(x, y);
-        out[0] = float(sum.x * inv_n);
-        out[1] = float(sum.y * inv_n);
-        out[2] = float(sum.z * inv_n);
-        image.sample_count[pixel] = float(s);
+        const float inv_w = 1.f / float(settings_.width), inv_h = 1.f / float(settings_.height);
+        glm::dvec3 sum = film.sum[p];
+        glm::dvec3 sum_odd = film.sum_odd.empty() ? glm::dvec3(0.0) : film.sum_odd[p];
+        int s = int(film.count[p]);
+        for (; s < target; ++s) {
+            Pcg32 rng = sample_rng(settings_.seed, p, uint64_t(s));
+            const float jx = rng.next_float(), jy = rng.next_float();
+            Ray ray = generate_ray(camera_, (float(x) + jx) * inv_w, 1.f - (float(y) + jy) * inv_h);
+            ++stats.camera_rays;
+            glm::vec3 L = integrator_.radiance(ray, rng);
+            if (!(std::isfinite(L.x) && std::isfinite(L.y) && std::isfinite(L.z))) {
+                ++stats.nonfinite_samples;
+                L = glm::vec3(0.f);
+            }
+            sum += glm::dvec3(L);
+            if (s & 1) sum_odd += glm::dvec3(L);
+            if (adaptive) film.stats[p].add(illuminance(L));
+        }
+        stats.samples += uint64_t(s) - film.count[p];
+        film.sum[p] = sum;
+        if (!film.sum_odd.empty()) film.sum_odd[p] = sum_odd;
+        film.count[p] = uint32_t(s);
+        if (adaptive && (s >= settings_.spp || film.stats[p].converged(settings_.adaptive->tolerance))) film.done[p] = 1;
     }
 
     RenderStats stats;

@@ -278,21 +278,77 @@ TEST_F(Server, UploadedScenesRenderAndHostileNamesAreRefused) {
     EXPECT_TRUE(found);
 }
 
-TEST_F(Server, FailedJobKeepsItsReason) {
+TEST_F(Server, TimeLimitStopsWithTheImageAndSaysWhy) {
     start();
-    // A scene that exists in the catalog but is broken: the job fails, the server goes on.
-    fs::create_directories(dir_ / "broken");
+    json job = kLongJob;
+    job["time_limit_s"] = 0.3;
+    const json s = wait_state(submit(job), {"failed", "succeeded"});
+    ASSERT_EQ(s["state"], "succeeded") << s.dump();
+    auto report = client_->Get("/v1/jobs/" + s["id"].get<std::string>() + "/report.json");
+    ASSERT_TRUE(report && report->status == 200);
+    const json r = json::parse(report->body);
+    EXPECT_EQ(r["convergence"]["stop_reason"], "time_limit");
+    EXPECT_LT(r["timings"]["total_s"].get<double>(), 3.0);
+    EXPECT_LT(r["stats"]["spp_mean"].get<double>(), 4096.0);
+}
+
+TEST_F(Server, BrokenSceneFailsWithItsLocation) {
+    start();
+    // A file that breaks after it was accepted (placed straight into the upload folder): the
+    // job fails with the file's position, and the server goes on.
+    fs::create_directories(dir_ / "uploads" / "0000000000000000");
+    std::ofstream(dir_ / "uploads" / "0000000000000000" / "broken.dae") << "<?xml version=\"1.0\"?><COLLADA><asset>";
     json job = kSmallJob;
-    job["time_limit_s"] = 0.001;
-    job["scene"] = "builtin:cornell_spheres";
-    job["spp"] = 4096;
-    job["width"] = 400;
-    job["height"] = 300;
+    job["scene"] = "upload/0000000000000000/broken";
     const json s = wait_state(submit(job), {"failed", "succeeded"});
     EXPECT_EQ(s["state"], "failed");
-    EXPECT_NE(s["error"].get<std::string>().find("time limit"), std::string::npos) << s.dump();
+    EXPECT_NE(s["error"].get<std::string>().find("broken.dae"), std::string::npos) << s.dump();
     auto health = client_->Get("/healthz");
     ASSERT_TRUE(health && health->status == 200);
+}
+
+// Error against run time: a job measured against a finished reference job reports relMSE,
+// MSE and MAE after every pass, serves the curve as CSV and SVG, and stops at a target error.
+TEST_F(Server, ConvergenceAgainstAReferenceAndTargetError) {
+    start();
+    json ref = kSmallJob;
+    ref["spp"] = 256;
+    const std::string ref_id = submit(ref);
+    ASSERT_EQ(wait_state(ref_id, {"succeeded", "failed"})["state"], "succeeded");
+    json job = kSmallJob;
+    job["spp"] = 32;
+    job["seed"] = 9;
+    job["reference"] = ref_id;
+    const std::string id = submit(job);
+    ASSERT_EQ(wait_state(id, {"succeeded", "failed"})["state"], "succeeded");
+    const json r = json::parse(client_->Get("/v1/jobs/" + id + "/report.json")->body);
+    const json& pts = r["convergence"]["points"];
+    ASSERT_GE(pts.size(), 5u);  // 1, 2, 4, 8, 16, 32 spp
+    EXPECT_TRUE(pts.back().contains("rel_mse") && pts.back().contains("mse") && pts.back().contains("mae"));
+    EXPECT_LT(pts.back()["rel_mse"].get<double>(), pts.front()["rel_mse"].get<double>());
+    auto csv = client_->Get("/v1/jobs/" + id + "/convergence.csv");
+    ASSERT_TRUE(csv && csv->status == 200);
+    EXPECT_EQ(csv->body.rfind("seconds,spp_mean,rel_mse,mse,mae,est_rel_mse", 0), 0u);
+    auto svg = client_->Get("/v1/jobs/" + id + "/convergence.svg");
+    ASSERT_TRUE(svg && svg->status == 200);
+    EXPECT_NE(svg->body.find("<svg"), std::string::npos);
+    EXPECT_NE(svg->body.find("render time (seconds, log scale)"), std::string::npos);
+    // A loose target error ends the render early, and the report says why.
+    json quick = kSmallJob;
+    quick["spp"] = 4096;
+    quick["target_error"] = 0.05;
+    const std::string qid = submit(quick);
+    ASSERT_EQ(wait_state(qid, {"succeeded", "failed"})["state"], "succeeded");
+    const json qr = json::parse(client_->Get("/v1/jobs/" + qid + "/report.json")->body);
+    EXPECT_EQ(qr["convergence"]["stop_reason"], "target_error") << qr["convergence"].dump();
+    EXPECT_LT(qr["stats"]["spp_mean"].get<double>(), 4096.0);
+    // A reference of another size, or one that is not finished, is refused at submission.
+    json bad = kSmallJob;
+    bad["width"] = 16;
+    bad["reference"] = ref_id;
+    expect_problem(post_job(bad), 400, "/reference");
+    bad["reference"] = "0123456789abcdef";
+    expect_problem(post_job(bad), 400, "/reference");
 }
 
 // Every route the server answers is described in api/openapi.yaml.

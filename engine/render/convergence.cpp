@@ -1,0 +1,93 @@
+#include "engine/render/convergence.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+namespace tessera {
+
+const char* to_string(StopReason r) {
+    switch (r) {
+        case StopReason::spp: return "spp";
+        case StopReason::converged: return "converged";
+        case StopReason::time_limit: return "time_limit";
+        case StopReason::target_error: return "target_error";
+        case StopReason::canceled: return "canceled";
+    }
+    return "?";
+}
+
+std::string convergence_csv(const ConvergenceCurve& c) {
+    std::ostringstream o;
+    o << "seconds,spp_mean,rel_mse,mse,mae,est_rel_mse\n";
+    auto v = [&](double x) { if (x >= 0) o << x; };
+    for (const auto& p : c.points) {
+        o << p.seconds << "," << p.spp_mean << ",";
+        v(p.rel_mse); o << ",";
+        v(p.mse); o << ",";
+        v(p.mae); o << ",";
+        v(p.est_rel_mse); o << "\n";
+    }
+    return o.str();
+}
+
+std::string convergence_svg(const std::vector<ConvergenceCurve>& curves, const std::vector<std::string>& labels,
+                            const std::string& title) {
+    // Plot the measured relMSE where there is a reference, else the estimate.
+    auto y_of = [](const ConvergencePoint& p) { return p.rel_mse > 0 ? p.rel_mse : p.est_rel_mse; };
+    double x0 = INFINITY, x1 = 0, y0 = INFINITY, y1 = 0;
+    bool any_reference = false;
+    for (const auto& c : curves)
+        for (const auto& p : c.points) {
+            const double y = y_of(p);
+            if (p.seconds <= 0 || !(y > 0)) continue;
+            x0 = std::min(x0, p.seconds); x1 = std::max(x1, p.seconds);
+            y0 = std::min(y0, y); y1 = std::max(y1, y);
+            any_reference |= p.rel_mse > 0;
+        }
+    if (!(x1 > 0)) { x0 = 1e-3; x1 = 1; y0 = 1e-4; y1 = 1; }
+    const double lx0 = std::floor(std::log10(x0)), lx1 = std::max(lx0 + 1, std::ceil(std::log10(x1)));
+    const double ly0 = std::floor(std::log10(y0)), ly1 = std::max(ly0 + 1, std::ceil(std::log10(y1)));
+    const int W = 720, H = 480, L = 80, R = 200, T = 40, B = 60;
+    auto px = [&](double x) { return L + (std::log10(x) - lx0) / (lx1 - lx0) * (W - L - R); };
+    auto py = [&](double y) { return H - B - (std::log10(y) - ly0) / (ly1 - ly0) * (H - T - B); };
+    static const char* colours[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
+                                    "#bcbd22", "#17becf"};
+    std::ostringstream s;
+    s << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H << "\" font-family=\"sans-serif\" font-size=\"12\">\n";
+    s << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+    s << "<text x=\"" << W / 2 << "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">" << title << "</text>\n";
+    for (double e = lx0; e <= lx1 + 1e-9; ++e) {
+        const double x = px(std::pow(10.0, e));
+        s << "<line x1=\"" << x << "\" y1=\"" << T << "\" x2=\"" << x << "\" y2=\"" << H - B << "\" stroke=\"#ddd\"/>\n";
+        s << "<text x=\"" << x << "\" y=\"" << H - B + 18 << "\" text-anchor=\"middle\">1e" << int(e) << "</text>\n";
+    }
+    for (double e = ly0; e <= ly1 + 1e-9; ++e) {
+        const double y = py(std::pow(10.0, e));
+        s << "<line x1=\"" << L << "\" y1=\"" << y << "\" x2=\"" << W - R << "\" y2=\"" << y << "\" stroke=\"#ddd\"/>\n";
+        s << "<text x=\"" << L - 8 << "\" y=\"" << y + 4 << "\" text-anchor=\"end\">1e" << int(e) << "</text>\n";
+    }
+    s << "<rect x=\"" << L << "\" y=\"" << T << "\" width=\"" << W - L - R << "\" height=\"" << H - T - B << "\" fill=\"none\" stroke=\"black\"/>\n";
+    s << "<text x=\"" << (L + W - R) / 2 << "\" y=\"" << H - 15 << "\" text-anchor=\"middle\">render time (seconds, log scale)</text>\n";
+    s << "<text transform=\"translate(20," << (T + H - B) / 2 << ") rotate(-90)\" text-anchor=\"middle\">"
+      << (any_reference ? "relative MSE against the reference" : "estimated relative MSE (half buffers)") << " (log scale)</text>\n";
+    for (size_t i = 0; i < curves.size(); ++i) {
+        const char* col = colours[i % 10];
+        std::ostringstream pts;
+        for (const auto& p : curves[i].points) {
+            const double y = y_of(p);
+            if (p.seconds <= 0 || !(y > 0)) continue;
+            pts << px(p.seconds) << "," << py(y) << " ";
+        }
+        s << "<polyline fill=\"none\" stroke=\"" << col << "\" stroke-width=\"2\" points=\"" << pts.str() << "\"/>\n";
+        const int ly = T + 10 + int(i) * 18;
+        s << "<line x1=\"" << W - R + 10 << "\" y1=\"" << ly << "\" x2=\"" << W - R + 30 << "\" y2=\"" << ly << "\" stroke=\"" << col
+          << "\" stroke-width=\"2\"/>\n";
+        s << "<text x=\"" << W - R + 35 << "\" y=\"" << ly + 4 << "\">" << (i < labels.size() ? labels[i] : "") << "</text>\n";
+    }
+    s << "</svg>\n";
+    return s.str();
+}
+
+}  // namespace tessera

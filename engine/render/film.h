@@ -1,0 +1,66 @@
+#pragma once
+// Per-pixel accumulation across rendering passes. Only the buffers a render needs exist: the
+// odd-sample half buffer only when the error is estimated, the running statistics only for
+// adaptive sampling.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "engine/render/image.h"
+
+namespace tessera {
+
+// Welford's online mean and variance: numerically stable where S2 − S1²/n cancels to noise.
+struct RunningStats {
+    uint64_t n = 0;
+    double mean = 0.0;
+    double m2 = 0.0;
+    void add(double x) {
+        ++n;
+        const double d = x - mean;
+        mean += d / double(n);
+        m2 += d * (x - mean);
+    }
+    double variance() const { return n > 1 ? m2 / double(n - 1) : 0.0; }
+    // CS184's test, 1.96·σ/√n ≤ tolerance·μ, written without a division so that μ = 0 and
+    // σ = 0 both end sampling without producing NaN.
+    bool converged(double tolerance) const {
+        if (n < 2) return false;
+        return 1.96 * std::sqrt(variance() / double(n)) <= tolerance * mean;
+    }
+};
+
+struct Film {
+    int width = 0, height = 0;
+    std::vector<glm::dvec3> sum;       // all samples
+    std::vector<glm::dvec3> sum_odd;   // odd-numbered samples (error estimate only)
+    std::vector<uint32_t> count;       // samples taken
+    std::vector<RunningStats> stats;   // illuminance statistics (adaptive only)
+    std::vector<uint8_t> done;         // adaptive: converged
+
+    Film(int w, int h, bool half_buffer, bool adaptive)
+        : width(w), height(h), sum(size_t(w) * h, glm::dvec3(0.0)), count(size_t(w) * h, 0) {
+        if (half_buffer) sum_odd.assign(size_t(w) * h, glm::dvec3(0.0));
+        if (adaptive) { stats.resize(size_t(w) * h); done.assign(size_t(w) * h, 0); }
+    }
+    void describe(std::vector<std::string>& built, std::vector<std::string>& left_out) const {
+        built.push_back("film: sum and sample count per pixel");
+        (sum_odd.empty() ? left_out : built).push_back("half-sample buffer (error estimate)");
+        (stats.empty() ? left_out : built).push_back("per-pixel variance statistics (adaptive sampling)");
+    }
+    Image resolve() const {
+        Image img(width, height);
+        for (size_t i = 0; i < sum.size(); ++i) {
+            const double inv = count[i] ? 1.0 / double(count[i]) : 0.0;
+            img.rgb[i * 3 + 0] = float(sum[i].x * inv);
+            img.rgb[i * 3 + 1] = float(sum[i].y * inv);
+            img.rgb[i * 3 + 2] = float(sum[i].z * inv);
+            img.sample_count[i] = float(count[i]);
+        }
+        return img;
+    }
+};
+
+}  // namespace tessera

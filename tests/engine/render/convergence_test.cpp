@@ -1,0 +1,107 @@
+#include "engine/render/convergence.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "engine/render/renderer.h"
+#include "engine/scene/procedural.h"
+
+namespace tessera {
+namespace {
+
+RenderSettings base() {
+    RenderSettings s;
+    s.width = 48;
+    s.height = 36;
+    s.spp = 64;
+    s.max_depth = 2;
+    s.direct = DirectLighting::hemisphere;  // noisy on purpose
+    s.seed = 3;
+    return s;
+}
+
+// The half-buffer estimate tracks the true error: in the furnace every pixel's exact value is
+// known (1 + a + a²), so the measured relMSE against that constant image is the truth.
+TEST(Convergence, EstimateTracksTheMeasuredError) {
+    const RenderScene scene = build_render_scene(furnace_box(0.5f, 1.f), {});
+    RenderSettings s = base();
+    s.estimate_error = true;
+    Image exact(s.width, s.height);
+    for (float& v : exact.rgb) v = 1.75f;
+    RenderCallbacks cb;
+    cb.reference = &exact;
+    const RenderResult r = render(scene, s, cb);
+    ASSERT_GE(r.curve.points.size(), 6u);
+    for (const ConvergencePoint& p : r.curve.points) {
+        if (p.spp_mean < 8) continue;  // the estimate needs a few samples per half
+        EXPECT_GT(p.est_rel_mse, 0.4 * p.rel_mse) << p.spp_mean;
+        EXPECT_LT(p.est_rel_mse, 2.5 * p.rel_mse) << p.spp_mean;
+    }
+    // relMSE falls roughly as 1/spp: 64 spp against 8 spp.
+    const auto& a = r.curve.points[3];
+    const auto& b = r.curve.points.back();
+    EXPECT_NEAR(a.rel_mse / b.rel_mse, b.spp_mean / a.spp_mean, 0.5 * b.spp_mean / a.spp_mean);
+    EXPECT_EQ(r.curve.stop, StopReason::spp);
+}
+
+// Rendering in passes (to measure the error) gives the same image, bit for bit, as one pass.
+TEST(Convergence, PassesDoNotChangeTheImage) {
+    const RenderScene scene = build_render_scene(cornell_spheres(), {});
+    RenderSettings s = base();
+    const Image one = render(scene, s).image;
+    s.estimate_error = true;
+    const RenderResult multi = render(scene, s);
+    EXPECT_GT(multi.curve.points.size(), 1u);
+    EXPECT_EQ(0, std::memcmp(one.rgb.data(), multi.image.rgb.data(), one.rgb.size() * sizeof(float)));
+}
+
+TEST(Convergence, StopsAtTargetErrorOrTimeLimit) {
+    const RenderScene scene = build_render_scene(cornell_spheres(), {});
+    RenderSettings s = base();
+    s.spp = 1 << 16;
+    s.target_error = 0.05;
+    const RenderResult r = render(scene, s);
+    EXPECT_EQ(r.curve.stop, StopReason::target_error);
+    EXPECT_LE(r.curve.points.back().est_rel_mse, 0.05);
+    EXPECT_LT(r.curve.points.back().spp_mean, 1 << 16);
+    s.target_error = 0;
+    s.time_limit_s = 0.2;
+    const RenderResult t = render(scene, s);
+    EXPECT_EQ(t.curve.stop, StopReason::time_limit);
+    EXPECT_LT(t.stats.render_seconds, 2.0);
+}
+
+// Leaving out what a render does not need: no half buffer without an error estimate, no
+// variance statistics without adaptive sampling.
+TEST(Convergence, FilmBuildsOnlyTheBuffersARenderNeeds) {
+    const RenderScene scene = build_render_scene(cornell_box(), {});
+    RenderSettings s = base();
+    s.spp = 4;
+    const RenderResult plain = render(scene, s);
+    auto has = [](const std::vector<std::string>& v, const char* what) {
+        for (const auto& x : v) if (x.find(what) != std::string::npos) return true;
+        return false;
+    };
+    EXPECT_TRUE(has(plain.film_left_out, "half-sample"));
+    EXPECT_TRUE(has(plain.film_left_out, "variance"));
+    EXPECT_EQ(plain.curve.points.size(), 1u) << "one pass when nothing is measured";
+    s.estimate_error = true;
+    s.adaptive = AdaptiveSettings{2, 0.05f};
+    const RenderResult full = render(scene, s);
+    EXPECT_TRUE(has(full.film_built, "half-sample"));
+    EXPECT_TRUE(has(full.film_built, "variance"));
+}
+
+TEST(Convergence, CsvAndSvgAreReadable) {
+    ConvergenceCurve c;
+    c.points = {{0.1, 1, 0.5, 0.1, 0.2, 0.4}, {0.2, 2, 0.25, 0.05, 0.1, 0.2}};
+    const std::string csv = convergence_csv(c);
+    EXPECT_EQ(csv, "seconds,spp_mean,rel_mse,mse,mae,est_rel_mse\n0.1,1,0.5,0.1,0.2,0.4\n0.2,2,0.25,0.05,0.1,0.2\n");
+    const std::string svg = convergence_svg({c}, {"one"}, "title");
+    for (const char* s : {"<svg", "polyline", "render time (seconds, log scale)", "relative MSE", ">one<", "1e-1"})
+        EXPECT_NE(svg.find(s), std::string::npos) << s;
+}
+
+}  // namespace
+}  // namespace tessera
