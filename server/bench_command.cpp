@@ -197,7 +197,8 @@ int bench_command(int argc, char** argv) {
     if (argc >= 1 && !std::strcmp(argv[0], "figures")) return bench_figures(argc - 1, argv + 1);
     if (argc >= 1 && !std::strcmp(argv[0], "lights")) return bench_lights(argc - 1, argv + 1);
     if (argc >= 1 && !std::strcmp(argv[0], "server")) return bench_server(argc - 1, argv + 1);
-    std::fprintf(stderr, "usage: tessera bench bvh|figures|lights|server [options]\n");
+    if (argc >= 1 && !std::strcmp(argv[0], "convergence")) return bench_convergence(argc - 1, argv + 1);
+    std::fprintf(stderr, "usage: tessera bench bvh|figures|lights|server|convergence [options]\n");
     return 2;
 }
 

@@ -344,7 +344,8 @@ void JobService::run_job(const JobRecord& rec, Running& running) {
                            {"nodes_per_ray", double(st.traversal.nodes_visited) * per_ray},
                            {"prim_tests_per_ray", double(st.traversal.prim_tests) * per_ray},
                            {"spp_mean", double(st.samples) / npx}, {"spp_min", smin}, {"spp_max", smax},
-                           {"nonfinite_samples", st.nonfinite_samples}, {"threads", st.threads}};
+                           {"nonfinite_samples", st.nonfinite_samples}, {"max_sample_luminance", st.max_sample},
+                           {"threads", st.threads}};
         report["scene"] = {{"name", spec.scene}, {"triangles", scene.triangles.size()}, {"spheres", scene.spheres.size()},
                            {"built", scene.report.built}, {"left_out", scene.report.left_out},
                            {"warnings", scene.report.warnings}, {"build_s", scene.report.seconds}};

@@ -21,13 +21,10 @@ SceneDescription load_scene(const std::string& path, const LoadLimits& limits) {
     if (size > limits.max_file_bytes)
         throw SceneError(where, "file is " + std::to_string(size) + " bytes, over the limit of " +
                                     std::to_string(limits.max_file_bytes));
-    if (ext == ".dae") {
-        SceneDescription s = load_collada(path, limits);
-        // CS184's emission BSDF emits whatever side it is seen from; keep that meaning.
-        for (MaterialDesc& m : s.materials)
-            if (m.kind == MaterialKind::emission) m.double_sided = true;
-        return s;
-    }
+    // COLLADA emitters stay one-sided (toward their winding normal), as the CS184 area light
+    // that light sampling uses in the CS184 app: the Cornell lamp faces down. Emitting from the
+    // back too would light the ceiling 1 cm above the lamp with huge 1/d² contributions.
+    if (ext == ".dae") return load_collada(path, limits);
     if (ext == ".gltf" || ext == ".glb") return load_gltf(path, limits);
     throw SceneError(where, "unknown scene format '" + ext + "' (expected .dae, .gltf or .glb)");
 }

@@ -20,6 +20,7 @@ void RenderStats::add(const RenderStats& o) {
     traversal.prim_tests += o.traversal.prim_tests;
     samples += o.samples;
     nonfinite_samples += o.nonfinite_samples;
+    max_sample = std::max(max_sample, o.max_sample);
 }
 
 namespace {

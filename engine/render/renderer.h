@@ -21,6 +21,7 @@ struct RenderStats {
     TraversalCounters traversal;
     uint64_t samples = 0;
     uint64_t nonfinite_samples = 0;  // NaN/Inf radiance samples, dropped from the film
+    float max_sample = 0.f;          // largest luminance of one sample (fireflies show here)
     double render_seconds = 0.0;
     int threads = 0;
     bool canceled = false;

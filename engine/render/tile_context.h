@@ -2,6 +2,7 @@
 // One worker's state while it renders tiles: its statistics and the per-pixel sample loop of
 // one pass. Nothing here is shared between threads; a pixel's film entries are written only by
 // the worker that owns its tile in that pass.
+#include <algorithm>
 #include <cmath>
 
 #include "engine/render/film.h"
@@ -44,6 +45,7 @@ public:
             }
             sum += glm::dvec3(L);
             if (s & 1) sum_odd += glm::dvec3(L);
+            stats.max_sample = std::max(stats.max_sample, illuminance(L));
             if (adaptive) film.stats[p].add(illuminance(L));
         }
         stats.samples += uint64_t(s) - film.count[p];
