@@ -14,5 +14,6 @@ inline std::string default_cs184_dir() {
 int bench_figures(int argc, char** argv);
 int bench_server(int argc, char** argv);
 int bench_convergence(int argc, char** argv);
+int bench_leave_out(int argc, char** argv);
 
 }  // namespace tessera::cli

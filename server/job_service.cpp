@@ -362,7 +362,7 @@ void JobService::run_job(const JobRecord& rec, Running& running) {
                                   ? "estimated relative MSE from the even- and odd-sample half buffers: mean ((A-B)^2/4)/(x^2+0.01)"
                                   : "relative MSE against job " + spec.reference + ": mean (x-r)^2/(r^2+0.01); the half-buffer estimate too"},
             {"points", points}};
-        report["film"] = {{"built", result.film_built}, {"left_out", result.film_left_out}};
+        report["render"] = {{"built", result.built}, {"left_out", result.left_out}};
         report["progress"] = {{"fraction", 1.0}, {"tiles_done", running.tiles_done.load()},
                               {"tiles_total", running.tiles_total.load()}, {"samples_done", st.samples}};
         {

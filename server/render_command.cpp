@@ -157,8 +157,10 @@ int render_command(int argc, char** argv) {
     for (const auto& w : desc.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
 
     const RenderScene rs = build_render_scene(desc, job.scene_options);
-    for (const auto& w : rs.report.left_out) std::printf("left out: %s\n", w.c_str());
+    for (const auto& w : rs.report.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     const RenderResult result = render(rs, job.render);
+    for (const auto& w : rs.report.left_out) std::printf("left out: %s\n", w.c_str());
+    for (const auto& w : result.left_out) std::printf("left out: %s\n", w.c_str());
 
     const auto t_write = Clock::now();
     const RenderStats& st = result.stats;

@@ -87,7 +87,17 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
     // render short; otherwise one pass (nothing to report in between).
     const bool progressive = measure_error || settings.time_limit_s > 0;
     Film film(settings.width, settings.height, settings.estimate_error || (settings.target_error > 0 && !reference), adaptive);
-    film.describe(result.film_built, result.film_left_out);
+    film.describe(result.built, result.left_out);
+    if (settings.integrator == Integrator::path) {
+        (settings.max_depth > 1 ? result.built : result.left_out)
+            .push_back(settings.max_depth > 1 ? "indirect bounces up to depth " + std::to_string(settings.max_depth)
+                                              : std::string("indirect bounces (max_depth <= 1)"));
+        if (!scene.has_lights()) result.left_out.push_back("direct lighting: no lights or emitters, no shadow rays");
+        else if (settings.direct == DirectLighting::mis) result.built.push_back("MIS: light and BSDF samples");
+        if (settings.russian_roulette <= 0.f || settings.max_depth <= 1) result.left_out.push_back("Russian roulette");
+    } else {
+        result.left_out.push_back("light transport (normal shading)");
+    }
     const Camera camera = make_camera(scene.camera, settings.width, settings.height);
     const std::vector<Tile> tiles = make_tiles(settings.width, settings.height, std::max(1, settings.tile_size));
     result.stats.tile_seconds.assign(tiles.size(), 0.0);

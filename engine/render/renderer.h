@@ -53,7 +53,8 @@ struct RenderResult {
     Image image;
     RenderStats stats;
     ConvergenceCurve curve;
-    std::vector<std::string> film_built, film_left_out;  // which per-pixel buffers this render needed
+    // What this render built and left out (film buffers, bounce and light paths), for the report.
+    std::vector<std::string> built, left_out;
 };
 
 RenderResult render(const RenderScene& scene, const RenderSettings& settings, const RenderCallbacks& callbacks = {});

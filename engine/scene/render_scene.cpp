@@ -180,8 +180,11 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     for (const SphereDesc& sd : desc.spheres)
         if (sd.material >= 0 && s.materials[size_t(sd.material)].emissive())
             s.report.warnings.push_back("emissive sphere at " + sd.origin.str() + " is not a light yet; its emission is ignored");
-    if (!s.has_lights())
+    if (!s.has_lights()) {
         s.report.left_out.push_back("light sampling and shadow rays: the scene has no lights or emitters");
+        s.report.warnings.push_back("the scene has no lights or emitters: a path-traced render shows only emitters, "
+                                    "so it will be black");
+    }
     else
         s.report.built.push_back("lights: " + std::to_string(s.area_lights.size()) + " area, " +
                                  std::to_string(s.delta_lights.size()) + " delta" + (s.has_sky ? ", sky" : ""));

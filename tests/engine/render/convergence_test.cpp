@@ -83,14 +83,14 @@ TEST(Convergence, FilmBuildsOnlyTheBuffersARenderNeeds) {
         for (const auto& x : v) if (x.find(what) != std::string::npos) return true;
         return false;
     };
-    EXPECT_TRUE(has(plain.film_left_out, "half-sample"));
-    EXPECT_TRUE(has(plain.film_left_out, "variance"));
+    EXPECT_TRUE(has(plain.left_out, "half-sample"));
+    EXPECT_TRUE(has(plain.left_out, "variance"));
     EXPECT_EQ(plain.curve.points.size(), 1u) << "one pass when nothing is measured";
     s.estimate_error = true;
     s.adaptive = AdaptiveSettings{2, 0.05f};
     const RenderResult full = render(scene, s);
-    EXPECT_TRUE(has(full.film_built, "half-sample"));
-    EXPECT_TRUE(has(full.film_built, "variance"));
+    EXPECT_TRUE(has(full.built, "half-sample"));
+    EXPECT_TRUE(has(full.built, "variance"));
 }
 
 TEST(Convergence, CsvAndSvgAreReadable) {

@@ -1,0 +1,74 @@
+#include "engine/scene/render_scene.h"
+
+#include <gtest/gtest.h>
+
+#include "engine/render/renderer.h"
+#include "engine/scene/procedural.h"
+
+namespace tessera {
+namespace {
+
+bool mentions(const std::vector<std::string>& v, const char* what) {
+    for (const auto& s : v) if (s.find(what) != std::string::npos) return true;
+    return false;
+}
+
+// A scene without spheres builds no sphere structure and never runs the sphere test; a scene
+// without triangles builds no triangle BVH.
+TEST(RenderScene, LeavesOutPrimitiveKindsTheSceneLacks) {
+    const RenderScene box = build_render_scene(cornell_box(), {});
+    EXPECT_TRUE(box.spheres.empty());
+    EXPECT_TRUE(box.sphere_bvh.empty());
+    EXPECT_TRUE(mentions(box.report.left_out, "spheres: none"));
+    SceneDescription only_spheres;
+    only_spheres.spheres.push_back({glm::vec3(0.f), 1.f, -1, {}});
+    const RenderScene s = build_render_scene(only_spheres, {});
+    EXPECT_TRUE(s.tri_bvh.empty());
+    EXPECT_TRUE(s.tri_bvh4.empty());
+    EXPECT_TRUE(mentions(s.report.left_out, "triangles: none"));
+}
+
+// Below eight primitives a BVH costs more than it saves: one leaf holds them all.
+TEST(RenderScene, NoBvhOverAHandfulOfPrimitives) {
+    SceneDescription d = cornell_box();
+    d.meshes.resize(2);  // floor and ceiling: 4 triangles
+    const RenderScene s = build_render_scene(d, {});
+    EXPECT_EQ(s.tri_bvh.nodes.size(), 1u);
+    EXPECT_TRUE(s.tri_bvh4.nodes.empty());
+    EXPECT_EQ(s.tri_bvh4.root_leaf_count, 4u);
+    EXPECT_TRUE(mentions(s.report.left_out, "tested directly"));
+}
+
+// No emitters: no light structures, no shadow rays, and a warning.
+TEST(RenderScene, NoEmittersMeansNoLightSamplingAndAWarning) {
+    SceneDescription d = cornell_box();
+    d.materials[3].emission = glm::vec3(0.f);
+    const RenderScene s = build_render_scene(d, {});
+    EXPECT_TRUE(s.area_lights.empty());
+    EXPECT_TRUE(s.light_triangles.empty());
+    EXPECT_TRUE(mentions(s.report.warnings, "no lights or emitters"));
+    RenderSettings st;
+    st.width = 16;
+    st.height = 12;
+    st.max_depth = 4;
+    const RenderResult r = render(s, st);
+    EXPECT_EQ(r.stats.shadow_rays, 0u);
+    EXPECT_TRUE(mentions(r.left_out, "no shadow rays"));
+}
+
+// max_depth ≤ 1 traces no bounce rays.
+TEST(RenderScene, NoIndirectBouncesAtDepthOne) {
+    const RenderScene s = build_render_scene(cornell_spheres(), {});
+    RenderSettings st;
+    st.width = 16;
+    st.height = 12;
+    st.max_depth = 1;
+    const RenderResult r = render(s, st);
+    EXPECT_EQ(r.stats.bounce_rays, 0u);
+    EXPECT_TRUE(mentions(r.left_out, "indirect bounces"));
+    st.max_depth = 3;
+    EXPECT_GT(render(s, st).stats.bounce_rays, 0u);
+}
+
+}  // namespace
+}  // namespace tessera
