@@ -12,6 +12,7 @@
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
 #include "engine/scene/procedural.h"
+#include "server/comparison.h"
 #include "server/problem.h"
 
 namespace tessera::server {
@@ -104,11 +105,15 @@ json JobService::submit(const json& body) {
             throw Problem(400, "invalid-field", "Invalid job", "the reference is " + rs["width"].dump() + "×" + rs["height"].dump() +
                                                                   ", the job " + std::to_string(spec.render.width) + "×" + std::to_string(spec.render.height)).with_field("/reference");
     }
+    return enqueue(api::to_json(spec).dump(), spec.priority, spec.scene);
+}
+
+json JobService::enqueue(const std::string& spec_json, int priority, const std::string& scene) {
     JobRecord rec;
     rec.id = new_id();
     rec.state = JobState::queued;
-    rec.spec_json = api::to_json(spec).dump();
-    rec.priority = spec.priority;
+    rec.spec_json = spec_json;
+    rec.priority = priority;
     rec.created_at = now_s();
     {
         std::lock_guard<std::mutex> lock(mutex_);
@@ -120,8 +125,55 @@ json JobService::submit(const json& body) {
     }
     cv_.notify_one();
     ++metrics_.jobs_submitted;
-    spdlog::info("job {} queued (scene {}, priority {})", rec.id, spec.scene, rec.priority);
+    spdlog::info("job {} queued (scene {}, priority {})", rec.id, scene, rec.priority);
     return status_json(rec);
+}
+
+json JobService::submit_comparison(const json& body) {
+    if (!accepting_) throw Problem(503, "shutting-down", "The server is shutting down", "no new jobs are accepted").with_retry_after(5);
+    if (!body.is_object()) throw Problem(400, "invalid-field", "Invalid comparison", "the body must be a JSON object").with_field("");
+    json spec = {{"kind", "comparison"}, {"width", 160}, {"height", 120}, {"max_depth", 5}, {"seconds", 2.0}, {"reps", 3},
+                 {"reference_spp", 1024}, {"target_error", 0.01}, {"priority", 0}, {"configs", "standard"}};
+    auto bad = [](const std::string& ptr, const std::string& what) {
+        return Problem(400, "invalid-field", "Invalid comparison", ptr + " " + what).with_field(ptr);
+    };
+    for (const auto& [k, v] : body.items()) {
+        const std::string ptr = "/" + k;
+        if (k == "scene") { if (!v.is_string()) throw bad(ptr, "must be a scene name"); spec[k] = v; }
+        else if (k == "width" || k == "height") { if (!v.is_number_integer() || v.get<int64_t>() < 8 || v.get<int64_t>() > 1024) throw bad(ptr, "must be an integer in [8, 1024]"); spec[k] = v; }
+        else if (k == "max_depth") { if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > 100) throw bad(ptr, "must be an integer in [0, 100]"); spec[k] = v; }
+        else if (k == "seconds") { if (!v.is_number() || !(v.get<double>() > 0 && v.get<double>() <= 600)) throw bad(ptr, "must be a number in (0, 600]"); spec[k] = v; }
+        else if (k == "reps") { if (!v.is_number_integer() || v.get<int64_t>() < 1 || v.get<int64_t>() > 20) throw bad(ptr, "must be an integer in [1, 20]"); spec[k] = v; }
+        else if (k == "reference_spp") { if (!v.is_number_integer() || v.get<int64_t>() < 1 || v.get<int64_t>() > 65536) throw bad(ptr, "must be an integer in [1, 65536]"); spec[k] = v; }
+        else if (k == "target_error") { if (!v.is_number() || !(v.get<double>() > 0)) throw bad(ptr, "must be a positive number"); spec[k] = v; }
+        else if (k == "priority") { if (!v.is_number_integer() || std::abs(v.get<int64_t>()) > 1000) throw bad(ptr, "must be an integer in [-1000, 1000]"); spec[k] = v; }
+        else if (k == "configs") {
+            if (v.is_string() && v == "standard") continue;
+            if (!v.is_array() || v.empty() || v.size() > 32) throw bad(ptr, "must be \"standard\" or an array of 1 to 32 configurations");
+            for (size_t i = 0; i < v.size(); ++i) {
+                const std::string p = ptr + "/" + std::to_string(i);
+                if (!v[i].is_object() || !v[i].contains("label") || !v[i]["label"].is_string()) throw bad(p, "needs a \"label\"");
+                json fields = v[i];
+                fields.erase("label");
+                for (const char* forbidden : {"scene", "width", "height", "spp", "seed", "time_limit_s", "target_error", "reference", "priority"})
+                    if (fields.contains(forbidden)) throw bad(p + "/" + forbidden, "is set by the comparison, not per configuration");
+                fields["scene"] = "x";
+                try {
+                    api::parse_job(fields, config_.job_limits);
+                } catch (const api::InvalidJob& e) {
+                    throw Problem(400, "invalid-field", "Invalid comparison", e.what()).with_field(p + e.pointer());
+                }
+            }
+            spec[k] = v;
+        } else {
+            throw bad(ptr, "is not a comparison field (scene, width, height, max_depth, seconds, reps, reference_spp, target_error, priority, configs)");
+        }
+    }
+    if (!spec.contains("scene")) throw bad("/scene", "is required");
+    const std::string scene = spec["scene"];
+    if (!catalog_.find(scene.substr(0, scene.find('?'))))
+        throw Problem(404, "unknown-scene", "Unknown scene", "no scene named '" + scene + "'").with_field("/scene");
+    return enqueue(spec.dump(), spec["priority"].get<int>(), scene);
 }
 
 json JobService::status(const std::string& id) {
@@ -263,7 +315,60 @@ void JobService::worker() {
     }
 }
 
+void JobService::run_comparison_job(const JobRecord& rec, Running& running) {
+    const json spec = json::parse(rec.spec_json);
+    std::string error;
+    try {
+        const std::string scene = spec["scene"];
+        auto entry = catalog_.find(scene.substr(0, scene.find('?')));
+        if (!entry) throw std::runtime_error("scene '" + scene + "' is no longer in the catalog");
+        const SceneDescription desc = load_scene(entry->source == "builtin" ? scene : entry->path, config_.load_limits);
+        RenderSettings base;
+        base.width = spec["width"].get<int>();
+        base.height = spec["height"].get<int>();
+        base.max_depth = spec["max_depth"].get<int>();
+        base.threads = config_.render_threads;
+        std::vector<ComparisonConfig> configs;
+        if (spec["configs"].is_string()) {
+            configs = standard_configs(base);
+        } else {
+            for (const json& c : spec["configs"]) {
+                json fields = c;
+                fields.erase("label");
+                fields["scene"] = scene;
+                const api::JobSpec js = api::parse_job(fields, config_.job_limits);
+                ComparisonConfig cc{c["label"].get<std::string>(), js.render, js.scene_options};
+                cc.settings.threads = config_.render_threads;
+                configs.push_back(cc);
+            }
+        }
+        for (auto& c : configs) c.settings.threads = config_.render_threads;
+        const double seconds = spec["seconds"].get<double>(), target = spec["target_error"].get<double>();
+        running.sample_budget = 0;
+        const ComparisonResult r = run_comparison(desc, configs, base, spec["reference_spp"].get<int>(), seconds,
+                                                  spec["reps"].get<int>(), target, &running.stop);
+        if (running.shutdown) { store_.requeue(rec.id); return; }
+        if (running.cancel) { store_.finish(rec.id, JobState::canceled, now_s(), "", ""); return; }
+        const fs::path dir = job_dir(rec.id);
+        fs::create_directories(dir);
+        json report = {{"settings", spec}, {"comparison", comparison_json(r, seconds, target)},
+                       {"table_markdown", comparison_markdown(r, seconds, target)}};
+        std::ofstream(dir / "report.json") << report.dump(2);
+        std::ofstream(dir / "convergence.svg") << comparison_svg(r, scene + ": relative MSE against time (first run of each)");
+        store_.finish(rec.id, JobState::succeeded, now_s(), "", json{{"comparison", report["comparison"]}}.dump());
+        spdlog::info("comparison job {} succeeded", rec.id);
+    } catch (const std::exception& e) {
+        error = e.what();
+        store_.finish(rec.id, JobState::failed, now_s(), error, "");
+        spdlog::error("comparison job {} failed: {}", rec.id, error);
+    }
+}
+
 void JobService::run_job(const JobRecord& rec, Running& running) {
+    if (json::parse(rec.spec_json).value("kind", "") == "comparison") {
+        run_comparison_job(rec, running);
+        return;
+    }
     using Clock = std::chrono::steady_clock;
     const auto t0 = Clock::now();
     auto secs = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };

@@ -44,6 +44,9 @@ public:
 
     // Validates and stores a job; throws Problem. Returns its status.
     nlohmann::json submit(const nlohmann::json& body);
+    // An equal-time comparison of sampling configurations (one job; results: report.json with
+    // the table, convergence.svg with a curve per configuration). Throws Problem.
+    nlohmann::json submit_comparison(const nlohmann::json& body);
     nlohmann::json status(const std::string& id);  // throws Problem 404
     nlohmann::json list(const std::string& state, size_t offset, size_t limit);
     nlohmann::json cancel(const std::string& id);  // idempotent; throws Problem 404
@@ -80,6 +83,8 @@ private:
 
     void worker();
     void run_job(const JobRecord& rec, Running& running);
+    void run_comparison_job(const JobRecord& rec, Running& running);
+    nlohmann::json enqueue(const std::string& spec_json, int priority, const std::string& scene);
     nlohmann::json status_json(const JobRecord& rec);
     std::string job_dir(const std::string& id) const;
 

@@ -359,7 +359,8 @@ TEST(OpenApi, DescribesEveryRoute) {
     ss << in.rdbuf();
     const std::string yaml = ss.str();
     const std::vector<std::pair<std::string, std::string>> routes = {
-        {"/v1/jobs", "post"}, {"/v1/jobs", "get"}, {"/v1/jobs/{id}", "get"}, {"/v1/jobs/{id}", "delete"},
+        {"/v1/jobs", "post"}, {"/v1/jobs", "get"}, {"/v1/comparisons", "post"},
+        {"/v1/jobs/{id}/convergence.csv", "get"}, {"/v1/jobs/{id}/convergence.svg", "get"}, {"/v1/jobs/{id}", "get"}, {"/v1/jobs/{id}", "delete"},
         {"/v1/jobs/{id}/results", "delete"}, {"/v1/jobs/{id}/image.png", "get"}, {"/v1/jobs/{id}/image.exr", "get"},
         {"/v1/jobs/{id}/rate.png", "get"}, {"/v1/jobs/{id}/report.json", "get"}, {"/v1/scenes", "get"},
         {"/v1/scenes", "post"}, {"/healthz", "get"}, {"/readyz", "get"}, {"/metrics", "get"}, {"/v1/openapi.yaml", "get"}};
@@ -394,6 +395,39 @@ TEST_F(Server, BadRequestCorpus) {
     }
     EXPECT_GE(n, 20);
     EXPECT_EQ(wait_state(submit(kSmallJob), {"succeeded", "failed"})["state"], "succeeded");
+}
+
+}  // namespace
+}  // namespace tessera::server
+
+namespace tessera::server {
+namespace {
+
+// The equal-time comparison through the API, one request: a job whose report holds the table
+// and whose convergence.svg has a curve per configuration.
+TEST_F(Server, ComparisonInOneRequest) {
+    start();
+    const json body = {{"scene", "builtin:cornell_box"}, {"width", 24}, {"height", 18}, {"seconds", 0.1}, {"reps", 2},
+                       {"reference_spp", 64}, {"max_depth", 2}, {"target_error", 0.5},
+                       {"configs", json::array({{{"label", "hemisphere"}, {"direct", "hemisphere"}},
+                                                {{"label", "importance"}, {"direct", "importance"}}})}};
+    auto r = client_->Post("/v1/comparisons", body.dump(), "application/json");
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 202) << r->body;
+    const std::string id = json::parse(r->body)["id"];
+    ASSERT_EQ(wait_state(id, {"succeeded", "failed"})["state"], "succeeded");
+    const json report = json::parse(client_->Get("/v1/jobs/" + id + "/report.json")->body);
+    ASSERT_EQ(report["comparison"]["rows"].size(), 2u);
+    EXPECT_EQ(report["comparison"]["rows"][0]["label"], "hemisphere");
+    EXPECT_GT(report["comparison"]["rows"][1]["efficiency"].get<double>(), report["comparison"]["rows"][0]["efficiency"].get<double>());
+    auto svg = client_->Get("/v1/jobs/" + id + "/convergence.svg");
+    ASSERT_TRUE(svg && svg->status == 200);
+    EXPECT_NE(svg->body.find(">importance<"), std::string::npos);
+    expect_problem(client_->Get("/v1/jobs/" + id + "/image.png"), 410);
+    expect_problem(client_->Post("/v1/comparisons", json{{"scene", "builtin:cornell_box"}, {"reps", 0}}.dump(), "application/json"), 400, "/reps");
+    expect_problem(client_->Post("/v1/comparisons", json{{"scene", "builtin:cornell_box"}, {"configs", json::array({{{"label", "x"}, {"spp", 4}}})}}.dump(), "application/json"), 400, "/configs/0/spp");
+    expect_problem(client_->Post("/v1/comparisons", json{{"scene", "builtin:cornell_box"}, {"configs", json::array({{{"label", "x"}, {"bvh", "kd"}}})}}.dump(), "application/json"), 400, "/configs/0/bvh");
+    expect_problem(client_->Post("/v1/comparisons", json{{"reps", 2}}.dump(), "application/json"), 400, "/scene");
 }
 
 }  // namespace
