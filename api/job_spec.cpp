@@ -46,7 +46,8 @@ E get_enum(const json& v, const std::string& ptr, const std::pair<const char*, E
 }
 
 constexpr std::pair<const char*, BvhType> kBvh[] = {
-    {"none", BvhType::none}, {"midpoint", BvhType::midpoint}, {"median", BvhType::median}, {"sah", BvhType::sah}};
+    {"none", BvhType::none}, {"midpoint", BvhType::midpoint}, {"median", BvhType::median}, {"sah", BvhType::sah},
+    {"embree", BvhType::embree}};
 constexpr std::pair<const char*, DirectLighting> kDirect[] = {
     {"hemisphere", DirectLighting::hemisphere}, {"importance", DirectLighting::importance}, {"mis", DirectLighting::mis}};
 constexpr std::pair<const char*, BounceMode> kBounces[] = {{"accumulate", BounceMode::accumulate}, {"nth", BounceMode::nth}};
@@ -83,7 +84,11 @@ JobSpec parse_job(const json& body, const JobLimits& limits) {
         else if (key == "spp") r.spp = int(get_int(v, ptr, 1, limits.max_spp));
         else if (key == "light_rays") r.light_rays = int(get_int(v, ptr, 1, limits.max_light_rays));
         else if (key == "max_depth") r.max_depth = int(get_int(v, ptr, 0, limits.max_depth));
-        else if (key == "bvh") job.scene_options.bvh.type = get_enum(v, ptr, kBvh);
+        else if (key == "bvh") {
+            job.scene_options.bvh.type = get_enum(v, ptr, kBvh);
+            if (job.scene_options.bvh.type == BvhType::embree && !embree_available())
+                throw InvalidJob(ptr, "/bvh \"embree\" is not available: this build has no Embree (install libembree-dev and rebuild)");
+        }
         else if (key == "max_leaf_size") job.scene_options.bvh.max_leaf_size = int(get_int(v, ptr, 1, 255));
         else if (key == "triangle_test") job.scene_options.triangle_test = get_enum(v, ptr, kTriangle);
         else if (key == "direct") r.direct = get_enum(v, ptr, kDirect);

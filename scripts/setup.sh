@@ -13,6 +13,8 @@ packages=(
   libpugixml-dev libbenchmark-dev
   # the server's durable job records
   libsqlite3-dev
+  # Intel Embree 3, the reference our BVH is measured against (bvh "embree")
+  libembree-dev
   # libFuzzer comes with clang's runtime
   clang libclang-rt-14-dev
   # the end-to-end scripts

@@ -199,7 +199,8 @@ int bench_command(int argc, char** argv) {
     if (argc >= 1 && !std::strcmp(argv[0], "server")) return bench_server(argc - 1, argv + 1);
     if (argc >= 1 && !std::strcmp(argv[0], "convergence")) return bench_convergence(argc - 1, argv + 1);
     if (argc >= 1 && !std::strcmp(argv[0], "leave-out")) return bench_leave_out(argc - 1, argv + 1);
-    std::fprintf(stderr, "usage: tessera bench bvh|figures|lights|server|convergence|leave-out [options]\n");
+    if (argc >= 1 && !std::strcmp(argv[0], "rays")) return bench_rays(argc - 1, argv + 1);
+    std::fprintf(stderr, "usage: tessera bench bvh|figures|lights|server|convergence|leave-out|rays [options]\n");
     return 2;
 }
 

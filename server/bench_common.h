@@ -15,5 +15,6 @@ int bench_figures(int argc, char** argv);
 int bench_server(int argc, char** argv);
 int bench_convergence(int argc, char** argv);
 int bench_leave_out(int argc, char** argv);
+int bench_rays(int argc, char** argv);
 
 }  // namespace tessera::cli

@@ -12,7 +12,7 @@
 
 namespace tessera {
 
-enum class BvhType { none, midpoint, median, sah };
+enum class BvhType { none, midpoint, median, sah, embree };
 
 const char* to_string(BvhType t);
 bool parse_bvh_type(const std::string& s, BvhType& out);

@@ -15,12 +15,13 @@ const char* to_string(BvhType t) {
         case BvhType::midpoint: return "midpoint";
         case BvhType::median: return "median";
         case BvhType::sah: return "sah";
+        case BvhType::embree: return "embree";
     }
     return "?";
 }
 
 bool parse_bvh_type(const std::string& s, BvhType& out) {
-    for (BvhType t : {BvhType::none, BvhType::midpoint, BvhType::median, BvhType::sah})
+    for (BvhType t : {BvhType::none, BvhType::midpoint, BvhType::median, BvhType::sah, BvhType::embree})
         if (s == to_string(t)) { out = t; return true; }
     return false;
 }

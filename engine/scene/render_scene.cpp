@@ -192,7 +192,12 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
 
     std::vector<Aabb> bounds(s.triangles.size());
     for (size_t i = 0; i < s.triangles.size(); ++i) { bounds[i] = triangle_bounds(s.triangles[i]); s.bounds.expand(bounds[i]); }
-    if (!s.triangles.empty()) {
+    if (!s.triangles.empty() && options.bvh.type == BvhType::embree) {
+        s.embree = build_embree(s.triangles, options.embree_quality, s.embree_build_seconds);
+        s.report.built.push_back("triangle BVH (Embree " + std::string(options.embree_quality == EmbreeQuality::low ? "low"
+                                 : options.embree_quality == EmbreeQuality::high ? "high" : "medium") +
+                                 " quality): " + std::to_string(s.triangles.size()) + " triangles");
+    } else if (!s.triangles.empty()) {
         s.tri_bvh = build_bvh(bounds, options_for(s.triangles.size(), options, "triangles", s.report));
         to_leaf_order(s.tri_bvh, s.triangles, s.tri_shading);
         s.tri_bvh4 = collapse_to_bvh4(s.tri_bvh);
@@ -206,7 +211,10 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     bounds.resize(s.spheres.size());
     for (size_t i = 0; i < s.spheres.size(); ++i) { bounds[i] = sphere_bounds(s.spheres[i]); s.bounds.expand(bounds[i]); }
     if (!s.spheres.empty()) {
-        s.sphere_bvh = build_bvh(bounds, options_for(s.spheres.size(), options, "spheres", s.report));
+        // Spheres always take our own path (with Embree too): a list or our BVH beside its triangles.
+        RenderSceneOptions sphere_options = options;
+        if (sphere_options.bvh.type == BvhType::embree) sphere_options.bvh.type = BvhType::sah;
+        s.sphere_bvh = build_bvh(bounds, options_for(s.spheres.size(), sphere_options, "spheres", s.report));
         to_leaf_order(s.sphere_bvh, s.spheres);
         s.report.built.push_back("sphere list: " + std::to_string(s.spheres.size()) + " spheres");
     } else {
@@ -241,7 +249,14 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
 
 bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& counters) {
     bool found = false;
-    if (!scene.triangles.empty()) {
+    if (scene.embree) {
+        uint32_t prim;
+        float b1, b2;
+        if (embree_intersect(*scene.embree, ray, prim, b1, b2)) {
+            hit = Hit{ray.tmax, prim, b1, b2, false};
+            found = true;
+        }
+    } else if (!scene.triangles.empty()) {
         const TriangleVerts* tris = scene.triangles.data();
         if (scene.triangle_test == TriangleTest::watertight) {
             const WatertightRay w = make_watertight_ray(ray.d);
@@ -287,6 +302,7 @@ bool occluded(const RenderScene& scene, const Ray& ray, TraversalCounters& count
             return true;
     }
     if (scene.triangles.empty()) return false;
+    if (scene.embree) return embree_occluded(*scene.embree, ray);
     const TriangleVerts* tris = scene.triangles.data();
     const uint32_t* prims = scene.tri_bvh.prim_index.data();
     if (scene.triangle_test == TriangleTest::watertight) {

@@ -9,6 +9,7 @@
 #include "engine/accel/bvh.h"
 #include "engine/accel/bvh4.h"
 #include "engine/accel/bvh_traverse.h"
+#include "engine/accel/embree_accel.h"
 #include "engine/camera/camera.h"
 #include "engine/geometry/ray.h"
 #include "engine/scene/scene_description.h"
@@ -69,6 +70,7 @@ struct RenderSceneOptions {
     // the 4-wide BVH is faster than testing every triangle even at 4 triangles (its root box
     // rejects missing rays), so only a lone primitive goes without one.
     size_t min_prims_for_bvh = 2;
+    EmbreeQuality embree_quality = EmbreeQuality::medium;  // with bvh.type == embree
 };
 
 struct RenderScene {
@@ -77,6 +79,8 @@ struct RenderScene {
     std::vector<glm::vec3> normals;             // shared vertex normals
     Bvh tri_bvh;                                // as built (statistics, and the tree for `none`)
     Bvh4 tri_bvh4;                              // the same tree collapsed 4-wide: what traversal uses
+    std::shared_ptr<EmbreeAccel> embree;        // instead of ours, with bvh "embree"
+    double embree_build_seconds = 0;
     std::vector<Sphere> spheres;                // BVH leaf order
     Bvh sphere_bvh;
     std::vector<Material> materials;            // last entry: the default grey

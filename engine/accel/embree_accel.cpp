@@ -1,0 +1,121 @@
+#include "engine/accel/embree_accel.h"
+
+#include <chrono>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+
+#include "engine/scene/render_scene.h"
+
+#if defined(TESSERA_HAVE_EMBREE)
+#include <embree3/rtcore.h>
+#endif
+
+namespace tessera {
+
+#if defined(TESSERA_HAVE_EMBREE)
+
+struct EmbreeAccel {
+    RTCScene scene = nullptr;
+    ~EmbreeAccel() { if (scene) rtcReleaseScene(scene); }
+};
+
+namespace {
+
+// One device for the process (it owns Embree's thread pool), created on first use.
+RTCDevice device() {
+    static RTCDevice dev = nullptr;
+    static std::once_flag once;
+    std::call_once(once, [] { dev = rtcNewDevice(nullptr); });
+    if (!dev) throw std::runtime_error("Embree: rtcNewDevice failed");
+    return dev;
+}
+
+}  // namespace
+
+bool embree_available() { return true; }
+
+std::shared_ptr<EmbreeAccel> build_embree(const std::vector<TriangleVerts>& tris, EmbreeQuality quality, double& build_seconds) {
+    const auto t0 = std::chrono::steady_clock::now();
+    auto accel = std::make_shared<EmbreeAccel>();
+    RTCDevice dev = device();
+    accel->scene = rtcNewScene(dev);
+    rtcSetSceneBuildQuality(accel->scene, quality == EmbreeQuality::low ? RTC_BUILD_QUALITY_LOW
+                                          : quality == EmbreeQuality::high ? RTC_BUILD_QUALITY_HIGH : RTC_BUILD_QUALITY_MEDIUM);
+    RTCGeometry geom = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+    if (quality == EmbreeQuality::high) rtcSetGeometryBuildQuality(geom, RTC_BUILD_QUALITY_HIGH);
+    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * tris.size()));
+    auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), tris.size()));
+    if (!v || !idx) throw std::runtime_error("Embree: cannot allocate the geometry buffers");
+    for (size_t i = 0; i < tris.size(); ++i) {
+        const glm::vec3* p[3] = {&tris[i].p0, &tris[i].p1, &tris[i].p2};
+        for (int k = 0; k < 3; ++k) {
+            v[(i * 3 + size_t(k)) * 3 + 0] = p[k]->x;
+            v[(i * 3 + size_t(k)) * 3 + 1] = p[k]->y;
+            v[(i * 3 + size_t(k)) * 3 + 2] = p[k]->z;
+            idx[i * 3 + size_t(k)] = unsigned(i * 3 + size_t(k));
+        }
+    }
+    rtcCommitGeometry(geom);
+    rtcAttachGeometry(accel->scene, geom);
+    rtcReleaseGeometry(geom);
+    rtcCommitScene(accel->scene);
+    if (rtcGetDeviceError(dev) != RTC_ERROR_NONE) throw std::runtime_error("Embree: the scene build failed");
+    build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return accel;
+}
+
+bool embree_intersect(const EmbreeAccel& accel, Ray& ray, uint32_t& prim, float& b1, float& b2) {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh;
+    rh.ray.org_x = ray.o.x; rh.ray.org_y = ray.o.y; rh.ray.org_z = ray.o.z;
+    rh.ray.dir_x = ray.d.x; rh.ray.dir_y = ray.d.y; rh.ray.dir_z = ray.d.z;
+    rh.ray.tnear = ray.tmin;
+    rh.ray.tfar = ray.tmax;
+    rh.ray.time = 0.f;
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(accel.scene, &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
+    ray.tmax = rh.ray.tfar;
+    prim = rh.hit.primID;
+    b1 = rh.hit.u;
+    b2 = rh.hit.v;
+    return true;
+}
+
+bool embree_occluded(const EmbreeAccel& accel, const Ray& ray) {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRay r;
+    r.org_x = ray.o.x; r.org_y = ray.o.y; r.org_z = ray.o.z;
+    r.dir_x = ray.d.x; r.dir_y = ray.d.y; r.dir_z = ray.d.z;
+    r.tnear = ray.tmin;
+    r.tfar = ray.tmax;
+    r.time = 0.f;
+    r.mask = 0xFFFFFFFFu;
+    r.id = 0;
+    r.flags = 0;
+    rtcOccluded1(accel.scene, &ctx, &r);
+    return r.tfar < 0.f;  // Embree marks an occluded ray with tfar = −∞
+}
+
+#else
+
+struct EmbreeAccel {};
+
+bool embree_available() { return false; }
+
+std::shared_ptr<EmbreeAccel> build_embree(const std::vector<TriangleVerts>&, EmbreeQuality, double&) {
+    throw std::runtime_error("this build of tessera has no Embree (install libembree-dev and rebuild)");
+}
+bool embree_intersect(const EmbreeAccel&, Ray&, uint32_t&, float&, float&) { return false; }
+bool embree_occluded(const EmbreeAccel&, const Ray&) { return false; }
+
+#endif
+
+}  // namespace tessera

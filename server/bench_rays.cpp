@@ -1,0 +1,149 @@
+// `tessera bench rays`: our BVH and Embree side by side in one process, on the same rays:
+// build times, and closest-hit / any-hit throughput for camera, incoherent (diffuse bounce)
+// and shadow rays, on one thread and on all, with the ratio.
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "engine/geometry/spawn.h"
+#include "engine/io/scene_loader.h"
+#include "engine/render/renderer.h"
+#include "engine/sampling/rng.h"
+#include "engine/sampling/warp.h"
+#include "engine/scene/procedural.h"
+#include "server/bench_common.h"
+
+namespace tessera::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct RaySets {
+    std::vector<Ray> camera, incoherent, shadow;
+};
+
+// Rays generated once (with our BVH) and then handed to both.
+RaySets make_rays(const RenderScene& s) {
+    RaySets r;
+    const Camera cam = make_camera(s.camera, 800, 600);
+    Pcg32 rng(42, 1);
+    const glm::vec3 top = s.bounds.centroid() + glm::vec3(0.f, 0.49f * s.bounds.extent().y, 0.f);
+    TraversalCounters tc;
+    for (int y = 0; y < 600; ++y)
+        for (int x = 0; x < 800; ++x) {
+            Ray ray = generate_ray(cam, (float(x) + rng.next_float()) / 800.f, 1.f - (float(y) + rng.next_float()) / 600.f);
+            r.camera.push_back(ray);
+            Hit h;
+            if (!intersect(s, ray, h, tc)) continue;
+            SurfaceInteraction si = surface_at(s, ray, h);
+            if (glm::dot(si.ng, ray.d) > 0.f) { si.ng = -si.ng; si.ns = -si.ns; }
+            const glm::vec3 wi = Frame(si.ng).to_world(sample_cosine_hemisphere(rng.next_float(), rng.next_float()));
+            r.incoherent.push_back(spawn_ray(si.p, si.p_err, si.ng, wi));
+            // Toward a point of a light if there is one, else toward the top of the scene's box.
+            glm::vec3 target = top + 0.3f * s.bounds.extent() * glm::vec3(rng.next_float() - 0.5f, 0.f, rng.next_float() - 0.5f);
+            if (!s.light_triangles.empty()) {
+                const LightTriangle& t = s.light_triangles[size_t(rng.next_u32() % s.light_triangles.size())];
+                const glm::vec2 b = sample_triangle(rng.next_float(), rng.next_float());
+                target = t.p0 + b.y * t.e1 + (1.f - b.x - b.y) * t.e2;
+            }
+            r.shadow.push_back(spawn_ray_to(si.p, si.p_err, si.ng, target));
+        }
+    return r;
+}
+
+// Mrays/s over `rays` with `threads` threads; `any` selects occlusion queries.
+double throughput(const RenderScene& s, const std::vector<Ray>& rays, int threads, bool any, uint64_t& hits) {
+    std::atomic<size_t> next{0};
+    std::atomic<uint64_t> hit_count{0};
+    auto work = [&] {
+        TraversalCounters tc;
+        uint64_t local = 0;
+        for (;;) {
+            const size_t begin = next.fetch_add(4096);
+            if (begin >= rays.size()) break;
+            const size_t end = std::min(rays.size(), begin + 4096);
+            for (size_t i = begin; i < end; ++i) {
+                if (any) local += occluded(s, rays[i], tc);
+                else {
+                    Ray r = rays[i];
+                    Hit h;
+                    local += intersect(s, r, h, tc);
+                }
+            }
+        }
+        hit_count += local;
+    };
+    const auto t0 = Clock::now();
+    std::vector<std::thread> pool;
+    for (int i = 1; i < threads; ++i) pool.emplace_back(work);
+    work();
+    for (auto& t : pool) t.join();
+    hits = hit_count;
+    return double(rays.size()) / std::chrono::duration<double>(Clock::now() - t0).count() * 1e-6;
+}
+
+}  // namespace
+
+int bench_rays(int argc, char** argv) {
+    std::string cs184 = default_cs184_dir();
+    for (int i = 0; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a == "--cs184" && i + 1 < argc) cs184 = argv[++i];
+        else { std::fprintf(stderr, "usage: tessera bench rays [--cs184 DIR]\n"); return 2; }
+    }
+    if (!embree_available()) { std::fprintf(stderr, "tessera bench rays: this build has no Embree\n"); return 2; }
+    const int all = int(std::max(1u, std::thread::hardware_concurrency()));
+    std::vector<std::pair<std::string, SceneDescription>> scenes;
+    for (const char* f : {"sky/CBbunny.dae", "meshedit/maxplanck.dae", "keenan/building.dae"}) {
+        const std::string path = cs184 + "/" + f;
+        if (std::filesystem::exists(path)) scenes.push_back({std::filesystem::path(f).stem().string(), load_scene(path)});
+    }
+    scenes.push_back({"displaced_sphere (1M)", displaced_sphere(1'000'000)});
+
+    std::printf("## Build time and memory\n\n| scene | triangles | ours SAH, 1 thread (ms) | Embree low (ms) | Embree medium (ms) | Embree high (ms) | ours / Embree medium | ours: bytes per triangle (mesh + BVH) |\n|---|---:|---:|---:|---:|---:|---:|---:|\n");
+    std::vector<std::string> throughput_rows;
+    for (const auto& [name, desc] : scenes) {
+        const RenderScene ours = build_render_scene(desc, RenderSceneOptions{});
+        double e[3];
+        for (int q = 0; q < 3; ++q) {
+            RenderSceneOptions o;
+            o.bvh.type = BvhType::embree;
+            o.embree_quality = EmbreeQuality(q);
+            e[q] = build_render_scene(desc, o).embree_build_seconds;
+        }
+        const double bytes = double(ours.tri_bvh.stats.memory_bytes + ours.tri_bvh4.memory_bytes() +
+                                    ours.triangles.size() * sizeof(TriangleVerts)) / double(ours.triangles.size());
+        const double traversal_bytes = double(ours.tri_bvh4.memory_bytes() + ours.triangles.size() * sizeof(TriangleVerts)) /
+                                       double(ours.triangles.size());
+        std::printf("| %s | %zu | %.1f | %.1f | %.1f | %.1f | %.2f× | %.0f (%.0f without the binary tree kept for statistics) |\n",
+                    name.c_str(), ours.triangles.size(), ours.tri_bvh.stats.build_seconds * 1e3, e[0] * 1e3, e[1] * 1e3, e[2] * 1e3,
+                    ours.tri_bvh.stats.build_seconds / e[1], bytes, traversal_bytes);
+        std::fflush(stdout);
+        RenderSceneOptions eo;
+        eo.bvh.type = BvhType::embree;
+        const RenderScene emb = build_render_scene(desc, eo);
+        const RaySets rays = make_rays(ours);
+        for (auto [label, set, any] : {std::tuple{"camera (closest hit)", &rays.camera, false},
+                                       {"incoherent (closest hit)", &rays.incoherent, false},
+                                       {"shadow (any hit)", &rays.shadow, true}}) {
+            for (int t : {1, all}) {
+                uint64_t h1 = 0, h2 = 0;
+                const double a = throughput(ours, *set, t, any, h1);
+                const double b = throughput(emb, *set, t, any, h2);
+                char row[512];
+                std::snprintf(row, sizeof row, "| %s | %s | %zu | %d | %.2f | %.2f | %.2f× | %s |\n", name.c_str(), label, set->size(), t,
+                              a, b, a / b, h1 == h2 ? "same" : ("ours " + std::to_string(h1) + ", Embree " + std::to_string(h2)).c_str());
+                throughput_rows.push_back(row);
+            }
+        }
+    }
+    std::printf("\n## Throughput on the same rays (Mrays/s)\n\n| scene | rays | count | threads | ours (SAH, 4-wide) | Embree (medium) | ours / Embree | hits |\n|---|---|---:|---:|---:|---:|---:|---|\n");
+    for (const auto& r : throughput_rows) std::fputs(r.c_str(), stdout);
+    return 0;
+}
+
+}  // namespace tessera::cli
