@@ -77,13 +77,23 @@ double throughput(const RenderScene& s, const std::vector<Ray>& rays, int thread
         }
         hit_count += local;
     };
+    // Whole passes over the set until at least 0.3 s have passed: a pass over a small set
+    // takes milliseconds, where thread start-up and timer noise would dominate.
     const auto t0 = Clock::now();
-    std::vector<std::thread> pool;
-    for (int i = 1; i < threads; ++i) pool.emplace_back(work);
-    work();
-    for (auto& t : pool) t.join();
+    size_t traced = 0;
+    double secs = 0;
+    do {
+        next = 0;
+        hit_count = 0;
+        std::vector<std::thread> pool;
+        for (int i = 1; i < threads; ++i) pool.emplace_back(work);
+        work();
+        for (auto& t : pool) t.join();
+        traced += rays.size();
+        secs = std::chrono::duration<double>(Clock::now() - t0).count();
+    } while (secs < 0.3);
     hits = hit_count;
-    return double(rays.size()) / std::chrono::duration<double>(Clock::now() - t0).count() * 1e-6;
+    return double(traced) / secs * 1e-6;
 }
 
 }  // namespace
