@@ -164,22 +164,19 @@ void HttpApi::routes() {
         res.set_content(text, "application/yaml");
     });
 
-    s.Post("/v1/jobs", [this](const httplib::Request& req, httplib::Response& res) {
-        if (req.body.size() > limits_.max_job_body)
-            throw Problem(413, "payload-too-large", "Payload too large",
-                          "a job body may be at most " + std::to_string(limits_.max_job_body) + " bytes");
-        const json status = service_.submit(parse_body(req));
-        res.set_header("Location", status["links"]["self"].get<std::string>());
-        send_json(res, 202, status);
-    });
-    s.Post("/v1/comparisons", [this](const httplib::Request& req, httplib::Response& res) {
-        if (req.body.size() > limits_.max_job_body)
-            throw Problem(413, "payload-too-large", "Payload too large",
-                          "a request body may be at most " + std::to_string(limits_.max_job_body) + " bytes");
-        const json status = service_.submit_comparison(parse_body(req));
-        res.set_header("Location", status["links"]["self"].get<std::string>());
-        send_json(res, 202, status);
-    });
+    // Both accept a JSON body and answer 202 with the queued job's status and its Location.
+    auto accept_job = [this](json (JobService::*submit)(const json&)) {
+        return [this, submit](const httplib::Request& req, httplib::Response& res) {
+            if (req.body.size() > limits_.max_job_body)
+                throw Problem(413, "payload-too-large", "Payload too large",
+                              "a request body may be at most " + std::to_string(limits_.max_job_body) + " bytes");
+            const json status = (service_.*submit)(parse_body(req));
+            res.set_header("Location", status["links"]["self"].get<std::string>());
+            send_json(res, 202, status);
+        };
+    };
+    s.Post("/v1/jobs", accept_job(&JobService::submit));
+    s.Post("/v1/comparisons", accept_job(&JobService::submit_comparison));
     s.Get("/v1/jobs", [this](const httplib::Request& req, httplib::Response& res) {
         const size_t limit = size_param(req, "limit", 50, 1, 1000);
         const size_t offset = size_param(req, "offset", 0, 0, 1'000'000'000);
