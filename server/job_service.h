@@ -69,7 +69,6 @@ private:
         std::atomic<bool> stop{false};  // what the renderer checks between tiles; set with a reason below
         std::atomic<bool> cancel{false};
         std::atomic<bool> shutdown{false};
-        std::atomic<bool> timed_out{false};
         std::atomic<size_t> tiles_done{0}, tiles_total{0};
         std::atomic<uint64_t> samples{0};
         std::atomic<double> sample_budget{0};  // spp × pixels: progress is samples over this

@@ -98,6 +98,19 @@ struct alignas(16) Entry {
 
 inline constexpr int kStack = 3 * kMaxBvhDepth + 4;
 
+// A tree that is one leaf: every primitive is tested (all of them for the closest hit; until
+// the first hit for an occlusion query).
+template <class R, class PrimTest>
+bool test_root_leaf(const Bvh4& bvh, const uint32_t* prims, R& ray, PrimTest& test, TraversalCounters& counters,
+                    bool stop_at_first) {
+    bool hit = false;
+    uint32_t i = 0;
+    for (; i < bvh.root_leaf_count && !(hit && stop_at_first); ++i) hit |= test(prims[i], ray);
+    counters.prim_tests += i;
+    counters.nodes_visited += 1;
+    return hit;
+}
+
 }  // namespace bvh4_detail
 
 // Same contract as bvh_closest_hit: `test(prim_id, ray)` lowers ray.tmax on a hit. The
@@ -106,15 +119,10 @@ inline constexpr int kStack = 3 * kMaxBvhDepth + 4;
 template <class PrimTest>
 bool bvh4_closest_hit(const Bvh4& bvh, const uint32_t* prims, Ray& ray, PrimTest&& test, TraversalCounters& counters) {
     using namespace bvh4_detail;
+    if (bvh.root_leaf_count) return test_root_leaf(bvh, prims, ray, test, counters, false);
+    if (bvh.nodes.empty()) return false;
     bool hit = false;
     uint64_t visited = 0, tests = 0;
-    if (bvh.root_leaf_count) {
-        for (uint32_t i = 0; i < bvh.root_leaf_count; ++i) { ++tests; hit |= test(prims[i], ray); }
-        counters.prim_tests += tests;
-        counters.nodes_visited += 1;
-        return hit;
-    }
-    if (bvh.nodes.empty()) return false;
     const Bvh4Ray r = make_bvh4_ray(ray);
     Entry stack[kStack];
     int sp = 0;
@@ -159,15 +167,9 @@ bool bvh4_closest_hit(const Bvh4& bvh, const uint32_t* prims, Ray& ray, PrimTest
 template <class PrimTest>
 bool bvh4_any_hit(const Bvh4& bvh, const uint32_t* prims, const Ray& ray, PrimTest&& test, TraversalCounters& counters) {
     using namespace bvh4_detail;
-    uint64_t visited = 0, tests = 0;
-    if (bvh.root_leaf_count) {
-        bool hit = false;
-        for (uint32_t i = 0; i < bvh.root_leaf_count && !hit; ++i) { ++tests; hit = test(prims[i], ray); }
-        counters.prim_tests += tests;
-        counters.nodes_visited += 1;
-        return hit;
-    }
+    if (bvh.root_leaf_count) return test_root_leaf(bvh, prims, ray, test, counters, true);
     if (bvh.nodes.empty()) return false;
+    uint64_t visited = 0, tests = 0;
     const Bvh4Ray r = make_bvh4_ray(ray);
     Entry stack[kStack];
     int sp = 0;
