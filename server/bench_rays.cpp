@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <thread>
@@ -56,7 +57,7 @@ RaySets make_rays(const RenderScene& s) {
 }
 
 // Mrays/s over `rays` with `threads` threads; `any` selects occlusion queries.
-double throughput(const RenderScene& s, const std::vector<Ray>& rays, int threads, bool any, uint64_t& hits) {
+double throughput(const RenderScene& s, const std::vector<Ray>& rays, int threads, bool any, double min_seconds, uint64_t& hits) {
     std::atomic<size_t> next{0};
     std::atomic<uint64_t> hit_count{0};
     auto work = [&] {
@@ -77,7 +78,7 @@ double throughput(const RenderScene& s, const std::vector<Ray>& rays, int thread
         }
         hit_count += local;
     };
-    // Whole passes over the set until at least 0.3 s have passed: a pass over a small set
+    // Whole passes over the set until at least min_seconds have passed: a pass over a small set
     // takes milliseconds, where thread start-up and timer noise would dominate.
     const auto t0 = Clock::now();
     size_t traced = 0;
@@ -91,7 +92,7 @@ double throughput(const RenderScene& s, const std::vector<Ray>& rays, int thread
         for (auto& t : pool) t.join();
         traced += rays.size();
         secs = std::chrono::duration<double>(Clock::now() - t0).count();
-    } while (secs < 0.3);
+    } while (secs < min_seconds);
     hits = hit_count;
     return double(traced) / secs * 1e-6;
 }
@@ -99,39 +100,50 @@ double throughput(const RenderScene& s, const std::vector<Ray>& rays, int thread
 }  // namespace
 
 int bench_rays(int argc, char** argv) {
-    std::string cs184 = default_cs184_dir();
+    std::string cs184 = default_cs184_dir(), only;
+    double min_seconds = 0.3;
     for (int i = 0; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--cs184" && i + 1 < argc) cs184 = argv[++i];
-        else { std::fprintf(stderr, "usage: tessera bench rays [--cs184 DIR]\n"); return 2; }
+        else if (a == "--scene" && i + 1 < argc) only = argv[++i];
+        else if (a == "--seconds" && i + 1 < argc) min_seconds = std::atof(argv[++i]);
+        else {
+            std::fprintf(stderr, "usage: tessera bench rays [--cs184 DIR] [--scene NAME] [--seconds S]\n"
+                                 "  --scene: only scenes whose name contains NAME; --seconds: time per measurement (0.3)\n");
+            return 2;
+        }
     }
     if (!embree_available()) { std::fprintf(stderr, "tessera bench rays: this build has no Embree\n"); return 2; }
     const int all = int(std::max(1u, std::thread::hardware_concurrency()));
     std::vector<std::pair<std::string, SceneDescription>> scenes;
     for (const char* f : {"sky/CBbunny.dae", "meshedit/maxplanck.dae", "keenan/building.dae"}) {
         const std::string path = cs184 + "/" + f;
-        if (std::filesystem::exists(path)) scenes.push_back({std::filesystem::path(f).stem().string(), load_scene(path)});
+        const std::string name = std::filesystem::path(f).stem().string();
+        if (std::filesystem::exists(path) && name.find(only) != std::string::npos) scenes.push_back({name, load_scene(path)});
     }
-    scenes.push_back({"displaced_sphere (1M)", displaced_sphere(1'000'000)});
+    if (std::string("displaced_sphere (1M)").find(only) != std::string::npos)
+        scenes.push_back({"displaced_sphere (1M)", displaced_sphere(1'000'000)});
 
-    std::printf("## Build time and memory\n\n| scene | triangles | ours SAH, 1 thread (ms) | Embree low (ms) | Embree medium (ms) | Embree high (ms) | ours / Embree medium | ours: bytes per triangle (mesh + BVH) |\n|---|---:|---:|---:|---:|---:|---:|---:|\n");
+    std::printf("## Build time and memory\n\n| scene | triangles | ours SAH, 1 thread (ms) | Embree low (ms) | Embree medium (ms) | Embree high (ms) | ours / Embree medium | ours: bytes per triangle | Embree medium: bytes per triangle | ours: with shading data |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     std::vector<std::string> throughput_rows;
     for (const auto& [name, desc] : scenes) {
         const RenderScene ours = build_render_scene(desc, RenderSceneOptions{});
         double e[3];
+        size_t embree_bytes = 0;
         for (int q = 0; q < 3; ++q) {
             RenderSceneOptions o;
             o.bvh.type = BvhType::embree;
             o.embree_quality = EmbreeQuality(q);
-            e[q] = build_render_scene(desc, o).embree_build_seconds;
+            const RenderScene s = build_render_scene(desc, o);
+            e[q] = s.embree_build_seconds;
+            if (q == 1) embree_bytes = embree_memory_bytes(*s.embree);
         }
-        const double bytes = double(ours.tri_bvh.stats.memory_bytes + ours.tri_bvh4.memory_bytes() +
-                                    ours.triangles.size() * sizeof(TriangleVerts)) / double(ours.triangles.size());
-        const double traversal_bytes = double(ours.tri_bvh4.memory_bytes() + ours.triangles.size() * sizeof(TriangleVerts)) /
-                                       double(ours.triangles.size());
-        std::printf("| %s | %zu | %.1f | %.1f | %.1f | %.1f | %.2f× | %.0f (%.0f without the binary tree kept for statistics) |\n",
-                    name.c_str(), ours.triangles.size(), ours.tri_bvh.stats.build_seconds * 1e3, e[0] * 1e3, e[1] * 1e3, e[2] * 1e3,
-                    ours.tri_bvh.stats.build_seconds / e[1], bytes, traversal_bytes);
+        const double n = double(ours.triangle_count);
+        const double shading = double(ours.tri_shading.size() * sizeof(TriangleShading) + ours.normals.size() * sizeof(glm::vec3));
+        std::printf("| %s | %zu | %.1f | %.1f | %.1f | %.1f | %.2f× | %.0f | %.0f | %.0f |\n",
+                    name.c_str(), ours.triangle_count, ours.tri_build_seconds * 1e3, e[0] * 1e3, e[1] * 1e3, e[2] * 1e3,
+                    ours.tri_build_seconds / e[1], double(ours.triangle_accel_bytes()) / n, double(embree_bytes) / n,
+                    (double(ours.triangle_accel_bytes()) + shading) / n);
         std::fflush(stdout);
         RenderSceneOptions eo;
         eo.bvh.type = BvhType::embree;
@@ -142,8 +154,8 @@ int bench_rays(int argc, char** argv) {
                                        {"shadow (any hit)", &rays.shadow, true}}) {
             for (int t : {1, all}) {
                 uint64_t h1 = 0, h2 = 0;
-                const double a = throughput(ours, *set, t, any, h1);
-                const double b = throughput(emb, *set, t, any, h2);
+                const double a = throughput(ours, *set, t, any, min_seconds, h1);
+                const double b = throughput(emb, *set, t, any, min_seconds, h2);
                 char row[512];
                 std::snprintf(row, sizeof row, "| %s | %s | %zu | %d | %.2f | %.2f | %.2f× | %s |\n", name.c_str(), label, set->size(), t,
                               a, b, a / b, h1 == h2 ? "same" : ("ours " + std::to_string(h1) + ", Embree " + std::to_string(h2)).c_str());

@@ -444,14 +444,14 @@ void JobService::run_job(const JobRecord& rec, Running& running) {
                              {"total_s", secs(t0, Clock::now())}};
         report["stats"] = {{"rays_camera", st.camera_rays}, {"rays_shadow", st.shadow_rays}, {"rays_bounce", st.bounce_rays},
                            {"mrays_per_s", st.render_seconds > 0 ? double(st.rays()) / st.render_seconds * 1e-6 : 0.0},
-                           {"bvh_nodes", scene.tri_bvh.stats.node_count}, {"bvh_depth", scene.tri_bvh.stats.depth},
-                           {"bvh_sah_cost", scene.tri_bvh.stats.sah_cost},
+                           {"bvh_nodes", scene.tri_bvh_stats.node_count}, {"bvh_depth", scene.tri_bvh_stats.depth},
+                           {"bvh_sah_cost", scene.tri_bvh_stats.sah_cost}, {"bvh_bytes", scene.triangle_accel_bytes()},
                            {"nodes_per_ray", double(st.traversal.nodes_visited) * per_ray},
                            {"prim_tests_per_ray", double(st.traversal.prim_tests) * per_ray},
                            {"spp_mean", double(st.samples) / npx}, {"spp_min", smin}, {"spp_max", smax},
                            {"nonfinite_samples", st.nonfinite_samples}, {"max_sample_luminance", st.max_sample},
                            {"threads", st.threads}};
-        report["scene"] = {{"name", spec.scene}, {"triangles", scene.triangles.size()}, {"spheres", scene.spheres.size()},
+        report["scene"] = {{"name", spec.scene}, {"triangles", scene.triangle_count}, {"spheres", scene.spheres.size()},
                            {"built", scene.report.built}, {"left_out", scene.report.left_out},
                            {"warnings", scene.report.warnings}, {"build_s", scene.report.seconds}};
         json points = json::array();

@@ -185,17 +185,16 @@ int render_command(int argc, char** argv) {
 
     const double mrays = st.render_seconds > 0 ? double(st.rays()) / st.render_seconds * 1e-6 : 0.0;
     const double per_ray = st.rays() ? 1.0 / double(st.rays()) : 0.0;
-    std::printf("scene: %s (%zu triangles, %zu spheres)\n", job.scene.c_str(), rs.triangles.size(), rs.spheres.size());
+    std::printf("scene: %s (%zu triangles, %zu spheres)\n", job.scene.c_str(), rs.triangle_count, rs.spheres.size());
     std::printf("timings: load %.3f s, BVH build %.3f s (%s, %zu nodes, depth %d, SAH cost %.2f), render %.3f s (%d threads), write %.3f s\n",
-                load_s, rs.report.seconds, to_string(job.scene_options.bvh.type), rs.tri_bvh.stats.node_count,
-                rs.tri_bvh.stats.depth, rs.tri_bvh.stats.sah_cost, st.render_seconds, st.threads, write_s);
-    if (!rs.tri_bvh.empty()) {
-        const auto& hist = rs.tri_bvh.stats.leaf_size_histogram;
-        std::printf("BVH leaves: %zu; by size:", rs.tri_bvh.stats.leaf_count);
+                load_s, rs.report.seconds, to_string(job.scene_options.bvh.type), rs.tri_bvh_stats.node_count,
+                rs.tri_bvh_stats.depth, rs.tri_bvh_stats.sah_cost, st.render_seconds, st.threads, write_s);
+    if (rs.tri_bvh_stats.node_count) {
+        const auto& hist = rs.tri_bvh_stats.leaf_size_histogram;
+        std::printf("BVH leaves: %zu; by size:", rs.tri_bvh_stats.leaf_count);
         for (size_t k = 1; k < hist.size(); ++k)
             if (hist[k]) std::printf(" %zu%s:%zu", k, k + 1 == hist.size() ? "+" : "", hist[k]);
-        std::printf("; %.1f MiB with the triangles\n",
-                    double(rs.tri_bvh.stats.memory_bytes + rs.tri_bvh4.memory_bytes() + rs.triangles.size() * sizeof(TriangleVerts)) / (1 << 20));
+        std::printf("; %.1f MiB with the triangles\n", double(rs.triangle_accel_bytes()) / (1 << 20));
     }
     std::printf("rays: %llu (camera %llu, shadow %llu, bounce %llu), %.2f Mrays/s, %.1f nodes and %.1f primitive tests per ray\n",
                 (unsigned long long)st.rays(), (unsigned long long)st.camera_rays, (unsigned long long)st.shadow_rays,

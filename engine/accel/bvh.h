@@ -33,6 +33,10 @@ struct BvhBuildOptions {
     // Relative costs of one node visit and one primitive test (pbrt's 1/8 : 1, the write-ups').
     float traversal_cost = 0.125f;
     float intersection_cost = 1.0f;
+    // Primitives a leaf tests at once: the triangle test takes four (triangle4.h), so a leaf
+    // costs one test per started block of four, and the SAH fills blocks rather than
+    // splitting below them.
+    int leaf_block = 4;
 };
 
 struct BvhBuildStats {
@@ -59,6 +63,6 @@ inline constexpr int kMaxBvhDepth = 128;
 Bvh build_bvh(std::span<const Aabb> prim_bounds, const BvhBuildOptions& options);
 
 // Expected traversal cost of a built tree under the SAH model (the same figure as stats.sah_cost).
-double sah_cost(const Bvh& bvh, float traversal_cost, float intersection_cost);
+double sah_cost(const Bvh& bvh, float traversal_cost, float intersection_cost, int leaf_block = 1);
 
 }  // namespace tessera

@@ -98,28 +98,25 @@ struct alignas(16) Entry {
 
 inline constexpr int kStack = 3 * kMaxBvhDepth + 4;
 
-// A tree that is one leaf: every primitive is tested (all of them for the closest hit; until
-// the first hit for an occlusion query).
-template <class R, class PrimTest>
-bool test_root_leaf(const Bvh4& bvh, const uint32_t* prims, R& ray, PrimTest& test, TraversalCounters& counters,
-                    bool stop_at_first) {
-    bool hit = false;
-    uint32_t i = 0;
-    for (; i < bvh.root_leaf_count && !(hit && stop_at_first); ++i) hit |= test(prims[i], ray);
-    counters.prim_tests += i;
+// A tree that is one leaf: its one leaf is tested.
+template <class R, class LeafTest>
+bool test_root_leaf(const Bvh4& bvh, R& ray, LeafTest& test, TraversalCounters& counters) {
     counters.nodes_visited += 1;
-    return hit;
+    counters.prim_tests += bvh.root_leaf_count;
+    return test(0u, bvh.root_leaf_count, ray);
 }
 
 }  // namespace bvh4_detail
 
-// Same contract as bvh_closest_hit: `test(prim_id, ray)` lowers ray.tmax on a hit. The
+// `test(first, count, ray)` tests the leaf whose entry in the tree is (first, count) (what that
+// names is the caller's: primitives, or blocks of them), lowers ray.tmax to its closest hit and
+// says whether there was one; for an occlusion query it says whether anything was hit. The
 // nearest hit child is visited next without a stack round trip; the others are pushed
 // farthest first with their entry distance, and skipped on pop once a closer hit is known.
-template <class PrimTest>
-bool bvh4_closest_hit(const Bvh4& bvh, const uint32_t* prims, Ray& ray, PrimTest&& test, TraversalCounters& counters) {
+template <class LeafTest>
+bool bvh4_closest_hit(const Bvh4& bvh, Ray& ray, LeafTest&& test, TraversalCounters& counters) {
     using namespace bvh4_detail;
-    if (bvh.root_leaf_count) return test_root_leaf(bvh, prims, ray, test, counters, false);
+    if (bvh.root_leaf_count) return test_root_leaf(bvh, ray, test, counters);
     if (bvh.nodes.empty()) return false;
     bool hit = false;
     uint64_t visited = 0, tests = 0;
@@ -129,7 +126,8 @@ bool bvh4_closest_hit(const Bvh4& bvh, const uint32_t* prims, Ray& ray, PrimTest
     Entry cur{0, 0, ray.tmin, 0};
     for (;;) {
         if (cur.count) {
-            for (uint32_t i = cur.child, end = cur.child + cur.count; i < end; ++i) { ++tests; hit |= test(prims[i], ray); }
+            tests += cur.count;
+            hit |= test(cur.child, cur.count, ray);
         } else {
             const Bvh4Node& n = bvh.nodes[cur.child];
             ++visited;
@@ -164,10 +162,10 @@ bool bvh4_closest_hit(const Bvh4& bvh, const uint32_t* prims, Ray& ray, PrimTest
     }
 }
 
-template <class PrimTest>
-bool bvh4_any_hit(const Bvh4& bvh, const uint32_t* prims, const Ray& ray, PrimTest&& test, TraversalCounters& counters) {
+template <class LeafTest>
+bool bvh4_any_hit(const Bvh4& bvh, const Ray& ray, LeafTest&& test, TraversalCounters& counters) {
     using namespace bvh4_detail;
-    if (bvh.root_leaf_count) return test_root_leaf(bvh, prims, ray, test, counters, true);
+    if (bvh.root_leaf_count) return test_root_leaf(bvh, ray, test, counters);
     if (bvh.nodes.empty()) return false;
     uint64_t visited = 0, tests = 0;
     const Bvh4Ray r = make_bvh4_ray(ray);
@@ -178,10 +176,8 @@ bool bvh4_any_hit(const Bvh4& bvh, const uint32_t* prims, const Ray& ray, PrimTe
     while (sp > 0 && !hit) {
         const Entry e = stack[--sp];
         if (e.count) {
-            for (uint32_t i = e.child, end = e.child + e.count; i < end; ++i) {
-                ++tests;
-                if (test(prims[i], ray)) { hit = true; break; }
-            }
+            tests += e.count;
+            hit = test(e.child, e.count, ray);
             continue;
         }
         const Bvh4Node& n = bvh.nodes[e.child];

@@ -106,6 +106,8 @@ struct Builder {
             }
         }
         const size_t n = end - begin;
+        const uint32_t block = uint32_t(std::max(1, opt.leaf_block));
+        auto blocks = [block](uint32_t count) { return float((count + block - 1) / block); };
         float best_cost = INFINITY;
         int best_axis = -1, best_bin = 0;
         right_area.assign(nbins, 0.f);
@@ -122,12 +124,12 @@ struct Builder {
             for (int k = 0; k < nbins - 1; ++k) {
                 acc.expand(ab[k].b); cnt += ab[k].n;
                 if (cnt == 0 || right_count[k + 1] == 0) continue;
-                const float cost = acc.surface_area() * cnt + right_area[k + 1] * right_count[k + 1];
+                const float cost = acc.surface_area() * blocks(cnt) + right_area[k + 1] * blocks(right_count[k + 1]);
                 if (cost < best_cost) { best_cost = cost; best_axis = a; best_bin = k; }
             }
         }
         const float area = b.surface_area();
-        const float leaf_cost = opt.intersection_cost * float(n);
+        const float leaf_cost = opt.intersection_cost * blocks(uint32_t(n));
         float split_cost = area > 0.f ? opt.traversal_cost + opt.intersection_cost * best_cost / area : INFINITY;
         if (best_axis < 0 || (n <= size_t(opt.max_leaf_size) && leaf_cost <= split_cost)) return {};
         const int axis = best_axis;
@@ -196,14 +198,15 @@ struct Builder {
 
 }  // namespace
 
-double sah_cost(const Bvh& bvh, float traversal_cost, float intersection_cost) {
+double sah_cost(const Bvh& bvh, float traversal_cost, float intersection_cost, int leaf_block) {
+    const uint32_t block = uint32_t(std::max(1, leaf_block));
     if (bvh.nodes.empty()) return 0.0;
     auto area = [](const BvhNode& n) { return double(Aabb{n.lo, n.hi}.surface_area()); };
     const double root = area(bvh.nodes[0]);
-    if (root <= 0.0) return intersection_cost * double(bvh.prim_index.size());
+    if (root <= 0.0) return intersection_cost * double((bvh.prim_index.size() + block - 1) / block);
     double cost = 0.0;
     for (const BvhNode& n : bvh.nodes)
-        cost += (n.is_leaf() ? intersection_cost * double(n.count) : double(traversal_cost)) * area(n) / root;
+        cost += (n.is_leaf() ? intersection_cost * double((n.count + block - 1) / block) : double(traversal_cost)) * area(n) / root;
     return cost;
 }
 
@@ -234,7 +237,7 @@ Bvh build_bvh(std::span<const Aabb> prim_bounds, const BvhBuildOptions& options)
         ++s.leaf_count;
         ++s.leaf_size_histogram[std::min<size_t>(n.count, s.leaf_size_histogram.size() - 1)];
     }
-    s.sah_cost = sah_cost(bvh, options.traversal_cost, options.intersection_cost);
+    s.sah_cost = sah_cost(bvh, options.traversal_cost, options.intersection_cost, options.leaf_block);
     s.memory_bytes = bvh.nodes.size() * sizeof(BvhNode) + bvh.prim_index.size() * sizeof(uint32_t);
     return bvh;
 }

@@ -10,7 +10,7 @@ namespace tessera {
 
 struct TraversalCounters {
     uint64_t nodes_visited = 0;
-    uint64_t prim_tests = 0;
+    uint64_t prim_tests = 0;  // leaf entries tested: a primitive, or a block of four triangles
 };
 
 // `test(prim_id, ray)` returns true on a hit and then lowers ray.tmax to the hit distance.

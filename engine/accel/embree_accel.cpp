@@ -1,11 +1,12 @@
 #include "engine/accel/embree_accel.h"
 
+#include <atomic>
 #include <chrono>
 #include <mutex>
 #include <stdexcept>
 #include <string>
 
-#include "engine/scene/render_scene.h"
+#include "engine/geometry/triangle.h"
 
 #if defined(TESSERA_HAVE_EMBREE)
 #include <embree3/rtcore.h>
@@ -15,9 +16,28 @@ namespace tessera {
 
 #if defined(TESSERA_HAVE_EMBREE)
 
+namespace {
+
+// Embree's own count of the memory it holds (its memory monitor), and a lock that keeps
+// builds and releases apart so that a build's difference is that build's memory.
+std::atomic<int64_t> g_embree_bytes{0};
+std::mutex g_embree_build;
+
+bool count_bytes(void*, ssize_t bytes, bool) {
+    g_embree_bytes += bytes;
+    return true;
+}
+
+}  // namespace
+
 struct EmbreeAccel {
     RTCScene scene = nullptr;
-    ~EmbreeAccel() { if (scene) rtcReleaseScene(scene); }
+    size_t bytes = 0;
+    ~EmbreeAccel() {
+        if (!scene) return;
+        std::lock_guard lock(g_embree_build);
+        rtcReleaseScene(scene);
+    }
 };
 
 namespace {
@@ -26,7 +46,10 @@ namespace {
 RTCDevice device() {
     static RTCDevice dev = nullptr;
     static std::once_flag once;
-    std::call_once(once, [] { dev = rtcNewDevice(nullptr); });
+    std::call_once(once, [] {
+        dev = rtcNewDevice(nullptr);
+        if (dev) rtcSetDeviceMemoryMonitorFunction(dev, count_bytes, nullptr);
+    });
     if (!dev) throw std::runtime_error("Embree: rtcNewDevice failed");
     return dev;
 }
@@ -36,9 +59,11 @@ RTCDevice device() {
 bool embree_available() { return true; }
 
 std::shared_ptr<EmbreeAccel> build_embree(const std::vector<TriangleVerts>& tris, EmbreeQuality quality, double& build_seconds) {
+    RTCDevice dev = device();
+    std::lock_guard lock(g_embree_build);
+    const int64_t before = g_embree_bytes;
     const auto t0 = std::chrono::steady_clock::now();
     auto accel = std::make_shared<EmbreeAccel>();
-    RTCDevice dev = device();
     accel->scene = rtcNewScene(dev);
     rtcSetSceneBuildQuality(accel->scene, quality == EmbreeQuality::low ? RTC_BUILD_QUALITY_LOW
                                           : quality == EmbreeQuality::high ? RTC_BUILD_QUALITY_HIGH : RTC_BUILD_QUALITY_MEDIUM);
@@ -62,8 +87,11 @@ std::shared_ptr<EmbreeAccel> build_embree(const std::vector<TriangleVerts>& tris
     rtcCommitScene(accel->scene);
     if (rtcGetDeviceError(dev) != RTC_ERROR_NONE) throw std::runtime_error("Embree: the scene build failed");
     build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    accel->bytes = size_t(std::max<int64_t>(0, g_embree_bytes - before));
     return accel;
 }
+
+size_t embree_memory_bytes(const EmbreeAccel& accel) { return accel.bytes; }
 
 bool embree_intersect(const EmbreeAccel& accel, Ray& ray, uint32_t& prim, float& b1, float& b2) {
     RTCIntersectContext ctx;
@@ -113,6 +141,7 @@ bool embree_available() { return false; }
 std::shared_ptr<EmbreeAccel> build_embree(const std::vector<TriangleVerts>&, EmbreeQuality, double&) {
     throw std::runtime_error("this build of tessera has no Embree (install libembree-dev and rebuild)");
 }
+size_t embree_memory_bytes(const EmbreeAccel&) { return 0; }
 bool embree_intersect(const EmbreeAccel&, Ray&, uint32_t&, float&, float&) { return false; }
 bool embree_occluded(const EmbreeAccel&, const Ray&) { return false; }
 

@@ -22,6 +22,10 @@ bool embree_available();
 std::shared_ptr<EmbreeAccel> build_embree(const std::vector<TriangleVerts>& tris, EmbreeQuality quality,
                                           double& build_seconds);
 
+// What Embree holds for this scene (its memory monitor's count: BVH, primitive blocks and the
+// geometry buffers it was given).
+size_t embree_memory_bytes(const EmbreeAccel& accel);
+
 // rtcIntersect1: lowers ray.tmax on a hit and returns the triangle and barycentrics of p1, p2.
 bool embree_intersect(const EmbreeAccel& accel, Ray& ray, uint32_t& prim, float& b1, float& b2);
 // rtcOccluded1.

@@ -13,6 +13,8 @@
 
 namespace tessera {
 
+struct TriangleVerts { glm::vec3 p0, p1, p2; };
+
 struct TriangleHit {
     float t;
     float b0, b1, b2;  // barycentric weights of p0, p1, p2

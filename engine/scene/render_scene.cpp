@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "engine/accel/bvh4_traverse.h"
+#include "engine/accel/triangle4_leaves.h"
 #include "engine/core/float_util.h"
 #include "engine/geometry/sphere.h"
 #include "engine/geometry/triangle.h"
@@ -113,7 +114,8 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     // Triangles, with area-weighted vertex normals where the file gave none (as CS184 does).
     size_t ntri = 0;
     for (const MeshDesc* m : meshes) ntri += m->indices.size() / 3;
-    s.triangles.reserve(ntri);
+    std::vector<TriangleVerts> triangles;
+    triangles.reserve(ntri);
     s.tri_shading.reserve(ntri);
     for (const MeshDesc* mp : meshes) {
         const MeshDesc& mesh = *mp;
@@ -157,7 +159,7 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
         }
         for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
             const uint32_t i0 = mesh.indices[i], i1 = mesh.indices[i + 1], i2 = mesh.indices[i + 2];
-            s.triangles.push_back({mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]});
+            triangles.push_back({mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]});
             s.tri_shading.push_back({base + i0, base + i1, base + i2, m, light});
         }
     }
@@ -190,20 +192,28 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
                                  std::to_string(s.delta_lights.size()) + " delta" + (s.has_sky ? ", sky" : ""));
     for (const SphereDesc& sd : desc.spheres) s.spheres.push_back({sd.center, sd.radius, mat(sd.material)});
 
-    std::vector<Aabb> bounds(s.triangles.size());
-    for (size_t i = 0; i < s.triangles.size(); ++i) { bounds[i] = triangle_bounds(s.triangles[i]); s.bounds.expand(bounds[i]); }
-    if (!s.triangles.empty() && options.bvh.type == BvhType::embree) {
-        s.embree = build_embree(s.triangles, options.embree_quality, s.embree_build_seconds);
+    std::vector<Aabb> bounds(triangles.size());
+    for (size_t i = 0; i < triangles.size(); ++i) { bounds[i] = triangle_bounds(triangles[i]); s.bounds.expand(bounds[i]); }
+    s.triangle_count = triangles.size();
+    if (!triangles.empty() && options.bvh.type == BvhType::embree) {
+        s.embree = build_embree(triangles, options.embree_quality, s.embree_build_seconds);
+        s.tri_build_seconds = s.embree_build_seconds;
+        s.tri_blocks = pack_triangle4_in_order(triangles);  // where surface_at finds Embree's hits
         s.report.built.push_back("triangle BVH (Embree " + std::string(options.embree_quality == EmbreeQuality::low ? "low"
                                  : options.embree_quality == EmbreeQuality::high ? "high" : "medium") +
-                                 " quality): " + std::to_string(s.triangles.size()) + " triangles");
-    } else if (!s.triangles.empty()) {
-        s.tri_bvh = build_bvh(bounds, options_for(s.triangles.size(), options, "triangles", s.report));
-        to_leaf_order(s.tri_bvh, s.triangles, s.tri_shading);
-        s.tri_bvh4 = collapse_to_bvh4(s.tri_bvh);
+                                 " quality): " + std::to_string(triangles.size()) + " triangles");
+    } else if (!triangles.empty()) {
+        const auto tb = std::chrono::steady_clock::now();
+        Bvh bvh = build_bvh(bounds, options_for(triangles.size(), options, "triangles", s.report));
+        to_leaf_order(bvh, triangles, s.tri_shading);
+        s.tri_bvh_stats = bvh.stats;
+        s.tri_bvh4 = collapse_to_bvh4(bvh);
+        s.tri_blocks = pack_triangle4_leaves(s.tri_bvh4, triangles);
+        s.tri_build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tb).count();
         s.report.built.push_back("triangle BVH (" + std::string(to_string(options.bvh.type)) + "): " +
-                                 std::to_string(s.triangles.size()) + " triangles, " +
-                                 std::to_string(s.tri_bvh.stats.node_count) + " binary nodes, " +
+                                 std::to_string(triangles.size()) + " triangles in " +
+                                 std::to_string(s.tri_blocks.size()) + " blocks of four, " +
+                                 std::to_string(s.tri_bvh_stats.node_count) + " binary nodes collapsed to " +
                                  std::to_string(s.tri_bvh4.nodes.size()) + " 4-wide nodes");
     } else {
         options_for(0, options, "triangles", s.report);
@@ -214,6 +224,7 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
         // Spheres always take our own path (with Embree too): a list or our BVH beside its triangles.
         RenderSceneOptions sphere_options = options;
         if (sphere_options.bvh.type == BvhType::embree) sphere_options.bvh.type = BvhType::sah;
+        sphere_options.bvh.leaf_block = 1;  // spheres are tested one at a time
         s.sphere_bvh = build_bvh(bounds, options_for(s.spheres.size(), sphere_options, "spheres", s.report));
         to_leaf_order(s.sphere_bvh, s.spheres);
         s.report.built.push_back("sphere list: " + std::to_string(s.spheres.size()) + " spheres");
@@ -247,35 +258,60 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     return s;
 }
 
+size_t RenderScene::triangle_accel_bytes() const {
+    return tri_blocks.size() * sizeof(Triangle4) + tri_bvh4.memory_bytes() + (embree ? embree_memory_bytes(*embree) : 0);
+}
+
+namespace {
+
+template <bool kAnyHit, class R, class OnHit>
+bool test_blocks(const RenderScene& scene, const Triangle4Ray& r4, uint32_t first, uint32_t count, R& ray, OnHit&& on_hit) {
+    bool found = false;
+    for (uint32_t b = first; b < first + count; ++b) {
+        const Triangle4& block = scene.tri_blocks[b];
+        Triangle4Hits h;
+        if (scene.triangle_test == TriangleTest::watertight) {
+            intersect_triangle4(ray, r4, block, h);
+        } else {
+            h.mask = 0;
+            for (int l = 0; l < 4; ++l) {
+                const TriangleVerts v = triangle4_verts(block, l);
+                TriangleHit th;
+                if (!intersect_triangle_moller_trumbore(ray, v.p0, v.p1, v.p2, th)) continue;
+                h.mask |= 1 << l;
+                h.t[l] = th.t; h.b1[l] = th.b1; h.b2[l] = th.b2;
+            }
+        }
+        if (!h.mask) continue;
+        if constexpr (kAnyHit) return true;
+        else {
+            const int l = nearest_lane(h);
+            ray.tmax = h.t[l];
+            on_hit(block.prim[l], b * 4 + uint32_t(l), h.t[l], h.b1[l], h.b2[l]);
+            found = true;
+        }
+    }
+    return found;
+}
+
+}  // namespace
+
 bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& counters) {
     bool found = false;
     if (scene.embree) {
         uint32_t prim;
         float b1, b2;
         if (embree_intersect(*scene.embree, ray, prim, b1, b2)) {
-            hit = Hit{ray.tmax, prim, b1, b2, false};
+            hit = Hit{ray.tmax, prim, b1, b2, false, prim};
             found = true;
         }
-    } else if (!scene.triangles.empty()) {
-        const TriangleVerts* tris = scene.triangles.data();
-        if (scene.triangle_test == TriangleTest::watertight) {
-            const WatertightRay w = make_watertight_ray(ray.d);
-            found = bvh4_closest_hit(scene.tri_bvh4, scene.tri_bvh.prim_index.data(), ray, [&](uint32_t i, Ray& r) {
-                TriangleHit th;
-                if (!intersect_triangle_watertight(r, w, tris[i].p0, tris[i].p1, tris[i].p2, th)) return false;
-                r.tmax = th.t;
-                hit = Hit{th.t, i, th.b1, th.b2, false};
-                return true;
-            }, counters);
-        } else {
-            found = bvh4_closest_hit(scene.tri_bvh4, scene.tri_bvh.prim_index.data(), ray, [&](uint32_t i, Ray& r) {
-                TriangleHit th;
-                if (!intersect_triangle_moller_trumbore(r, tris[i].p0, tris[i].p1, tris[i].p2, th)) return false;
-                r.tmax = th.t;
-                hit = Hit{th.t, i, th.b1, th.b2, false};
-                return true;
-            }, counters);
-        }
+    } else if (scene.triangle_count) {
+        const Triangle4Ray r4 = make_triangle4_ray(ray);
+        found = bvh4_closest_hit(scene.tri_bvh4, ray, [&](uint32_t first, uint32_t count, Ray& r) {
+            return test_blocks<false>(scene, r4, first, count, r, [&](uint32_t prim, uint32_t slot, float t, float b1, float b2) {
+                hit = Hit{t, prim, b1, b2, false, slot};
+            });
+        }, counters);
     }
     if (!scene.spheres.empty()) {
         const Sphere* sph = scene.spheres.data();
@@ -283,7 +319,7 @@ bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& 
             float t;
             if (!intersect_sphere(r, sph[i].center, sph[i].radius, t)) return false;
             r.tmax = t;
-            hit = Hit{t, i, 0.f, 0.f, true};
+            hit = Hit{t, i, 0.f, 0.f, true, 0};
             return true;
         }, counters);
     }
@@ -301,20 +337,11 @@ bool occluded(const RenderScene& scene, const Ray& ray, TraversalCounters& count
             }, counters))
             return true;
     }
-    if (scene.triangles.empty()) return false;
+    if (!scene.triangle_count) return false;
     if (scene.embree) return embree_occluded(*scene.embree, ray);
-    const TriangleVerts* tris = scene.triangles.data();
-    const uint32_t* prims = scene.tri_bvh.prim_index.data();
-    if (scene.triangle_test == TriangleTest::watertight) {
-        const WatertightRay w = make_watertight_ray(ray.d);
-        return bvh4_any_hit(scene.tri_bvh4, prims, ray, [&](uint32_t i, const Ray& r) {
-            TriangleHit th;
-            return intersect_triangle_watertight(r, w, tris[i].p0, tris[i].p1, tris[i].p2, th);
-        }, counters);
-    }
-    return bvh4_any_hit(scene.tri_bvh4, prims, ray, [&](uint32_t i, const Ray& r) {
-        TriangleHit th;
-        return intersect_triangle_moller_trumbore(r, tris[i].p0, tris[i].p1, tris[i].p2, th);
+    const Triangle4Ray r4 = make_triangle4_ray(ray);
+    return bvh4_any_hit(scene.tri_bvh4, ray, [&](uint32_t first, uint32_t count, const Ray& r) {
+        return test_blocks<true>(scene, r4, first, count, r, [](uint32_t, uint32_t, float, float, float) {});
     }, counters);
 }
 
@@ -334,7 +361,7 @@ SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hi
         si.material = s.material;
         return si;
     }
-    const TriangleVerts& t = scene.triangles[hit.prim];
+    const TriangleVerts t = triangle4_verts(scene.tri_blocks[hit.slot / 4], int(hit.slot % 4));
     const TriangleShading& sh = scene.tri_shading[hit.prim];
     const float b0 = 1.f - hit.b1 - hit.b2;
     // Relative to p0: edges of nearby vertices subtract exactly, so far from the origin p is

@@ -12,6 +12,7 @@
 #include "engine/accel/embree_accel.h"
 #include "engine/camera/camera.h"
 #include "engine/geometry/ray.h"
+#include "engine/geometry/triangle4.h"
 #include "engine/scene/scene_description.h"
 
 namespace tessera {
@@ -26,7 +27,6 @@ struct Material {
     bool emissive() const { return emission.x > 0.f || emission.y > 0.f || emission.z > 0.f; }
 };
 
-struct TriangleVerts { glm::vec3 p0, p1, p2; };
 inline constexpr uint32_t kNoLight = ~0u;
 struct TriangleShading { uint32_t n0, n1, n2; uint32_t material; uint32_t light = kNoLight; };
 struct Sphere { glm::vec3 center; float radius; uint32_t material; };
@@ -74,13 +74,17 @@ struct RenderSceneOptions {
 };
 
 struct RenderScene {
-    std::vector<TriangleVerts> triangles;       // BVH leaf order
-    std::vector<TriangleShading> tri_shading;   // same order
+    // Triangles as traversal reads them: four to a block, blocks in BVH leaf order. The binary
+    // tree they were built with is not kept (its statistics are).
+    std::vector<Triangle4> tri_blocks;
+    size_t triangle_count = 0;
+    std::vector<TriangleShading> tri_shading;   // indexed by Triangle4::prim
     std::vector<glm::vec3> normals;             // shared vertex normals
-    Bvh tri_bvh;                                // as built (statistics, and the tree for `none`)
-    Bvh4 tri_bvh4;                              // the same tree collapsed 4-wide: what traversal uses
+    BvhBuildStats tri_bvh_stats;                // the binary tree as built
+    Bvh4 tri_bvh4;                              // that tree collapsed 4-wide; leaves name blocks
+    double tri_build_seconds = 0;               // build, collapse and packing (or Embree's build)
     std::shared_ptr<EmbreeAccel> embree;        // instead of ours, with bvh "embree"
-    double embree_build_seconds = 0;
+    double embree_build_seconds = 0;            // Embree's alone (also in tri_build_seconds)
     std::vector<Sphere> spheres;                // BVH leaf order
     Bvh sphere_bvh;
     std::vector<Material> materials;            // last entry: the default grey
@@ -94,6 +98,8 @@ struct RenderScene {
     Aabb bounds;
     TriangleTest triangle_test = TriangleTest::watertight;
     BuildReport report;
+    // Bytes of what intersecting triangles reads: the blocks and the tree (ours or Embree's).
+    size_t triangle_accel_bytes() const;
 };
 
 RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOptions& options);
@@ -101,9 +107,10 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
 // Closest hit, as found by traversal; the surface details are computed only for the final hit.
 struct Hit {
     float t = INFINITY;
-    uint32_t prim = 0;
+    uint32_t prim = 0;         // triangle (index of tri_shading) or sphere
     float b1 = 0.f, b2 = 0.f;  // barycentrics of p1, p2 (triangles)
     bool sphere = false;
+    uint32_t slot = 0;         // triangles: 4 × block + lane, where the vertices are
 };
 
 struct SurfaceInteraction {

@@ -10,8 +10,9 @@
 namespace tessera {
 namespace {
 
-// The collapsed tree covers every primitive exactly once, inside its parent's boxes, and is
-// about half as deep. (Hit-for-hit equality with brute force is in bvh_test.cpp, since
+// The collapsed tree covers every triangle exactly once (in the blocks its leaves name; a
+// block's padding lanes repeat a triangle of the same block), inside its parent's boxes, and
+// is about half as deep. (Hit-for-hit equality with brute force is in bvh_test.cpp, since
 // intersect() traverses this tree.)
 TEST(Bvh4, CollapseKeepsEveryPrimitiveOnce) {
     for (BvhType t : {BvhType::midpoint, BvhType::median, BvhType::sah}) {
@@ -20,7 +21,7 @@ TEST(Bvh4, CollapseKeepsEveryPrimitiveOnce) {
         const RenderScene s = build_render_scene(displaced_sphere(20000), o);
         const Bvh4& b = s.tri_bvh4;
         ASSERT_FALSE(b.nodes.empty());
-        std::vector<int> seen(s.triangles.size(), 0);
+        std::vector<int> seen(s.triangle_count, 0);
         struct Item { uint32_t node; int depth; };
         std::vector<Item> todo = {{0, 1}};
         int depth = 0;
@@ -32,14 +33,18 @@ TEST(Bvh4, CollapseKeepsEveryPrimitiveOnce) {
             for (int c = 0; c < 4; ++c) {
                 if (n.bounds[0][c] > n.bounds[3][c]) continue;  // empty slot
                 if (n.count[c]) {
-                    for (uint32_t i = n.child[c]; i < n.child[c] + n.count[c]; ++i) {
-                        const TriangleVerts& tv = s.triangles[s.tri_bvh.prim_index[i]];
-                        for (const glm::vec3& p : {tv.p0, tv.p1, tv.p2})
-                            for (int a = 0; a < 3; ++a) {
-                                EXPECT_GE(p[a], n.bounds[a][c]);
-                                EXPECT_LE(p[a], n.bounds[a + 3][c]);
-                            }
-                        ++seen[s.tri_bvh.prim_index[i]];
+                    for (uint32_t b = n.child[c]; b < n.child[c] + n.count[c]; ++b) {
+                        const Triangle4& block = s.tri_blocks[b];
+                        for (int l = 0; l < 4; ++l) {
+                            const TriangleVerts tv = triangle4_verts(block, l);
+                            for (const glm::vec3& p : {tv.p0, tv.p1, tv.p2})
+                                for (int a = 0; a < 3; ++a) {
+                                    EXPECT_GE(p[a], n.bounds[a][c]);
+                                    EXPECT_LE(p[a], n.bounds[a + 3][c]);
+                                }
+                            const bool repeat = l > 0 && block.prim[l] == block.prim[l - 1];
+                            if (!repeat) ++seen[block.prim[l]];
+                        }
                     }
                 } else {
                     todo.push_back({n.child[c], it.depth + 1});
@@ -47,7 +52,7 @@ TEST(Bvh4, CollapseKeepsEveryPrimitiveOnce) {
             }
         }
         for (int v : seen) ASSERT_EQ(v, 1);
-        EXPECT_LE(depth, s.tri_bvh.stats.depth / 2 + 2) << to_string(t);
+        EXPECT_LE(depth, s.tri_bvh_stats.depth / 2 + 2) << to_string(t);
     }
 }
 
@@ -56,7 +61,8 @@ TEST(Bvh4, SingleLeafTreeIsKeptAsOneLeaf) {
     o.bvh.type = BvhType::none;
     const RenderScene s = build_render_scene(displaced_sphere(200), o);
     EXPECT_TRUE(s.tri_bvh4.nodes.empty());
-    EXPECT_EQ(s.tri_bvh4.root_leaf_count, s.triangles.size());
+    EXPECT_EQ(s.tri_bvh4.root_leaf_count, s.tri_blocks.size()) << "the one leaf names every block";
+    EXPECT_EQ(s.tri_blocks.size(), (s.triangle_count + 3) / 4);
 }
 
 }  // namespace

@@ -56,7 +56,8 @@ TEST(LightSampler, PdfIntegratesToOne) {
         const float r = std::sqrt(std::max(0.f, 1.f - z * z));
         const glm::vec3 w(r * std::cos(phi), z, r * std::sin(phi));
         double v = 0;
-        for (const TriangleVerts& t : s.triangles) {
+        for (uint32_t slot = 0; slot < 4 * s.tri_blocks.size(); ++slot) {
+            const TriangleVerts t = triangle4_verts(s.tri_blocks[slot / 4], int(slot % 4));
             TriangleHit h;
             const Ray ray{glm::vec3(0.f), 0.f, w, INFINITY};
             if (intersect_triangle_watertight(ray, make_watertight_ray(w), t.p0, t.p1, t.p2, h)) {

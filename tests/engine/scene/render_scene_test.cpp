@@ -23,8 +23,9 @@ TEST(RenderScene, LeavesOutPrimitiveKindsTheSceneLacks) {
     SceneDescription only_spheres;
     only_spheres.spheres.push_back({glm::vec3(0.f), 1.f, -1, {}});
     const RenderScene s = build_render_scene(only_spheres, {});
-    EXPECT_TRUE(s.tri_bvh.empty());
+    EXPECT_EQ(s.tri_bvh_stats.node_count, 0u);
     EXPECT_TRUE(s.tri_bvh4.empty());
+    EXPECT_TRUE(s.tri_blocks.empty());
     EXPECT_TRUE(mentions(s.report.left_out, "triangles: none"));
 }
 
@@ -37,12 +38,12 @@ TEST(RenderScene, NoBvhOverALonePrimitive) {
     m.indices = {0, 1, 2};
     d.meshes.push_back(m);
     const RenderScene s = build_render_scene(d, {});
-    EXPECT_EQ(s.tri_bvh.nodes.size(), 1u);
+    EXPECT_EQ(s.tri_bvh_stats.node_count, 1u);
     EXPECT_TRUE(s.tri_bvh4.nodes.empty());
     EXPECT_EQ(s.tri_bvh4.root_leaf_count, 1u);
     EXPECT_TRUE(mentions(s.report.left_out, "tested directly"));
     const RenderScene box = build_render_scene(cornell_box(), {});
-    EXPECT_GT(box.tri_bvh.nodes.size(), 1u);
+    EXPECT_GT(box.tri_bvh_stats.node_count, 1u);
 }
 
 // No emitters: no light structures, no shadow rays, and a warning.
