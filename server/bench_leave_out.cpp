@@ -11,7 +11,7 @@ namespace tessera::cli {
 
 int bench_leave_out(int, char**) {
     // 1. A BVH over a handful of primitives against testing them all (camera + shadow rays).
-    std::printf("Small scenes: triangle BVH (SAH, 4-wide) against one leaf tested directly; CBspheres-like box, "
+    std::printf("Small scenes: triangle BVH (SAH, wide) against one leaf tested directly; CBspheres-like box, "
                 "320×240, 16 spp, depth 2, 1 thread\n\n| triangles | BVH (s) | one leaf (s) | one leaf / BVH |\n|---:|---:|---:|---:|\n");
     for (size_t keep : {1, 2, 4, 6}) {
         SceneDescription d = cornell_spheres();

@@ -163,7 +163,7 @@ int bench_rays(int argc, char** argv) {
             }
         }
     }
-    std::printf("\n## Throughput on the same rays (Mrays/s)\n\n| scene | rays | count | threads | ours (SAH, 4-wide) | Embree (medium) | ours / Embree | hits |\n|---|---|---:|---:|---:|---:|---:|---|\n");
+    std::printf("\n## Throughput on the same rays (Mrays/s)\n\n| scene | rays | count | threads | ours (SAH, %d-wide) | Embree (medium) | ours / Embree | hits |\n|---|---|---:|---:|---:|---:|---:|---|\n", kBvhWidth);
     for (const auto& r : throughput_rows) std::fputs(r.c_str(), stdout);
     return 0;
 }

@@ -23,7 +23,7 @@ uint32_t append_blocks(std::vector<Triangle4>& out, const std::vector<TriangleVe
 
 }  // namespace
 
-std::vector<Triangle4> pack_triangle4_leaves(Bvh4& bvh, const std::vector<TriangleVerts>& tris) {
+std::vector<Triangle4> pack_triangle4_leaves(WideBvh& bvh, const std::vector<TriangleVerts>& tris) {
     std::vector<Triangle4> out;
     out.reserve(tris.size() / 3 + 1);
     if (bvh.root_leaf_count) {
@@ -32,8 +32,8 @@ std::vector<Triangle4> pack_triangle4_leaves(Bvh4& bvh, const std::vector<Triang
         return out;
     }
     // Depth-first, in node order, so that a subtree's blocks are near each other in memory.
-    for (Bvh4Node& n : bvh.nodes)
-        for (int c = 0; c < 4; ++c) {
+    for (WideNode& n : bvh.nodes)
+        for (int c = 0; c < kBvhWidth; ++c) {
             if (n.count[c] == 0) continue;
             const uint32_t count = n.count[c];
             n.child[c] = append_blocks(out, tris, n.child[c], count);

@@ -2,7 +2,7 @@
 // Triangles packed four to a block for the 4-wide test, in the order of a BVH4's leaves.
 #include <vector>
 
-#include "engine/accel/bvh4.h"
+#include "engine/accel/wide_bvh.h"
 #include "engine/geometry/triangle4.h"
 
 namespace tessera {
@@ -11,7 +11,7 @@ namespace tessera {
 // becomes ceil(count / 4) consecutive blocks, and its entry in the tree is rewritten to
 // name those blocks (child: first block, count: number of blocks). Lane ids are indices
 // into `tris`.
-std::vector<Triangle4> pack_triangle4_leaves(Bvh4& bvh, const std::vector<TriangleVerts>& tris);
+std::vector<Triangle4> pack_triangle4_leaves(WideBvh& bvh, const std::vector<TriangleVerts>& tris);
 
 // Blocks in plain order, triangle i in block i / 4, lane i % 4 (for Embree's scenes, whose
 // hits name triangles by input index).

@@ -3,7 +3,7 @@
 #include <chrono>
 #include <cmath>
 
-#include "engine/accel/bvh4_traverse.h"
+#include "engine/accel/wide_bvh_traverse.h"
 #include "engine/accel/triangle4_leaves.h"
 #include "engine/core/float_util.h"
 #include "engine/geometry/sphere.h"
@@ -207,14 +207,14 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
         Bvh bvh = build_bvh(bounds, options_for(triangles.size(), options, "triangles", s.report));
         to_leaf_order(bvh, triangles, s.tri_shading);
         s.tri_bvh_stats = bvh.stats;
-        s.tri_bvh4 = collapse_to_bvh4(bvh);
-        s.tri_blocks = pack_triangle4_leaves(s.tri_bvh4, triangles);
+        s.tri_wide = collapse_to_wide(bvh);
+        s.tri_blocks = pack_triangle4_leaves(s.tri_wide, triangles);
         s.tri_build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tb).count();
         s.report.built.push_back("triangle BVH (" + std::string(to_string(options.bvh.type)) + "): " +
                                  std::to_string(triangles.size()) + " triangles in " +
                                  std::to_string(s.tri_blocks.size()) + " blocks of four, " +
                                  std::to_string(s.tri_bvh_stats.node_count) + " binary nodes collapsed to " +
-                                 std::to_string(s.tri_bvh4.nodes.size()) + " 4-wide nodes");
+                                 std::to_string(s.tri_wide.nodes.size()) + " " + std::to_string(kBvhWidth) + "-wide nodes");
     } else {
         options_for(0, options, "triangles", s.report);
     }
@@ -259,7 +259,7 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
 }
 
 size_t RenderScene::triangle_accel_bytes() const {
-    return tri_blocks.size() * sizeof(Triangle4) + tri_bvh4.memory_bytes() + (embree ? embree_memory_bytes(*embree) : 0);
+    return tri_blocks.size() * sizeof(Triangle4) + tri_wide.memory_bytes() + (embree ? embree_memory_bytes(*embree) : 0);
 }
 
 namespace {
@@ -307,7 +307,7 @@ bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& 
         }
     } else if (scene.triangle_count) {
         const Triangle4Ray r4 = make_triangle4_ray(ray);
-        found = bvh4_closest_hit(scene.tri_bvh4, ray, [&](uint32_t first, uint32_t count, Ray& r) {
+        found = wide_closest_hit(scene.tri_wide, ray, [&](uint32_t first, uint32_t count, Ray& r) {
             return test_blocks<false>(scene, r4, first, count, r, [&](uint32_t prim, uint32_t slot, float t, float b1, float b2) {
                 hit = Hit{t, prim, b1, b2, false, slot};
             });
@@ -340,7 +340,7 @@ bool occluded(const RenderScene& scene, const Ray& ray, TraversalCounters& count
     if (!scene.triangle_count) return false;
     if (scene.embree) return embree_occluded(*scene.embree, ray);
     const Triangle4Ray r4 = make_triangle4_ray(ray);
-    return bvh4_any_hit(scene.tri_bvh4, ray, [&](uint32_t first, uint32_t count, const Ray& r) {
+    return wide_any_hit(scene.tri_wide, ray, [&](uint32_t first, uint32_t count, const Ray& r) {
         return test_blocks<true>(scene, r4, first, count, r, [](uint32_t, uint32_t, float, float, float) {});
     }, counters);
 }

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "engine/accel/bvh.h"
-#include "engine/accel/bvh4.h"
+#include "engine/accel/wide_bvh.h"
 #include "engine/accel/bvh_traverse.h"
 #include "engine/accel/embree_accel.h"
 #include "engine/camera/camera.h"
@@ -67,7 +67,7 @@ struct RenderSceneOptions {
     BvhBuildOptions bvh;
     TriangleTest triangle_test = TriangleTest::watertight;
     // Below this many primitives one leaf holds them all. Measured (`tessera bench leave-out`):
-    // the 4-wide BVH is faster than testing every triangle even at 4 triangles (its root box
+    // the wide BVH is faster than testing every triangle even at 4 triangles (its root box
     // rejects missing rays), so only a lone primitive goes without one.
     size_t min_prims_for_bvh = 2;
     EmbreeQuality embree_quality = EmbreeQuality::medium;  // with bvh.type == embree
@@ -81,7 +81,7 @@ struct RenderScene {
     std::vector<TriangleShading> tri_shading;   // indexed by Triangle4::prim
     std::vector<glm::vec3> normals;             // shared vertex normals
     BvhBuildStats tri_bvh_stats;                // the binary tree as built
-    Bvh4 tri_bvh4;                              // that tree collapsed 4-wide; leaves name blocks
+    WideBvh tri_wide;                           // that tree collapsed kBvhWidth-wide; leaves name blocks
     double tri_build_seconds = 0;               // build, collapse and packing (or Embree's build)
     std::shared_ptr<EmbreeAccel> embree;        // instead of ours, with bvh "embree"
     double embree_build_seconds = 0;            // Embree's alone (also in tri_build_seconds)

@@ -24,7 +24,7 @@ TEST(RenderScene, LeavesOutPrimitiveKindsTheSceneLacks) {
     only_spheres.spheres.push_back({glm::vec3(0.f), 1.f, -1, {}});
     const RenderScene s = build_render_scene(only_spheres, {});
     EXPECT_EQ(s.tri_bvh_stats.node_count, 0u);
-    EXPECT_TRUE(s.tri_bvh4.empty());
+    EXPECT_TRUE(s.tri_wide.empty());
     EXPECT_TRUE(s.tri_blocks.empty());
     EXPECT_TRUE(mentions(s.report.left_out, "triangles: none"));
 }
@@ -39,8 +39,8 @@ TEST(RenderScene, NoBvhOverALonePrimitive) {
     d.meshes.push_back(m);
     const RenderScene s = build_render_scene(d, {});
     EXPECT_EQ(s.tri_bvh_stats.node_count, 1u);
-    EXPECT_TRUE(s.tri_bvh4.nodes.empty());
-    EXPECT_EQ(s.tri_bvh4.root_leaf_count, 1u);
+    EXPECT_TRUE(s.tri_wide.nodes.empty());
+    EXPECT_EQ(s.tri_wide.root_leaf_count, 1u);
     EXPECT_TRUE(mentions(s.report.left_out, "tested directly"));
     const RenderScene box = build_render_scene(cornell_box(), {});
     EXPECT_GT(box.tri_bvh_stats.node_count, 1u);

@@ -1,4 +1,4 @@
-#include "engine/accel/bvh4.h"
+#include "engine/accel/wide_bvh.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,13 +8,13 @@ namespace {
 
 float area(const BvhNode& n) { return Aabb{n.lo, n.hi}.surface_area(); }
 
-uint32_t collapse(const Bvh& bvh, uint32_t binary, Bvh4& out) {
+uint32_t collapse(const Bvh& bvh, uint32_t binary, WideBvh& out) {
     const uint32_t index = uint32_t(out.nodes.size());
     out.nodes.emplace_back();
-    // Gather up to four binary subtrees under this node.
-    uint32_t kids[4] = {binary + 1, bvh.nodes[binary].offset, 0, 0};
+    // Gather up to kBvhWidth binary subtrees under this node.
+    uint32_t kids[kBvhWidth] = {binary + 1, bvh.nodes[binary].offset};
     int n = 2;
-    while (n < 4) {
+    while (n < kBvhWidth) {
         int best = -1;
         float best_area = -1.f;
         for (int i = 0; i < n; ++i) {
@@ -26,10 +26,10 @@ uint32_t collapse(const Bvh& bvh, uint32_t binary, Bvh4& out) {
         kids[best] = open + 1;
         kids[n++] = bvh.nodes[open].offset;
     }
-    Bvh4Node node;
+    WideNode node;
     for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 4; ++c) { node.bounds[r][c] = INFINITY; node.bounds[r + 3][c] = -INFINITY; }
-    for (int c = 0; c < 4; ++c) { node.child[c] = 0; node.count[c] = 0; }
+        for (int c = 0; c < kBvhWidth; ++c) { node.bounds[r][c] = INFINITY; node.bounds[r + 3][c] = -INFINITY; }
+    for (int c = 0; c < kBvhWidth; ++c) { node.child[c] = 0; node.count[c] = 0; }
     for (int c = 0; c < n; ++c) {
         const BvhNode& k = bvh.nodes[kids[c]];
         for (int a = 0; a < 3; ++a) { node.bounds[a][c] = k.lo[a]; node.bounds[a + 3][c] = k.hi[a]; }
@@ -45,14 +45,14 @@ uint32_t collapse(const Bvh& bvh, uint32_t binary, Bvh4& out) {
 
 }  // namespace
 
-Bvh4 collapse_to_bvh4(const Bvh& bvh) {
-    Bvh4 out;
+WideBvh collapse_to_wide(const Bvh& bvh) {
+    WideBvh out;
     if (bvh.nodes.empty()) return out;
     if (bvh.nodes[0].is_leaf()) {
         out.root_leaf_count = bvh.nodes[0].count;
         return out;
     }
-    out.nodes.reserve(bvh.nodes.size() / 2 + 1);
+    out.nodes.reserve(bvh.nodes.size() / (kBvhWidth - 1) + 1);
     collapse(bvh, 0, out);
     return out;
 }

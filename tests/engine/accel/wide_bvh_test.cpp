@@ -1,4 +1,4 @@
-#include "engine/accel/bvh4.h"
+#include "engine/accel/wide_bvh.h"
 
 #include <gtest/gtest.h>
 
@@ -14,12 +14,12 @@ namespace {
 // block's padding lanes repeat a triangle of the same block), inside its parent's boxes, and
 // is about half as deep. (Hit-for-hit equality with brute force is in bvh_test.cpp, since
 // intersect() traverses this tree.)
-TEST(Bvh4, CollapseKeepsEveryPrimitiveOnce) {
+TEST(WideBvh, CollapseKeepsEveryPrimitiveOnce) {
     for (BvhType t : {BvhType::midpoint, BvhType::median, BvhType::sah}) {
         RenderSceneOptions o;
         o.bvh.type = t;
         const RenderScene s = build_render_scene(displaced_sphere(20000), o);
-        const Bvh4& b = s.tri_bvh4;
+        const WideBvh& b = s.tri_wide;
         ASSERT_FALSE(b.nodes.empty());
         std::vector<int> seen(s.triangle_count, 0);
         struct Item { uint32_t node; int depth; };
@@ -29,8 +29,8 @@ TEST(Bvh4, CollapseKeepsEveryPrimitiveOnce) {
             const Item it = todo.back();
             todo.pop_back();
             depth = std::max(depth, it.depth);
-            const Bvh4Node& n = b.nodes[it.node];
-            for (int c = 0; c < 4; ++c) {
+            const WideNode& n = b.nodes[it.node];
+            for (int c = 0; c < kBvhWidth; ++c) {
                 if (n.bounds[0][c] > n.bounds[3][c]) continue;  // empty slot
                 if (n.count[c]) {
                     for (uint32_t b = n.child[c]; b < n.child[c] + n.count[c]; ++b) {
@@ -56,12 +56,12 @@ TEST(Bvh4, CollapseKeepsEveryPrimitiveOnce) {
     }
 }
 
-TEST(Bvh4, SingleLeafTreeIsKeptAsOneLeaf) {
+TEST(WideBvh, SingleLeafTreeIsKeptAsOneLeaf) {
     RenderSceneOptions o;
     o.bvh.type = BvhType::none;
     const RenderScene s = build_render_scene(displaced_sphere(200), o);
-    EXPECT_TRUE(s.tri_bvh4.nodes.empty());
-    EXPECT_EQ(s.tri_bvh4.root_leaf_count, s.tri_blocks.size()) << "the one leaf names every block";
+    EXPECT_TRUE(s.tri_wide.nodes.empty());
+    EXPECT_EQ(s.tri_wide.root_leaf_count, s.tri_blocks.size()) << "the one leaf names every block";
     EXPECT_EQ(s.tri_blocks.size(), (s.triangle_count + 3) / 4);
 }
 

@@ -1,0 +1,45 @@
+#pragma once
+// A wide BVH collapsed from the binary one (the builders stay binary; this is a layout for
+// traversal): each node holds its children's boxes as structure-of-arrays, so one SIMD slab
+// test checks all of them, and the tree is a fraction as deep. Eight children with AVX (one
+// 8-lane test), four otherwise (SSE or scalar). (Wald et al., "Getting rid of packets", 2008;
+// Embree's BVH4 and BVH8.)
+#include <cstdint>
+#include <vector>
+
+#include "engine/accel/bvh.h"
+
+namespace tessera {
+
+#if defined(TESSERA_BVH_WIDTH)
+inline constexpr int kBvhWidth = TESSERA_BVH_WIDTH;
+#elif defined(__AVX__)
+inline constexpr int kBvhWidth = 8;
+#else
+inline constexpr int kBvhWidth = 4;
+#endif
+static_assert(kBvhWidth == 4 || kBvhWidth == 8);
+
+struct alignas(64) WideNode {
+    // Rows: lo.x, lo.y, lo.z, hi.x, hi.y, hi.z; columns: the children. Empty slots have
+    // lo = +∞ and hi = −∞, which no ray can enter.
+    float bounds[6][kBvhWidth];
+    uint32_t child[kBvhWidth];  // inner: node index; leaf: what the leaf names (first entry)
+    uint32_t count[kBvhWidth];  // 0: inner child (or empty slot); n > 0: a leaf of n entries
+};
+static_assert(sizeof(WideNode) == 32 * kBvhWidth, "whole cache lines per node");
+
+struct WideBvh {
+    std::vector<WideNode> nodes;  // nodes[0] is the root
+    // A tree that is one leaf (fewer primitives than a split is worth) keeps it here.
+    uint32_t root_leaf_count = 0;
+    bool empty() const { return nodes.empty() && root_leaf_count == 0; }
+    size_t memory_bytes() const { return nodes.size() * sizeof(WideNode); }
+};
+
+// Collapses a binary BVH (whose prim_index order is kept: a leaf names prim_index[child,
+// child + count)). Each wide node absorbs the largest-area inner children of its binary node
+// until it has kBvhWidth children.
+WideBvh collapse_to_wide(const Bvh& bvh);
+
+}  // namespace tessera

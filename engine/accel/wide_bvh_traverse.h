@@ -1,0 +1,271 @@
+#pragma once
+// Traversal of the wide BVH: one slab test for all of a node's boxes (AVX for eight, SSE for
+// four, a scalar fallback), then only the hit children are looked at, by bit scan over the
+// hit mask: one hit is visited next without touching the stack, two are ordered with one
+// comparison, more are sorted on the stack. Subtrees beyond the closest hit are skipped on
+// pop. The slab arithmetic is intersect_aabb's, lane by lane, including its NaN rule.
+// (The control flow follows Embree's single-ray traverser.)
+#include <bit>
+#include <cstdint>
+
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
+#include "engine/accel/bvh_traverse.h"
+#include "engine/accel/wide_bvh.h"
+
+namespace tessera {
+
+namespace wide_detail {
+
+constexpr int W = kBvhWidth;
+
+#if defined(__AVX__) && !defined(TESSERA_BVH_WIDTH_SCALAR)
+#define TESSERA_WIDE_SIMD 1
+#if defined(TESSERA_BVH_WIDTH) && TESSERA_BVH_WIDTH == 4
+using Vec = __m128;
+inline Vec set1(float v) { return _mm_set1_ps(v); }
+inline Vec load(const float* p) { return _mm_load_ps(p); }
+inline Vec sub(Vec a, Vec b) { return _mm_sub_ps(a, b); }
+inline Vec mul(Vec a, Vec b) { return _mm_mul_ps(a, b); }
+inline Vec vmax(Vec a, Vec b) { return _mm_max_ps(a, b); }
+inline Vec vmin(Vec a, Vec b) { return _mm_min_ps(a, b); }
+inline unsigned le_mask(Vec a, Vec b) { return unsigned(_mm_movemask_ps(_mm_cmple_ps(a, b))); }
+inline void store(float* p, Vec v) { _mm_store_ps(p, v); }
+#else
+using Vec = __m256;
+inline Vec set1(float v) { return _mm256_set1_ps(v); }
+inline Vec load(const float* p) { return _mm256_load_ps(p); }
+inline Vec sub(Vec a, Vec b) { return _mm256_sub_ps(a, b); }
+inline Vec mul(Vec a, Vec b) { return _mm256_mul_ps(a, b); }
+inline Vec vmax(Vec a, Vec b) { return _mm256_max_ps(a, b); }
+inline Vec vmin(Vec a, Vec b) { return _mm256_min_ps(a, b); }
+// Ordered compare: false when either side is NaN, as cmpleps.
+inline unsigned le_mask(Vec a, Vec b) { return unsigned(_mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OQ))); }
+inline void store(float* p, Vec v) { _mm256_store_ps(p, v); }
+#endif
+#elif defined(__SSE2__) && !defined(TESSERA_BVH_WIDTH_SCALAR)
+static_assert(kBvhWidth == 4, "eight-wide nodes need AVX");
+#define TESSERA_WIDE_SIMD 1
+using Vec = __m128;
+inline Vec set1(float v) { return _mm_set1_ps(v); }
+inline Vec load(const float* p) { return _mm_load_ps(p); }
+inline Vec sub(Vec a, Vec b) { return _mm_sub_ps(a, b); }
+inline Vec mul(Vec a, Vec b) { return _mm_mul_ps(a, b); }
+inline Vec vmax(Vec a, Vec b) { return _mm_max_ps(a, b); }
+inline Vec vmin(Vec a, Vec b) { return _mm_min_ps(a, b); }
+inline unsigned le_mask(Vec a, Vec b) { return unsigned(_mm_movemask_ps(_mm_cmple_ps(a, b))); }
+inline void store(float* p, Vec v) { _mm_store_ps(p, v); }
+#endif
+
+// The ray as the slab test wants it: origin and reciprocal direction broadcast, and which row
+// of a node is the near and which the far plane on each axis.
+struct WideRay {
+    int near_row[3], far_row[3];
+#if defined(TESSERA_WIDE_SIMD)
+    Vec o[3], inv[3];
+#else
+    RayInv ri;
+#endif
+};
+
+inline WideRay make_wide_ray(const Ray& ray) {
+    WideRay r;
+#if defined(TESSERA_WIDE_SIMD)
+    // Built in registers (as make_ray_inv computes it): going through a stored RayInv caused
+    // store-forwarding stalls in the profile.
+    const __m128 dv = _mm_set_ps(1.f, ray.d.z, ray.d.y, ray.d.x);
+    const __m128 zero = _mm_cmpeq_ps(dv, _mm_setzero_ps());
+    const __m128 inv = _mm_or_ps(_mm_and_ps(zero, _mm_set1_ps(INFINITY)), _mm_andnot_ps(zero, _mm_div_ps(_mm_set1_ps(1.f), dv)));
+    const int neg = _mm_movemask_ps(inv);  // sign bits: +∞ for zero components counts as positive
+    r.inv[0] = set1(_mm_cvtss_f32(inv));
+    r.inv[1] = set1(_mm_cvtss_f32(_mm_shuffle_ps(inv, inv, _MM_SHUFFLE(1, 1, 1, 1))));
+    r.inv[2] = set1(_mm_cvtss_f32(_mm_shuffle_ps(inv, inv, _MM_SHUFFLE(2, 2, 2, 2))));
+    r.o[0] = set1(ray.o.x);
+    r.o[1] = set1(ray.o.y);
+    r.o[2] = set1(ray.o.z);
+#else
+    r.ri = make_ray_inv(ray.o, ray.d);
+    const int neg = int(r.ri.near_x) | int(r.ri.near_y) << 1 | int(r.ri.near_z) << 2;
+#endif
+    for (int a = 0; a < 3; ++a) {
+        const bool n = neg & (1 << a);
+        r.near_row[a] = n ? a + 3 : a;
+        r.far_row[a] = n ? a : a + 3;
+    }
+    return r;
+}
+
+// Bit c of the result: the ray enters child c within [tmin, tmax]; enter[c] its entry distance.
+inline unsigned slab(const WideNode& n, const WideRay& r, float tmin, float tmax, float* enter_out) {
+    constexpr float widen = 1.f + 2.f * gamma(3);
+#if defined(TESSERA_WIDE_SIMD)
+    const Vec nx = mul(sub(load(n.bounds[r.near_row[0]]), r.o[0]), r.inv[0]);
+    const Vec ny = mul(sub(load(n.bounds[r.near_row[1]]), r.o[1]), r.inv[1]);
+    const Vec nz = mul(sub(load(n.bounds[r.near_row[2]]), r.o[2]), r.inv[2]);
+    const Vec fx = mul(sub(load(n.bounds[r.far_row[0]]), r.o[0]), r.inv[0]);
+    const Vec fy = mul(sub(load(n.bounds[r.far_row[1]]), r.o[1]), r.inv[1]);
+    const Vec fz = mul(sub(load(n.bounds[r.far_row[2]]), r.o[2]), r.inv[2]);
+    // max/min return the second operand when either is NaN: the running value comes second,
+    // so a NaN slab distance is ignored, as in max_nan_loses.
+    Vec enter = vmax(nx, set1(tmin));
+    enter = vmax(ny, enter);
+    enter = vmax(nz, enter);
+    Vec leave = vmin(fx, set1(tmax));
+    leave = vmin(fy, leave);
+    leave = vmin(fz, leave);
+    store(enter_out, enter);
+    return le_mask(enter, mul(leave, set1(widen)));
+#else
+    unsigned mask = 0;
+    for (int c = 0; c < W; ++c) {
+        float enter = tmin, leave = tmax;
+        for (int a = 0; a < 3; ++a) {
+            const float o = r.ri.o[a], inv = r.ri.inv_d[a];
+            enter = max_nan_loses((n.bounds[r.near_row[a]][c] - o) * inv, enter);
+            leave = min_nan_loses((n.bounds[r.far_row[a]][c] - o) * inv, leave);
+        }
+        enter_out[c] = enter;
+        if (enter <= leave * widen) mask |= 1u << c;
+    }
+    return mask;
+#endif
+}
+
+struct alignas(16) Entry {
+    uint32_t child;
+    uint32_t count;  // 0: inner node
+    float t;
+    uint32_t pad;    // 16 bytes: one move per push and pop
+};
+
+// Each level pushes at most W - 1 entries.
+inline constexpr int kStack = (W - 1) * kMaxBvhDepth + W;
+
+// A tree that is one leaf: its one leaf is tested.
+template <class R, class LeafTest>
+bool test_root_leaf(const WideBvh& bvh, R& ray, LeafTest& test, TraversalCounters& counters) {
+    counters.nodes_visited += 1;
+    counters.prim_tests += bvh.root_leaf_count;
+    return test(0u, bvh.root_leaf_count, ray);
+}
+
+inline unsigned pop_lowest(unsigned& mask) {
+    const unsigned c = unsigned(std::countr_zero(mask));
+    mask &= mask - 1;
+    return c;
+}
+
+}  // namespace wide_detail
+
+// `test(first, count, ray)` tests the leaf whose entry in the tree is (first, count) (what that
+// names is the caller's: primitives, or blocks of them), lowers ray.tmax to its closest hit
+// and says whether there was one.
+template <class LeafTest>
+bool wide_closest_hit(const WideBvh& bvh, Ray& ray, LeafTest&& test, TraversalCounters& counters) {
+    using namespace wide_detail;
+    if (bvh.root_leaf_count) return test_root_leaf(bvh, ray, test, counters);
+    if (bvh.nodes.empty()) return false;
+    bool hit = false;
+    uint64_t visited = 0, tests = 0;
+    const WideRay r = make_wide_ray(ray);
+    Entry stack[kStack];
+    int sp = 0;
+    Entry cur{0, 0, ray.tmin, 0};
+    for (;;) {
+        if (cur.count) {
+            tests += cur.count;
+            hit |= test(cur.child, cur.count, ray);
+        } else {
+            const WideNode& n = bvh.nodes[cur.child];
+            ++visited;
+            alignas(32) float enter[W];
+            unsigned mask = slab(n, r, ray.tmin, ray.tmax, enter);
+            if (mask) {
+                const unsigned c0 = pop_lowest(mask);
+                const Entry e0{n.child[c0], n.count[c0], enter[c0], 0};
+                if (!mask) { cur = e0; continue; }
+                const unsigned c1 = pop_lowest(mask);
+                const Entry e1{n.child[c1], n.count[c1], enter[c1], 0};
+                if (!mask) {
+                    if (e0.t <= e1.t) { stack[sp++] = e1; cur = e0; }
+                    else { stack[sp++] = e0; cur = e1; }
+                    continue;
+                }
+                // Three or more: push them all, sort the pushed run farthest first, take the nearest.
+                Entry* run = stack + sp;
+                int k = 2;
+                run[0] = e0;
+                run[1] = e1;
+                while (mask) {
+                    const unsigned c = pop_lowest(mask);
+                    run[k++] = Entry{n.child[c], n.count[c], enter[c], 0};
+                }
+                for (int i = 1; i < k; ++i) {
+                    const Entry e = run[i];
+                    int j = i;
+                    while (j > 0 && run[j - 1].t < e.t) { run[j] = run[j - 1]; --j; }
+                    run[j] = e;
+                }
+                sp += k - 1;
+                cur = run[k - 1];
+                continue;
+            }
+        }
+        // Pop the next subtree that may still hold a closer hit.
+        for (;;) {
+            if (sp == 0) {
+                counters.nodes_visited += visited;
+                counters.prim_tests += tests;
+                return hit;
+            }
+            cur = stack[--sp];
+            if (cur.t < ray.tmax) break;
+        }
+    }
+}
+
+// Same leaf contract; `test` says whether the leaf blocks the ray at all. A node's hit leaves
+// are tested at once (a shadow ray is most likely stopped by geometry it has reached), and
+// its first hit inner child is visited next; there is no order to keep, so the stack holds
+// bare node indices.
+template <class LeafTest>
+bool wide_any_hit(const WideBvh& bvh, const Ray& ray, LeafTest&& test, TraversalCounters& counters) {
+    using namespace wide_detail;
+    if (bvh.root_leaf_count) return test_root_leaf(bvh, ray, test, counters);
+    if (bvh.nodes.empty()) return false;
+    uint64_t visited = 0, tests = 0;
+    const WideRay r = make_wide_ray(ray);
+    uint32_t stack[kStack];
+    int sp = 0;
+    uint32_t cur = 0;
+    bool hit = false;
+    for (;;) {
+        const WideNode& n = bvh.nodes[cur];
+        ++visited;
+        alignas(32) float enter[W];
+        unsigned mask = slab(n, r, ray.tmin, ray.tmax, enter);
+        int next = -1;
+        while (mask) {
+            const unsigned c = pop_lowest(mask);
+            if (n.count[c]) {
+                tests += n.count[c];
+                if (test(n.child[c], n.count[c], ray)) { hit = true; break; }
+            } else if (next < 0) {
+                next = int(c);
+            } else {
+                stack[sp++] = n.child[c];
+            }
+        }
+        if (hit) break;
+        if (next >= 0) { cur = n.child[next]; continue; }
+        if (sp == 0) break;
+        cur = stack[--sp];
+    }
+    counters.nodes_visited += visited;
+    counters.prim_tests += tests;
+    return hit;
+}
+
+}  // namespace tessera
