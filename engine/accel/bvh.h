@@ -28,10 +28,15 @@ static_assert(sizeof(BvhNode) == 32, "two nodes per cache line");
 
 struct BvhBuildOptions {
     BvhType type = BvhType::sah;
-    int max_leaf_size = 4;
+    // Eight: two blocks of four (below). With 4, the SAH splits more and the tree takes 66
+    // instead of 59 bytes per triangle on maxplanck at the same speed (`tessera bench rays`).
+    int max_leaf_size = 8;
     int sah_bins = 16;
-    // Relative costs of one node visit and one primitive test (pbrt's 1/8 : 1, the write-ups').
-    float traversal_cost = 0.125f;
+    // Relative costs of one node visit and one leaf test. pbrt's 1/8 : 1 (the write-ups')
+    // prices a scalar triangle test against a binary node; here a leaf test covers four
+    // triangles and a visited wide node eight boxes, which cost about the same, so 1 : 1
+    // (Embree's ratio). Measured: throughput within noise of 1/8, and 15–25% less memory.
+    float traversal_cost = 1.0f;
     float intersection_cost = 1.0f;
     // Primitives a leaf tests at once: the triangle test takes four (triangle4.h), so a leaf
     // costs one test per started block of four, and the SAH fills blocks rather than

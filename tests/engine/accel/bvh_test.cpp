@@ -14,7 +14,7 @@ namespace {
 
 constexpr BvhType kBuilders[] = {BvhType::midpoint, BvhType::median, BvhType::sah};
 
-RenderScene build(const SceneDescription& d, BvhType t, int leaf = 4) {
+RenderScene build(const SceneDescription& d, BvhType t, int leaf = BvhBuildOptions{}.max_leaf_size) {
     RenderSceneOptions o;
     o.bvh.type = t;
     o.bvh.max_leaf_size = leaf;
@@ -108,7 +108,7 @@ TEST(Bvh, NodesAreFlatAndStatsConsistent) {
             if (n.is_leaf()) {
                 prims += n.count;
                 if (t != BvhType::sah) {
-                    EXPECT_LE(n.count, 4u);
+                    EXPECT_LE(n.count, uint32_t(o.max_leaf_size));
                 }
             }
         }
