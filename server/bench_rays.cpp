@@ -1,6 +1,7 @@
 // `tessera bench rays`: our BVH and Embree side by side in one process, on the same rays:
 // build times, and closest-hit / any-hit throughput for camera, incoherent (diffuse bounce)
 // and shadow rays, on one thread and on all, with the ratio.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -172,28 +173,41 @@ int bench_rays(int argc, char** argv) {
     if (std::filesystem::exists(bunny) && std::string("CBbunny").find(only) != std::string::npos) {
         const SceneDescription desc = load_scene(bunny);
         std::printf("\n## Whole render\n\nCBbunny 480×360, 64 spp, 4 light rays, depth 5, Russian roulette 0.65, "
-                    "light sampling, %d threads\n\n| BVH | render (s) | paths/s (M) | Mrays/s | image mean |\n|---|---:|---:|---:|---:|\n", all);
+                    "light sampling, %d threads, %d alternating runs each\n\n| BVH | render (s): median (range) | paths/s (M) | Mrays/s | image mean |\n|---|---:|---:|---:|---:|\n", all, 3);
+        // Alternating repetitions, median of each: one render takes seconds, long enough for the
+        // shared machine's load to change in between.
+        constexpr int kReps = 3;
+        const RenderScene scenes_by_bvh[2] = {build_render_scene(desc, RenderSceneOptions{}), [&] {
+            RenderSceneOptions o;
+            o.bvh.type = BvhType::embree;
+            return build_render_scene(desc, o);
+        }()};
+        std::vector<double> secs[2];
+        RenderResult last[2];
+        for (int rep = 0; rep < kReps; ++rep)
+            for (int k = 0; k < 2; ++k) {
+                RenderSettings st;
+                st.width = 480;
+                st.height = 360;
+                st.spp = 64;
+                st.light_rays = 4;
+                st.max_depth = 5;
+                st.russian_roulette = 0.65f;
+                st.threads = all;
+                last[k] = render(scenes_by_bvh[k], st);
+                secs[k].push_back(last[k].stats.render_seconds);
+            }
         double paths_per_s[2] = {0, 0};
         for (int k = 0; k < 2; ++k) {
-            RenderSceneOptions o;
-            if (k == 1) o.bvh.type = BvhType::embree;
-            const RenderScene rs = build_render_scene(desc, o);
-            RenderSettings st;
-            st.width = 480;
-            st.height = 360;
-            st.spp = 64;
-            st.light_rays = 4;
-            st.max_depth = 5;
-            st.russian_roulette = 0.65f;
-            st.threads = all;
-            const RenderResult r = render(rs, st);
+            std::sort(secs[k].begin(), secs[k].end());
+            const double med = secs[k][kReps / 2];
+            const RenderResult& r = last[k];
             double mean = 0;
             for (float v : r.image.rgb) mean += v;
             mean /= double(r.image.rgb.size());
-            paths_per_s[k] = double(r.stats.samples) / r.stats.render_seconds;
-            std::printf("| %s | %.2f | %.2f | %.2f | %.4f |\n", k == 0 ? "ours (SAH)" : "Embree (medium)", r.stats.render_seconds,
-                        paths_per_s[k] * 1e-6, double(r.stats.rays()) / r.stats.render_seconds * 1e-6, mean);
-            std::fflush(stdout);
+            paths_per_s[k] = double(r.stats.samples) / med;
+            std::printf("| %s | %.2f (%.2f–%.2f) | %.2f | %.2f | %.4f |\n", k == 0 ? "ours (SAH)" : "Embree (medium)", med,
+                        secs[k].front(), secs[k].back(), paths_per_s[k] * 1e-6, double(r.stats.rays()) / med * 1e-6, mean);
         }
         std::printf("\nours / Embree: %.2f×\n", paths_per_s[0] / paths_per_s[1]);
     }
