@@ -29,8 +29,8 @@ TEST(RenderScene, LeavesOutPrimitiveKindsTheSceneLacks) {
     EXPECT_TRUE(mentions(s.report.left_out, "triangles: none"));
 }
 
-// A lone primitive needs no BVH: it is tested directly (with more than one, the BVH measured
-// faster: docs/benchmarks.md, "leave out").
+// A lone primitive needs no BVH: it is tested directly (above that, a BVH; docs/benchmarks.md,
+// "leaving out", has the measurement behind the rule).
 TEST(RenderScene, NoBvhOverALonePrimitive) {
     SceneDescription d;
     MeshDesc m;
