@@ -21,19 +21,9 @@ namespace wide_detail {
 
 constexpr int W = kBvhWidth;
 
-#if defined(__AVX__) && !defined(TESSERA_BVH_WIDTH_SCALAR)
+#if !defined(TESSERA_BVH_WIDTH_SCALAR) && defined(__AVX__) && (!defined(TESSERA_BVH_WIDTH) || TESSERA_BVH_WIDTH == 8)
 #define TESSERA_WIDE_SIMD 1
-#if defined(TESSERA_BVH_WIDTH) && TESSERA_BVH_WIDTH == 4
-using Vec = __m128;
-inline Vec set1(float v) { return _mm_set1_ps(v); }
-inline Vec load(const float* p) { return _mm_load_ps(p); }
-inline Vec sub(Vec a, Vec b) { return _mm_sub_ps(a, b); }
-inline Vec mul(Vec a, Vec b) { return _mm_mul_ps(a, b); }
-inline Vec vmax(Vec a, Vec b) { return _mm_max_ps(a, b); }
-inline Vec vmin(Vec a, Vec b) { return _mm_min_ps(a, b); }
-inline unsigned le_mask(Vec a, Vec b) { return unsigned(_mm_movemask_ps(_mm_cmple_ps(a, b))); }
-inline void store(float* p, Vec v) { _mm_store_ps(p, v); }
-#else
+static_assert(kBvhWidth == 8);
 using Vec = __m256;
 inline Vec set1(float v) { return _mm256_set1_ps(v); }
 inline Vec load(const float* p) { return _mm256_load_ps(p); }
@@ -44,10 +34,9 @@ inline Vec vmin(Vec a, Vec b) { return _mm256_min_ps(a, b); }
 // Ordered compare: false when either side is NaN, as cmpleps.
 inline unsigned le_mask(Vec a, Vec b) { return unsigned(_mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OQ))); }
 inline void store(float* p, Vec v) { _mm256_store_ps(p, v); }
-#endif
-#elif defined(__SSE2__) && !defined(TESSERA_BVH_WIDTH_SCALAR)
-static_assert(kBvhWidth == 4, "eight-wide nodes need AVX");
+#elif !defined(TESSERA_BVH_WIDTH_SCALAR) && defined(__SSE2__)
 #define TESSERA_WIDE_SIMD 1
+static_assert(kBvhWidth == 4, "eight-wide nodes need AVX");
 using Vec = __m128;
 inline Vec set1(float v) { return _mm_set1_ps(v); }
 inline Vec load(const float* p) { return _mm_load_ps(p); }
