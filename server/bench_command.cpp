@@ -52,7 +52,7 @@ Row measure(const BenchScene& s, BvhType type, int threads, double none_budget_t
     if (type == BvhType::none) {
         // Brute force tests every triangle per ray: render a centred smaller frame with the same
         // focal length when the full frame would take too long, and scale its time.
-        const double pixels = std::min(full_pixels, none_budget_tests / double(std::max<size_t>(1, rs.triangle_count)));
+        const double pixels = std::min(full_pixels, none_budget_tests / double(std::max<size_t>(1, rs.triangle_count())));
         if (pixels < full_pixels) {
             const double f = std::sqrt(pixels / full_pixels);
             st.width = std::max(8, int(800 * f));
@@ -63,7 +63,7 @@ Row measure(const BenchScene& s, BvhType type, int threads, double none_budget_t
     const RenderResult r = render(rs, st);
     const double per_ray = r.stats.rays() ? 1.0 / double(r.stats.rays()) : 0.0;
     const double time = r.stats.render_seconds * full_pixels / (double(st.width) * st.height);
-    return Row{s.label, rs.triangle_count, type, rs.tri_bvh_stats.build_seconds, rs.tri_bvh_stats.node_count,
+    return Row{s.label, rs.triangle_count(), type, rs.tri_bvh_stats.build_seconds, rs.tri_bvh_stats.node_count,
                rs.tri_bvh_stats.depth, rs.tri_bvh_stats.sah_cost, time, scaled,
                double(r.stats.traversal.nodes_visited) * per_ray, double(r.stats.traversal.prim_tests) * per_ray};
 }

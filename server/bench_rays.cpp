@@ -107,7 +107,14 @@ int bench_rays(int argc, char** argv) {
         const std::string a = argv[i];
         if (a == "--cs184" && i + 1 < argc) cs184 = argv[++i];
         else if (a == "--scene" && i + 1 < argc) only = argv[++i];
-        else if (a == "--seconds" && i + 1 < argc) min_seconds = std::atof(argv[++i]);
+        else if (a == "--seconds" && i + 1 < argc) {
+            char* end = nullptr;
+            min_seconds = std::strtod(argv[++i], &end);
+            if (*end != '\0' || !(min_seconds > 0.0 && min_seconds <= 600.0)) {
+                std::fprintf(stderr, "tessera bench rays: --seconds takes a number of seconds in (0, 600], not '%s'\n", argv[i]);
+                return 2;
+            }
+        }
         else {
             std::fprintf(stderr, "usage: tessera bench rays [--cs184 DIR] [--scene NAME] [--seconds S]\n"
                                  "  --scene: only scenes whose name contains NAME; --seconds: time per measurement (0.3)\n");
@@ -139,10 +146,10 @@ int bench_rays(int argc, char** argv) {
             e[q] = s.embree_build_seconds;
             if (q == 1) embree_bytes = embree_memory_bytes(*s.embree);
         }
-        const double n = double(ours.triangle_count);
+        const double n = double(ours.triangle_count());
         const double shading = double(ours.tri_shading.size() * sizeof(TriangleShading) + ours.normals.size() * sizeof(glm::vec3));
         std::printf("| %s | %zu | %.1f | %.1f | %.1f | %.1f | %.2f× | %.0f | %.0f | %.0f |\n",
-                    name.c_str(), ours.triangle_count, ours.tri_build_seconds * 1e3, e[0] * 1e3, e[1] * 1e3, e[2] * 1e3,
+                    name.c_str(), ours.triangle_count(), ours.tri_build_seconds * 1e3, e[0] * 1e3, e[1] * 1e3, e[2] * 1e3,
                     ours.tri_build_seconds / e[1], double(ours.triangle_accel_bytes()) / n, double(embree_bytes) / n,
                     (double(ours.triangle_accel_bytes()) + shading) / n);
         std::fflush(stdout);

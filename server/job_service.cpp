@@ -451,7 +451,7 @@ void JobService::run_job(const JobRecord& rec, Running& running) {
                            {"spp_mean", double(st.samples) / npx}, {"spp_min", smin}, {"spp_max", smax},
                            {"nonfinite_samples", st.nonfinite_samples}, {"max_sample_luminance", st.max_sample},
                            {"threads", st.threads}};
-        report["scene"] = {{"name", spec.scene}, {"triangles", scene.triangle_count}, {"spheres", scene.spheres.size()},
+        report["scene"] = {{"name", spec.scene}, {"triangles", scene.triangle_count()}, {"spheres", scene.spheres.size()},
                            {"built", scene.report.built}, {"left_out", scene.report.left_out},
                            {"warnings", scene.report.warnings}, {"build_s", scene.report.seconds}};
         json points = json::array();

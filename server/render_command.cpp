@@ -185,7 +185,7 @@ int render_command(int argc, char** argv) {
 
     const double mrays = st.render_seconds > 0 ? double(st.rays()) / st.render_seconds * 1e-6 : 0.0;
     const double per_ray = st.rays() ? 1.0 / double(st.rays()) : 0.0;
-    std::printf("scene: %s (%zu triangles, %zu spheres)\n", job.scene.c_str(), rs.triangle_count, rs.spheres.size());
+    std::printf("scene: %s (%zu triangles, %zu spheres)\n", job.scene.c_str(), rs.triangle_count(), rs.spheres.size());
     std::printf("timings: load %.3f s, BVH build %.3f s (%s, %zu nodes, depth %d, SAH cost %.2f), render %.3f s (%d threads), write %.3f s\n",
                 load_s, rs.report.seconds, to_string(job.scene_options.bvh.type), rs.tri_bvh_stats.node_count,
                 rs.tri_bvh_stats.depth, rs.tri_bvh_stats.sah_cost, st.render_seconds, st.threads, write_s);

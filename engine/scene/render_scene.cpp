@@ -194,7 +194,6 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
 
     std::vector<Aabb> bounds(triangles.size());
     for (size_t i = 0; i < triangles.size(); ++i) { bounds[i] = triangle_bounds(triangles[i]); s.bounds.expand(bounds[i]); }
-    s.triangle_count = triangles.size();
     if (!triangles.empty() && options.bvh.type == BvhType::embree) {
         s.embree = build_embree(triangles, options.embree_quality, s.embree_build_seconds);
         s.tri_build_seconds = s.embree_build_seconds;
@@ -305,7 +304,7 @@ bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& 
             hit = Hit{ray.tmax, prim, b1, b2, false, prim};
             found = true;
         }
-    } else if (scene.triangle_count) {
+    } else if (scene.triangle_count()) {
         const Triangle4Ray r4 = make_triangle4_ray(ray);
         found = wide_closest_hit(scene.tri_wide, ray, [&](uint32_t first, uint32_t count, Ray& r) {
             return test_blocks<false>(scene, r4, first, count, r, [&](uint32_t prim, uint32_t slot, float t, float b1, float b2) {
@@ -337,7 +336,7 @@ bool occluded(const RenderScene& scene, const Ray& ray, TraversalCounters& count
             }, counters))
             return true;
     }
-    if (!scene.triangle_count) return false;
+    if (!scene.triangle_count()) return false;
     if (scene.embree) return embree_occluded(*scene.embree, ray);
     const Triangle4Ray r4 = make_triangle4_ray(ray);
     return wide_any_hit(scene.tri_wide, ray, [&](uint32_t first, uint32_t count, const Ray& r) {

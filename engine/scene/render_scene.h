@@ -78,7 +78,7 @@ struct RenderScene {
     // Triangles as traversal reads them: four to a block, blocks in BVH leaf order. The binary
     // tree they were built with is not kept (its statistics are).
     std::vector<Triangle4> tri_blocks;
-    size_t triangle_count = 0;
+    size_t triangle_count() const { return tri_shading.size(); }
     std::vector<TriangleShading> tri_shading;   // indexed by Triangle4::prim
     std::vector<glm::vec3> normals;             // shared vertex normals
     BvhBuildStats tri_bvh_stats;                // the binary tree as built

@@ -21,7 +21,7 @@ TEST(WideBvh, CollapseKeepsEveryPrimitiveOnce) {
         const RenderScene s = build_render_scene(displaced_sphere(20000), o);
         const WideBvh& b = s.tri_wide;
         ASSERT_FALSE(b.nodes.empty());
-        std::vector<int> seen(s.triangle_count, 0);
+        std::vector<int> seen(s.triangle_count(), 0);
         struct Item { uint32_t node; int depth; };
         std::vector<Item> todo = {{0, 1}};
         int depth = 0;
@@ -62,7 +62,7 @@ TEST(WideBvh, SingleLeafTreeIsKeptAsOneLeaf) {
     const RenderScene s = build_render_scene(displaced_sphere(200), o);
     EXPECT_TRUE(s.tri_wide.nodes.empty());
     EXPECT_EQ(s.tri_wide.root_leaf_count, s.tri_blocks.size()) << "the one leaf names every block";
-    EXPECT_EQ(s.tri_blocks.size(), (s.triangle_count + 3) / 4);
+    EXPECT_EQ(s.tri_blocks.size(), (s.triangle_count() + 3) / 4);
 }
 
 }  // namespace
