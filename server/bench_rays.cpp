@@ -57,6 +57,21 @@ RaySets make_rays(const RenderScene& s) {
     return r;
 }
 
+// Our traversal's work per ray: wide nodes visited and leaf blocks tested.
+std::pair<double, double> work_per_ray(const RenderScene& s, const std::vector<Ray>& rays, bool any) {
+    TraversalCounters tc;
+    for (const Ray& ray : rays) {
+        if (any) occluded(s, ray, tc);
+        else {
+            Ray r = ray;
+            Hit h;
+            intersect(s, r, h, tc);
+        }
+    }
+    const double n = double(std::max<size_t>(rays.size(), 1));
+    return {double(tc.nodes_visited) / n, double(tc.prim_tests) / n};
+}
+
 // Mrays/s over `rays` with `threads` threads; `any` selects occlusion queries.
 double throughput(const RenderScene& s, const std::vector<Ray>& rays, int threads, bool any, double min_seconds, uint64_t& hits) {
     std::atomic<size_t> next{0};
@@ -101,12 +116,13 @@ double throughput(const RenderScene& s, const std::vector<Ray>& rays, int thread
 }  // namespace
 
 int bench_rays(int argc, char** argv) {
-    std::string cs184 = default_cs184_dir(), only;
+    std::string cs184 = default_cs184_dir(), only, only_rays;
     double min_seconds = 0.3;
     for (int i = 0; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--cs184" && i + 1 < argc) cs184 = argv[++i];
         else if (a == "--scene" && i + 1 < argc) only = argv[++i];
+        else if (a == "--rays" && i + 1 < argc) only_rays = argv[++i];
         else if (a == "--seconds" && i + 1 < argc) {
             char* end = nullptr;
             min_seconds = std::strtod(argv[++i], &end);
@@ -116,10 +132,15 @@ int bench_rays(int argc, char** argv) {
             }
         }
         else {
-            std::fprintf(stderr, "usage: tessera bench rays [--cs184 DIR] [--scene NAME] [--seconds S]\n"
-                                 "  --scene: only scenes whose name contains NAME; --seconds: time per measurement (0.3)\n");
+            std::fprintf(stderr, "usage: tessera bench rays [--cs184 DIR] [--scene NAME] [--rays KIND] [--seconds S]\n"
+                                 "  --scene: only scenes whose name contains NAME; --rays: only camera, incoherent or shadow rays\n"
+                                 "  --seconds: time per measurement (0.3)\n");
             return 2;
         }
+    }
+    if (!only_rays.empty() && only_rays != "camera" && only_rays != "incoherent" && only_rays != "shadow") {
+        std::fprintf(stderr, "tessera bench rays: --rays takes camera, incoherent or shadow, not '%s'\n", only_rays.c_str());
+        return 2;
     }
     if (!embree_available()) { std::fprintf(stderr, "tessera bench rays: this build has no Embree\n"); return 2; }
     const int all = int(std::max(1u, std::thread::hardware_concurrency()));
@@ -133,7 +154,7 @@ int bench_rays(int argc, char** argv) {
         scenes.push_back({"displaced_sphere (1M)", displaced_sphere(1'000'000)});
 
     std::printf("## Build time and memory\n\n| scene | triangles | ours SAH, 1 thread (ms) | Embree low (ms) | Embree medium (ms) | Embree high (ms) | ours / Embree medium | ours: bytes per triangle | Embree medium: bytes per triangle | ours: with shading data |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
-    std::vector<std::string> throughput_rows;
+    std::vector<std::string> throughput_rows, shape_rows;
     for (const auto& [name, desc] : scenes) {
         const RenderScene ours = build_render_scene(desc, RenderSceneOptions{});
         double e[3];
@@ -153,6 +174,11 @@ int bench_rays(int argc, char** argv) {
                     ours.tri_build_seconds / e[1], double(ours.triangle_accel_bytes()) / n, double(embree_bytes) / n,
                     (double(ours.triangle_accel_bytes()) + shading) / n);
         std::fflush(stdout);
+        const WideBvhStats ws = wide_bvh_stats(ours.tri_wide);
+        char shape[256];
+        std::snprintf(shape, sizeof shape, "| %s | %zu | %.0f%% | %zu | %.2f | %.2f |\n", name.c_str(), ws.inner_nodes, ws.fill * 100.0,
+                      ws.leaves, double(ws.leaf_entries) / double(std::max<size_t>(ws.leaves, 1)), ws.sah);
+        shape_rows.push_back(shape);
         RenderSceneOptions eo;
         eo.bvh.type = BvhType::embree;
         const RenderScene emb = build_render_scene(desc, eo);
@@ -160,24 +186,29 @@ int bench_rays(int argc, char** argv) {
         for (auto [label, set, any] : {std::tuple{"camera (closest hit)", &rays.camera, false},
                                        {"incoherent (closest hit)", &rays.incoherent, false},
                                        {"shadow (any hit)", &rays.shadow, true}}) {
+            if (!std::string(label).starts_with(only_rays)) continue;
+            const auto [nodes, blocks] = work_per_ray(ours, *set, any);
             for (int t : {1, all}) {
                 uint64_t h1 = 0, h2 = 0;
                 const double a = throughput(ours, *set, t, any, min_seconds, h1);
                 const double b = throughput(emb, *set, t, any, min_seconds, h2);
                 char row[512];
-                std::snprintf(row, sizeof row, "| %s | %s | %zu | %d | %.2f | %.2f | %.2f× | %s |\n", name.c_str(), label, set->size(), t,
-                              a, b, a / b, h1 == h2 ? "same" : ("ours " + std::to_string(h1) + ", Embree " + std::to_string(h2)).c_str());
+                std::snprintf(row, sizeof row, "| %s | %s | %zu | %.1f / %.1f | %d | %.2f | %.2f | %.2f× | %s |\n", name.c_str(), label,
+                              set->size(), nodes, blocks, t, a, b, a / b, h1 == h2 ? "same" : ("ours " + std::to_string(h1) + ", Embree " + std::to_string(h2)).c_str());
                 throughput_rows.push_back(row);
             }
         }
     }
-    std::printf("\n## Throughput on the same rays (Mrays/s)\n\n| scene | rays | count | threads | ours (SAH, %d-wide) | Embree (medium) | ours / Embree | hits |\n|---|---|---:|---:|---:|---:|---:|---|\n", kBvhWidth);
+    std::printf("\n## Our tree's shape\n\n(Embree prints the same figures for its BVH8 with `verbose=2` in its device configuration.)\n\n"
+                "| scene | inner nodes | slots filled | leaves | blocks per leaf | SAH cost (node 1, block 1) |\n|---|---:|---:|---:|---:|---:|\n");
+    for (const auto& r : shape_rows) std::fputs(r.c_str(), stdout);
+    std::printf("\n## Throughput on the same rays (Mrays/s)\n\n| scene | rays | count | ours: nodes / blocks per ray | threads | ours (SAH, %d-wide) | Embree (medium) | ours / Embree | hits |\n|---|---|---:|---:|---:|---:|---:|---:|---|\n", kBvhWidth);
     for (const auto& r : throughput_rows) std::fputs(r.c_str(), stdout);
 
     // The whole render at the CS184 write-up's settings, with each BVH: everything but the
     // triangle traversal is the same code.
     const std::string bunny = cs184 + "/sky/CBbunny.dae";
-    if (std::filesystem::exists(bunny) && std::string("CBbunny").find(only) != std::string::npos) {
+    if (only_rays.empty() && std::filesystem::exists(bunny) && std::string("CBbunny").find(only) != std::string::npos) {
         const SceneDescription desc = load_scene(bunny);
         std::printf("\n## Whole render\n\nCBbunny 480×360, 64 spp, 4 light rays, depth 5, Russian roulette 0.65, "
                     "light sampling, %d threads, %d alternating runs each\n\n| BVH | render (s): median (range) | paths/s (M) | Mrays/s | image mean |\n|---|---:|---:|---:|---:|\n", all, 3);

@@ -47,7 +47,7 @@ RTCDevice device() {
     static RTCDevice dev = nullptr;
     static std::once_flag once;
     std::call_once(once, [] {
-        dev = rtcNewDevice(nullptr);
+        dev = rtcNewDevice(std::getenv("TESSERA_EMBREE_CONFIG"));
         if (dev) rtcSetDeviceMemoryMonitorFunction(dev, count_bytes, nullptr);
     });
     if (!dev) throw std::runtime_error("Embree: rtcNewDevice failed");

@@ -37,9 +37,32 @@ struct WideBvh {
     size_t memory_bytes() const { return nodes.size() * sizeof(WideNode); }
 };
 
+// The shape of a wide tree, comparable with what Embree prints at verbose=2 for its BVH8.
+struct WideBvhStats {
+    size_t inner_nodes = 0;
+    double fill = 0.0;        // mean occupied child slots per inner node, as a fraction of kBvhWidth
+    size_t leaves = 0;
+    size_t leaf_entries = 0;  // what the leaves name in total (blocks, once packed)
+    // Expected cost of a ray through the tree under the surface-area heuristic, in Embree's
+    // model: one per inner node entered, one per leaf entry tested, each weighted by the
+    // entered box's area over the root's.
+    double sah = 0.0;
+};
+WideBvhStats wide_bvh_stats(const WideBvh& bvh);
+
+// Where the collapse may merge a binary subtree into one leaf. max_leaf 0: never (the binary
+// tree's leaves are kept as they are).
+struct WideCollapseOptions {
+    int max_leaf = 0;
+    float traversal_cost = 1.f;
+    float intersection_cost = 1.f;
+    int leaf_block = 1;
+};
+
 // Collapses a binary BVH (whose prim_index order is kept: a leaf names prim_index[child,
 // child + count)). Each wide node absorbs the largest-area inner children of its binary node
-// until it has kBvhWidth children.
-WideBvh collapse_to_wide(const Bvh& bvh);
+// until it has kBvhWidth children; then each child that is a binary subtree of at most
+// max_leaf primitives becomes one leaf where the SAH says so.
+WideBvh collapse_to_wide(const Bvh& bvh, const WideCollapseOptions& options = {});
 
 }  // namespace tessera

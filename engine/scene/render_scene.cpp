@@ -203,10 +203,21 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
                                  " quality): " + std::to_string(triangles.size()) + " triangles");
     } else if (!triangles.empty()) {
         const auto tb = std::chrono::steady_clock::now();
-        Bvh bvh = build_bvh(bounds, options_for(triangles.size(), options, "triangles", s.report));
+        BvhBuildOptions bo = options_for(triangles.size(), options, "triangles", s.report);
+        // SAH: Embree's division of labour. The binary builder splits down to one block, and
+        // the collapse merges a subtree back into one leaf (up to max_leaf_size) only where
+        // the SAH says a leaf beats one more wide node, so wide nodes fill up with small leaves
+        // rather than keep the binary tree's larger ones (maxplanck: 61% of slots filled
+        // against 50%, SAH cost 12.3 against 13.2; `tessera bench rays`).
+        WideCollapseOptions co;
+        if (bo.type == BvhType::sah) {
+            co = {bo.max_leaf_size, bo.traversal_cost, bo.intersection_cost, bo.leaf_block};
+            bo.max_leaf_size = std::min(bo.max_leaf_size, std::max(1, bo.leaf_block));
+        }
+        Bvh bvh = build_bvh(bounds, bo);
         to_leaf_order(bvh, triangles, s.tri_shading);
         s.tri_bvh_stats = bvh.stats;
-        s.tri_wide = collapse_to_wide(bvh);
+        s.tri_wide = collapse_to_wide(bvh, co);
         s.tri_blocks = pack_triangle4_leaves(s.tri_wide, triangles);
         s.tri_build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tb).count();
         s.report.built.push_back("triangle BVH (" + std::string(to_string(options.bvh.type)) + "): " +
