@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstdlib>
 #include <mutex>
 #include <stdexcept>
 #include <string>
@@ -43,6 +44,8 @@ struct EmbreeAccel {
 namespace {
 
 // One device for the process (it owns Embree's thread pool), created on first use.
+// TESSERA_EMBREE_CONFIG passes Embree's device configuration for diagnosis (e.g. "verbose=2"
+// prints its BVH's shape and the kernels it chose; "isa=avx2" pins the kernels).
 RTCDevice device() {
     static RTCDevice dev = nullptr;
     static std::once_flag once;

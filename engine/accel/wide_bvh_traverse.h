@@ -141,12 +141,14 @@ inline unsigned slab(const WideNode& n, const WideRay& r, float tmin, float tmax
 // distance. Each distance is then one rounding away from a bound on the true one, which the
 // widening covers, so no box a ray truly enters is missed. Only valid for rays with no zero
 // direction component (the sub-multiply test's NaN rule decides those) and finite constants.
-struct FmaWideRay {
-    int near_row[3], far_row[3];
+// The traversal loop is compiled once per octant of the ray direction, so which row of a node
+// is the near plane is a constant, not a per-ray index loaded on every node.
+struct FmaWideRayData {
     Vec inv_n[3], k_n[3], inv_f[3], k_f[3];
 };
 
-inline bool make_fma_wide_ray(const Ray& ray, FmaWideRay& r) {
+// The octant (0–7), or −1 where the fused form does not apply.
+inline int make_fma_wide_ray(const Ray& ray, FmaWideRayData& r) {
     // All three axes at once in SSE (lane 3 is padding: d = 1, o = 0).
     const __m128 d = _mm_set_ps(1.f, ray.d.z, ray.d.y, ray.d.x);
     const __m128 o = _mm_set_ps(0.f, ray.o.z, ray.o.y, ray.o.x);
@@ -161,35 +163,45 @@ inline bool make_fma_wide_ray(const Ray& ray, FmaWideRay& r) {
     const __m128 big = _mm_set1_ps(FLT_MAX);
     const __m128 ok = _mm_and_ps(_mm_and_ps(_mm_cmple_ps(_mm_and_ps(inv_f, abs_mask), big), _mm_cmple_ps(_mm_and_ps(kn, abs_mask), big)),
                                  _mm_cmple_ps(_mm_and_ps(kf, abs_mask), big));
-    if (_mm_movemask_ps(ok) != 0xf) return false;
-    const int neg = _mm_movemask_ps(inv);
+    if (_mm_movemask_ps(ok) != 0xf) return -1;
     alignas(16) float fi[4], fif[4], fkn[4], fkf[4];
     _mm_store_ps(fi, inv); _mm_store_ps(fif, inv_f); _mm_store_ps(fkn, kn); _mm_store_ps(fkf, kf);
     for (int a = 0; a < 3; ++a) {
-        const bool n = neg & (1 << a);
-        r.near_row[a] = n ? a + 3 : a;
-        r.far_row[a] = n ? a : a + 3;
         r.inv_n[a] = set1(fi[a]);
         r.k_n[a] = set1(fkn[a]);
         r.inv_f[a] = set1(fif[a]);
         r.k_f[a] = set1(fkf[a]);
     }
-    return true;
+    return _mm_movemask_ps(inv) & 7;
 }
 
-inline unsigned slab(const WideNode& n, const FmaWideRay& r, float tmin, float tmax, float* enter_out) {
-    const Vec nx = fmadd(load(n.bounds[r.near_row[0]]), r.inv_n[0], r.k_n[0]);
-    const Vec ny = fmadd(load(n.bounds[r.near_row[1]]), r.inv_n[1], r.k_n[1]);
-    const Vec nz = fmadd(load(n.bounds[r.near_row[2]]), r.inv_n[2], r.k_n[2]);
-    const Vec fx = fmadd(load(n.bounds[r.far_row[0]]), r.inv_f[0], r.k_f[0]);
-    const Vec fy = fmadd(load(n.bounds[r.far_row[1]]), r.inv_f[1], r.k_f[1]);
-    const Vec fz = fmadd(load(n.bounds[r.far_row[2]]), r.inv_f[2], r.k_f[2]);
-    const Vec enter = vmax(vmax(nx, set1(tmin)), vmax(ny, nz));
-    const Vec leave = vmin(vmin(fx, set1(tmax)), vmin(fy, fz));
-    store(enter_out, enter);
-    return le_mask(enter, leave);
-}
+template <int Octant>  // bit a: d[a] < 0
+struct FmaSlab {
+    using Data = FmaWideRayData;
+    static constexpr int near_row(int a) { return (Octant >> a) & 1 ? a + 3 : a; }
+    static constexpr int far_row(int a) { return (Octant >> a) & 1 ? a : a + 3; }
+    static unsigned test(const WideNode& n, const Data& r, float tmin, float tmax, float* enter_out) {
+        const Vec nx = fmadd(load(n.bounds[near_row(0)]), r.inv_n[0], r.k_n[0]);
+        const Vec ny = fmadd(load(n.bounds[near_row(1)]), r.inv_n[1], r.k_n[1]);
+        const Vec nz = fmadd(load(n.bounds[near_row(2)]), r.inv_n[2], r.k_n[2]);
+        const Vec fx = fmadd(load(n.bounds[far_row(0)]), r.inv_f[0], r.k_f[0]);
+        const Vec fy = fmadd(load(n.bounds[far_row(1)]), r.inv_f[1], r.k_f[1]);
+        const Vec fz = fmadd(load(n.bounds[far_row(2)]), r.inv_f[2], r.k_f[2]);
+        const Vec enter = vmax(vmax(nx, set1(tmin)), vmax(ny, nz));
+        const Vec leave = vmin(vmin(fx, set1(tmax)), vmin(fy, fz));
+        store(enter_out, enter);
+        return le_mask(enter, leave);
+    }
+};
 #endif
+
+// The subtract-multiply test, for every ray.
+struct SubMulSlab {
+    using Data = WideRay;
+    static unsigned test(const WideNode& n, const Data& r, float tmin, float tmax, float* enter_out) {
+        return slab(n, r, tmin, tmax, enter_out);
+    }
+};
 
 struct alignas(16) Entry {
     uint32_t child;
@@ -222,8 +234,8 @@ inline unsigned pop_lowest(unsigned& mask) {
 // and says whether there was one.
 namespace wide_detail {
 
-template <class SlabRay, class LeafTest>
-bool closest_hit_loop(const WideBvh& bvh, Ray& ray, const SlabRay& r, LeafTest& test, TraversalCounters& counters) {
+template <class Slab, class LeafTest>
+bool closest_hit_loop(const WideBvh& bvh, Ray& ray, const typename Slab::Data& r, LeafTest& test, TraversalCounters& counters) {
     bool hit = false;
     uint64_t visited = 0, tests = 0;
     Entry stack[kStack];
@@ -237,7 +249,7 @@ bool closest_hit_loop(const WideBvh& bvh, Ray& ray, const SlabRay& r, LeafTest& 
             const WideNode& n = bvh.nodes[cur.child];
             ++visited;
             alignas(32) float enter[W];
-            unsigned mask = slab(n, r, ray.tmin, ray.tmax, enter);
+            unsigned mask = Slab::test(n, r, ray.tmin, ray.tmax, enter);
             if (mask) {
                 const unsigned c0 = pop_lowest(mask);
                 const Entry e0{n.child[c0], n.count[c0], enter[c0], 0};
@@ -290,10 +302,20 @@ bool wide_closest_hit(const WideBvh& bvh, Ray& ray, LeafTest&& test, TraversalCo
     if (bvh.root_leaf_count) return test_root_leaf(bvh, ray, test, counters);
     if (bvh.nodes.empty()) return false;
 #if defined(TESSERA_WIDE_FMA)
-    FmaWideRay fr;
-    if (make_fma_wide_ray(ray, fr)) return closest_hit_loop(bvh, ray, fr, test, counters);
+    FmaWideRayData fr;
+    switch (make_fma_wide_ray(ray, fr)) {
+        case 0: return closest_hit_loop<FmaSlab<0>>(bvh, ray, fr, test, counters);
+        case 1: return closest_hit_loop<FmaSlab<1>>(bvh, ray, fr, test, counters);
+        case 2: return closest_hit_loop<FmaSlab<2>>(bvh, ray, fr, test, counters);
+        case 3: return closest_hit_loop<FmaSlab<3>>(bvh, ray, fr, test, counters);
+        case 4: return closest_hit_loop<FmaSlab<4>>(bvh, ray, fr, test, counters);
+        case 5: return closest_hit_loop<FmaSlab<5>>(bvh, ray, fr, test, counters);
+        case 6: return closest_hit_loop<FmaSlab<6>>(bvh, ray, fr, test, counters);
+        case 7: return closest_hit_loop<FmaSlab<7>>(bvh, ray, fr, test, counters);
+        default: break;
+    }
 #endif
-    return closest_hit_loop(bvh, ray, make_wide_ray(ray), test, counters);
+    return closest_hit_loop<SubMulSlab>(bvh, ray, make_wide_ray(ray), test, counters);
 }
 
 // Same leaf contract; `test` says whether the leaf blocks the ray at all. A node's hit leaves
@@ -305,8 +327,8 @@ bool wide_closest_hit(const WideBvh& bvh, Ray& ray, LeafTest&& test, TraversalCo
 // No order is kept on the stack, so it holds bare node indices.
 namespace wide_detail {
 
-template <class SlabRay, class LeafTest>
-bool any_hit_loop(const WideBvh& bvh, const Ray& ray, const SlabRay& r, LeafTest& test, TraversalCounters& counters) {
+template <class Slab, class LeafTest>
+bool any_hit_loop(const WideBvh& bvh, const Ray& ray, const typename Slab::Data& r, LeafTest& test, TraversalCounters& counters) {
     uint64_t visited = 0, tests = 0;
     uint32_t stack[kStack];
     int sp = 0;
@@ -316,7 +338,7 @@ bool any_hit_loop(const WideBvh& bvh, const Ray& ray, const SlabRay& r, LeafTest
         const WideNode& n = bvh.nodes[cur];
         ++visited;
         alignas(32) float enter[W];
-        unsigned mask = slab(n, r, ray.tmin, ray.tmax, enter);
+        unsigned mask = Slab::test(n, r, ray.tmin, ray.tmax, enter);
         int next = -1;
         while (mask) {
             const unsigned c = pop_lowest(mask);
@@ -350,10 +372,20 @@ bool wide_any_hit(const WideBvh& bvh, const Ray& ray, LeafTest&& test, Traversal
     if (bvh.root_leaf_count) return test_root_leaf(bvh, ray, test, counters);
     if (bvh.nodes.empty()) return false;
 #if defined(TESSERA_WIDE_FMA)
-    FmaWideRay fr;
-    if (make_fma_wide_ray(ray, fr)) return any_hit_loop(bvh, ray, fr, test, counters);
+    FmaWideRayData fr;
+    switch (make_fma_wide_ray(ray, fr)) {
+        case 0: return any_hit_loop<FmaSlab<0>>(bvh, ray, fr, test, counters);
+        case 1: return any_hit_loop<FmaSlab<1>>(bvh, ray, fr, test, counters);
+        case 2: return any_hit_loop<FmaSlab<2>>(bvh, ray, fr, test, counters);
+        case 3: return any_hit_loop<FmaSlab<3>>(bvh, ray, fr, test, counters);
+        case 4: return any_hit_loop<FmaSlab<4>>(bvh, ray, fr, test, counters);
+        case 5: return any_hit_loop<FmaSlab<5>>(bvh, ray, fr, test, counters);
+        case 6: return any_hit_loop<FmaSlab<6>>(bvh, ray, fr, test, counters);
+        case 7: return any_hit_loop<FmaSlab<7>>(bvh, ray, fr, test, counters);
+        default: break;
+    }
 #endif
-    return any_hit_loop(bvh, ray, make_wide_ray(ray), test, counters);
+    return any_hit_loop<SubMulSlab>(bvh, ray, make_wide_ray(ray), test, counters);
 }
 
 }  // namespace tessera
