@@ -41,9 +41,10 @@ inline Triangle4Ray make_triangle4_ray(const Ray& ray) {
     Triangle4Ray r;
     r.w = make_watertight_ray(ray.d);
 #if defined(__SSE2__)
-    r.o[0] = _mm_set1_ps(ray.o[r.w.kx]);
-    r.o[1] = _mm_set1_ps(ray.o[r.w.ky]);
-    r.o[2] = _mm_set1_ps(ray.o[r.w.kz]);
+    const float o[3] = {ray.o.x, ray.o.y, ray.o.z};  // not glm's operator[], a switch
+    r.o[0] = _mm_set1_ps(o[r.w.kx]);
+    r.o[1] = _mm_set1_ps(o[r.w.ky]);
+    r.o[2] = _mm_set1_ps(o[r.w.kz]);
     r.sx = _mm_set1_ps(r.w.sx);
     r.sy = _mm_set1_ps(r.w.sy);
     r.sz = _mm_set1_ps(r.w.sz);
