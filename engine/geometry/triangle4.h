@@ -4,6 +4,7 @@
 // the scalar test's answer, bit for bit), over triangles stored as structure-of-arrays. The
 // test's per-ray axis permutation costs nothing here: it only picks which rows to load.
 // (Embree's Triangle4 leaves; Woop, Benthin, Wald, JCGT 2013.)
+#include <bit>
 #include <cstdint>
 
 #if defined(__SSE2__)
@@ -141,10 +142,21 @@ inline void intersect_triangle4(const Ray& ray, const Triangle4Ray& r, const Tri
 // The nearest lane of a non-empty mask (the first of equals, so a repeated triangle is found
 // at its first lane).
 inline int nearest_lane(const Triangle4Hits& h) {
+#if defined(__SSE2__)
+    // Without branches (which lane is nearest is unpredictable): the minimum over the hit
+    // lanes, then the lowest lane holding it.
+    const __m128i bits = _mm_setr_epi32(1, 2, 4, 8);
+    const __m128 hit = _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_and_si128(_mm_set1_epi32(h.mask), bits), bits));
+    const __m128 t = _mm_or_ps(_mm_and_ps(hit, _mm_load_ps(h.t)), _mm_andnot_ps(hit, _mm_set1_ps(INFINITY)));
+    __m128 m = _mm_min_ps(t, _mm_shuffle_ps(t, t, _MM_SHUFFLE(2, 3, 0, 1)));
+    m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
+    return std::countr_zero(unsigned(_mm_movemask_ps(_mm_cmpeq_ps(t, m)) & h.mask));
+#else
     int best = -1;
     for (int l = 0; l < 4; ++l)
         if ((h.mask & (1 << l)) && (best < 0 || h.t[l] < h.t[best])) best = l;
     return best;
+#endif
 }
 
 }  // namespace tessera
