@@ -44,6 +44,8 @@ struct BvhBuildOptions {
     // costs one test per started block of four, and the SAH fills blocks rather than
     // splitting below them.
     int leaf_block = 4;
+    // Threads for the build (0: one per core). The tree is the same whatever the count.
+    int build_threads = 0;
 };
 
 struct BvhBuildStats {

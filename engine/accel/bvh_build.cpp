@@ -2,8 +2,10 @@
 // the centroid bounds, and binned SAH (Wald, "On fast construction of SAH-based bounding
 // volume hierarchies", 2007; pbrt-v4 section 7.3) over all three axes.
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <numeric>
+#include <thread>
 
 #include "engine/accel/bvh.h"
 
@@ -152,21 +154,21 @@ struct Builder {
         for (size_t i = begin; i < end; ++i) { b.expand(refs[i].bounds); cb.expand(refs[i].centroid); }
     }
 
-    // `b` and `cb` are the bounds and centroid bounds of refs[begin, end).
-    void build(uint32_t node, size_t begin, size_t end, int depth, const Aabb& b, const Aabb& cb) {
+    // Chooses how refs[begin, end) (bounds b, centroid bounds cb) is split: false when
+    // `node` became a leaf; otherwise refs are partitioned at `mid` and `split` holds both
+    // sides' bounds.
+    bool choose(uint32_t node, size_t begin, size_t end, int depth, const Aabb& b, const Aabb& cb, Split& split, size_t& mid) {
         max_depth_seen = std::max(max_depth_seen, depth);
         const size_t n = end - begin;
         if (opt.type == BvhType::none || n <= 1 ||
             (n <= size_t(opt.max_leaf_size) && opt.type != BvhType::sah)) {
             make_leaf(node, b, begin, end);
-            return;
+            return false;
         }
         const int axis = cb.largest_axis();
-        size_t mid;
-        Split split;
         if (cb.extent()[axis] <= 0.f) {
             // All centroids coincide: no plane separates them, so only the leaf-size limit matters.
-            if (n <= size_t(opt.max_leaf_size)) { make_leaf(node, b, begin, end); return; }
+            if (n <= size_t(opt.max_leaf_size)) { make_leaf(node, b, begin, end); return false; }
             mid = begin + n / 2;
         } else if (depth >= kMaxBvhDepth / 2) {
             mid = median_split(begin, end, axis);  // bounded depth whatever the input
@@ -176,7 +178,7 @@ struct Builder {
             mid = midpoint_split(begin, end, axis, cb);
         } else {
             split = sah_split(begin, end, b, cb);
-            if (split.axis < 0) { make_leaf(node, b, begin, end); return; }
+            if (split.axis < 0) { make_leaf(node, b, begin, end); return false; }
             mid = split.mid;
         }
         if (!split.bounds_known) {
@@ -186,6 +188,14 @@ struct Builder {
         nodes[node].lo = b.lo;
         nodes[node].hi = b.hi;
         nodes[node].count = 0;
+        return true;
+    }
+
+    // `b` and `cb` are the bounds and centroid bounds of refs[begin, end).
+    void build(uint32_t node, size_t begin, size_t end, int depth, const Aabb& b, const Aabb& cb) {
+        Split split;
+        size_t mid = 0;
+        if (!choose(node, begin, end, depth, b, cb, split, mid)) return;
         const uint32_t left = uint32_t(nodes.size());
         nodes.emplace_back();
         build(left, begin, mid, depth + 1, split.lb, split.lcb);
@@ -195,6 +205,46 @@ struct Builder {
         build(right, mid, end, depth + 1, split.rb, split.rcb);
     }
 };
+
+// Below this many primitives a subtree is built on the thread that reached it: a thread
+// costs more than the work.
+constexpr size_t kParallelMin = 4096;
+
+// Builds refs[begin, end) into `out` (out[0] its root, offsets relative to out). The two
+// halves of a split are built at once, down to `spawn` levels, each into its own array, and
+// spliced in the sequential builder's depth-first order, so the tree is the same whatever
+// the thread count: both halves touch disjoint ranges of refs, and every split is decided
+// by the same code on the same primitives.
+void build_subtree(const BvhBuildOptions& opt, std::vector<PrimRef>& refs, std::vector<BvhNode>& out, size_t begin,
+                   size_t end, int depth, const Aabb& b, const Aabb& cb, int spawn, int& max_depth) {
+    out.emplace_back();
+    Builder builder{opt, refs, out, 0, {}, {}, {}};
+    if (spawn <= 0 || end - begin < kParallelMin) {
+        builder.build(0, begin, end, depth, b, cb);
+        max_depth = builder.max_depth_seen;
+        return;
+    }
+    Builder::Split split;
+    size_t mid = 0;
+    if (!builder.choose(0, begin, end, depth, b, cb, split, mid)) { max_depth = depth; return; }
+    std::vector<BvhNode> left, right;
+    int left_depth = depth, right_depth = depth;
+    std::thread worker([&] { build_subtree(opt, refs, left, begin, mid, depth + 1, split.lb, split.lcb, spawn - 1, left_depth); });
+    build_subtree(opt, refs, right, mid, end, depth + 1, split.rb, split.rcb, spawn - 1, right_depth);
+    worker.join();
+    max_depth = std::max(left_depth, right_depth);
+    auto append = [&out](const std::vector<BvhNode>& part) {
+        const uint32_t base = uint32_t(out.size());
+        for (BvhNode n : part) {
+            if (!n.is_leaf()) n.offset += base;  // leaves name refs, whose indices are global
+            out.push_back(n);
+        }
+    };
+    out.reserve(1 + left.size() + right.size());
+    append(left);
+    out[0].offset = uint32_t(out.size());
+    append(right);
+}
 
 }  // namespace
 
@@ -217,12 +267,14 @@ Bvh build_bvh(std::span<const Aabb> prim_bounds, const BvhBuildOptions& options)
     std::vector<PrimRef> refs(prim_bounds.size());
     for (size_t i = 0; i < prim_bounds.size(); ++i)
         refs[i] = PrimRef{prim_bounds[i], prim_bounds[i].centroid(), uint32_t(i)};
-    bvh.nodes.reserve(std::max<size_t>(1, 2 * prim_bounds.size() / std::max(1, options.max_leaf_size / 2 + 1)));
-    bvh.nodes.emplace_back();
-    Builder builder{options, refs, bvh.nodes, 0, {}, {}, {}};
     Aabb b, cb;
-    builder.bounds_of(0, refs.size(), b, cb);
-    builder.build(0, 0, refs.size(), 0, b, cb);
+    for (const PrimRef& r : refs) { b.expand(r.bounds); cb.expand(r.centroid); }
+    const int threads = options.build_threads > 0 ? options.build_threads : int(std::max(1u, std::thread::hardware_concurrency()));
+    // Levels of two-way splits: enough for every thread, plus two so that lopsided splits
+    // (a ground plane beside a building) still leave none idle for long. One thread: none.
+    const int spawn = threads > 1 ? std::bit_width(unsigned(threads - 1)) + 2 : 0;
+    int max_depth = 0;
+    build_subtree(options, refs, bvh.nodes, 0, refs.size(), 0, b, cb, spawn, max_depth);
     bvh.nodes.shrink_to_fit();
     bvh.prim_index.resize(refs.size());
     for (size_t i = 0; i < refs.size(); ++i) bvh.prim_index[i] = refs[i].id;
@@ -230,7 +282,7 @@ Bvh build_bvh(std::span<const Aabb> prim_bounds, const BvhBuildOptions& options)
     BvhBuildStats& s = bvh.stats;
     s.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     s.node_count = bvh.nodes.size();
-    s.depth = builder.max_depth_seen;
+    s.depth = max_depth;
     s.leaf_size_histogram.assign(size_t(std::max(options.max_leaf_size, 1)) + 2, 0);
     for (const BvhNode& n : bvh.nodes) {
         if (!n.is_leaf()) continue;

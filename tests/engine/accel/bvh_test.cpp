@@ -118,6 +118,30 @@ TEST(Bvh, NodesAreFlatAndStatsConsistent) {
     }
 }
 
+// The parallel build splices the halves in the sequential order: the same tree, node for
+// node, whatever the thread count (the image must not depend on it).
+TEST(Bvh, ParallelBuildIsTheSequentialTree) {
+    const std::vector<Aabb> bounds = triangle_bounds(displaced_sphere(60000));
+    for (BvhType t : kBuilders) {
+        BvhBuildOptions o;
+        o.type = t;
+        o.build_threads = 1;
+        const Bvh one = build_bvh(bounds, o);
+        for (int threads : {2, 3, 8}) {
+            o.build_threads = threads;
+            const Bvh many = build_bvh(bounds, o);
+            ASSERT_EQ(many.nodes.size(), one.nodes.size()) << to_string(t) << ", " << threads << " threads";
+            for (size_t i = 0; i < one.nodes.size(); ++i) {
+                const BvhNode &a = one.nodes[i], &b = many.nodes[i];
+                ASSERT_TRUE(a.lo == b.lo && a.hi == b.hi && a.offset == b.offset && a.count == b.count)
+                    << to_string(t) << ", " << threads << " threads, node " << i;
+            }
+            EXPECT_EQ(many.prim_index, one.prim_index);
+            EXPECT_EQ(many.stats.depth, one.stats.depth);
+        }
+    }
+}
+
 TEST(Bvh, SahIsCheaperThanMidpointAndMedian) {
     const SceneDescription d = displaced_sphere(50000);
     const double sah = build(d, BvhType::sah).tri_bvh_stats.sah_cost;
