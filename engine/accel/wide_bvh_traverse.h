@@ -203,6 +203,27 @@ struct SubMulSlab {
     }
 };
 
+// Calls f(slab, data) with the slab test that fits the ray: the fused test compiled for the
+// ray's octant, or the subtract-multiply test.
+template <class F>
+bool with_slab(const Ray& ray, F&& f) {
+#if defined(TESSERA_WIDE_FMA)
+    FmaWideRayData fr;
+    switch (make_fma_wide_ray(ray, fr)) {
+        case 0: return f(FmaSlab<0>{}, fr);
+        case 1: return f(FmaSlab<1>{}, fr);
+        case 2: return f(FmaSlab<2>{}, fr);
+        case 3: return f(FmaSlab<3>{}, fr);
+        case 4: return f(FmaSlab<4>{}, fr);
+        case 5: return f(FmaSlab<5>{}, fr);
+        case 6: return f(FmaSlab<6>{}, fr);
+        case 7: return f(FmaSlab<7>{}, fr);
+        default: break;
+    }
+#endif
+    return f(SubMulSlab{}, make_wide_ray(ray));
+}
+
 struct alignas(16) Entry {
     uint32_t child;
     uint32_t count;  // 0: inner node
@@ -301,21 +322,7 @@ bool wide_closest_hit(const WideBvh& bvh, Ray& ray, LeafTest&& test, TraversalCo
     using namespace wide_detail;
     if (bvh.root_leaf_count) return test_root_leaf(bvh, ray, test, counters);
     if (bvh.nodes.empty()) return false;
-#if defined(TESSERA_WIDE_FMA)
-    FmaWideRayData fr;
-    switch (make_fma_wide_ray(ray, fr)) {
-        case 0: return closest_hit_loop<FmaSlab<0>>(bvh, ray, fr, test, counters);
-        case 1: return closest_hit_loop<FmaSlab<1>>(bvh, ray, fr, test, counters);
-        case 2: return closest_hit_loop<FmaSlab<2>>(bvh, ray, fr, test, counters);
-        case 3: return closest_hit_loop<FmaSlab<3>>(bvh, ray, fr, test, counters);
-        case 4: return closest_hit_loop<FmaSlab<4>>(bvh, ray, fr, test, counters);
-        case 5: return closest_hit_loop<FmaSlab<5>>(bvh, ray, fr, test, counters);
-        case 6: return closest_hit_loop<FmaSlab<6>>(bvh, ray, fr, test, counters);
-        case 7: return closest_hit_loop<FmaSlab<7>>(bvh, ray, fr, test, counters);
-        default: break;
-    }
-#endif
-    return closest_hit_loop<SubMulSlab>(bvh, ray, make_wide_ray(ray), test, counters);
+    return with_slab(ray, [&](auto slab, const auto& r) { return closest_hit_loop<decltype(slab)>(bvh, ray, r, test, counters); });
 }
 
 // Same leaf contract; `test` says whether the leaf blocks the ray at all. A node's hit leaves
@@ -371,21 +378,7 @@ bool wide_any_hit(const WideBvh& bvh, const Ray& ray, LeafTest&& test, Traversal
     using namespace wide_detail;
     if (bvh.root_leaf_count) return test_root_leaf(bvh, ray, test, counters);
     if (bvh.nodes.empty()) return false;
-#if defined(TESSERA_WIDE_FMA)
-    FmaWideRayData fr;
-    switch (make_fma_wide_ray(ray, fr)) {
-        case 0: return any_hit_loop<FmaSlab<0>>(bvh, ray, fr, test, counters);
-        case 1: return any_hit_loop<FmaSlab<1>>(bvh, ray, fr, test, counters);
-        case 2: return any_hit_loop<FmaSlab<2>>(bvh, ray, fr, test, counters);
-        case 3: return any_hit_loop<FmaSlab<3>>(bvh, ray, fr, test, counters);
-        case 4: return any_hit_loop<FmaSlab<4>>(bvh, ray, fr, test, counters);
-        case 5: return any_hit_loop<FmaSlab<5>>(bvh, ray, fr, test, counters);
-        case 6: return any_hit_loop<FmaSlab<6>>(bvh, ray, fr, test, counters);
-        case 7: return any_hit_loop<FmaSlab<7>>(bvh, ray, fr, test, counters);
-        default: break;
-    }
-#endif
-    return any_hit_loop<SubMulSlab>(bvh, ray, make_wide_ray(ray), test, counters);
+    return with_slab(ray, [&](auto slab, const auto& r) { return any_hit_loop<decltype(slab)>(bvh, ray, r, test, counters); });
 }
 
 }  // namespace tessera
