@@ -28,8 +28,9 @@ static_assert(sizeof(BvhNode) == 32, "two nodes per cache line");
 
 struct BvhBuildOptions {
     BvhType type = BvhType::sah;
-    // Eight: two blocks of four (below). With 4, the SAH splits more and the tree takes 66
-    // instead of 59 bytes per triangle on maxplanck at the same speed (`tessera bench rays`).
+    // Largest leaf: two blocks of four (below). For the SAH the render scene builds the binary
+    // tree down to one block and lets the collapse to the wide tree merge subtrees up to this
+    // size where the SAH prefers a leaf (render_scene.cpp, wide_bvh.h).
     int max_leaf_size = 8;
     // 32 rather than 16: 4–6% faster incoherent and shadow rays on building and maxplanck
     // (`tessera bench rays`), at the same build time (a node gets min(bins, primitives) bins).
