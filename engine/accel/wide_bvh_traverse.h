@@ -9,6 +9,7 @@
 #include <cfloat>
 #include <cmath>
 #include <cstdint>
+#include <utility>
 
 #if defined(__SSE2__)
 #include <immintrin.h>
@@ -58,6 +59,15 @@ inline Vec fmadd(Vec a, Vec b, Vec c) { return _mm_fmadd_ps(a, b, c); }
 #endif
 #endif
 
+// Which row of a node holds each axis's near and far plane; bit a of neg: d[a] < 0.
+inline void set_rows(int neg, int* near_row, int* far_row) {
+    for (int a = 0; a < 3; ++a) {
+        const bool n = neg & (1 << a);
+        near_row[a] = n ? a + 3 : a;
+        far_row[a] = n ? a : a + 3;
+    }
+}
+
 // The ray as the slab test wants it: origin and reciprocal direction broadcast, and which row
 // of a node is the near and which the far plane on each axis.
 struct WideRay {
@@ -88,11 +98,7 @@ inline WideRay make_wide_ray(const Ray& ray) {
     r.ri = make_ray_inv(ray.o, ray.d);
     const int neg = int(r.ri.near_x) | int(r.ri.near_y) << 1 | int(r.ri.near_z) << 2;
 #endif
-    for (int a = 0; a < 3; ++a) {
-        const bool n = neg & (1 << a);
-        r.near_row[a] = n ? a + 3 : a;
-        r.far_row[a] = n ? a : a + 3;
-    }
+    set_rows(neg, r.near_row, r.far_row);
     return r;
 }
 
@@ -141,14 +147,16 @@ inline unsigned slab(const WideNode& n, const WideRay& r, float tmin, float tmax
 // distance. Each distance is then one rounding away from a bound on the true one, which the
 // widening covers, so no box a ray truly enters is missed. Only valid for rays with no zero
 // direction component (the sub-multiply test's NaN rule decides those) and finite constants.
-// The traversal loop is compiled once per octant of the ray direction, so which row of a node
-// is the near plane is a constant, not a per-ray index loaded on every node.
+// Which row of a node is the near plane is per-ray data. (A loop compiled once per octant of
+// the ray direction, with the rows as constants, was tried: the dispatch on the octant
+// mispredicted 0.75 times per incoherent ray and `tessera bench rays` ran 2–4% slower.)
 struct FmaWideRayData {
     Vec inv_n[3], k_n[3], inv_f[3], k_f[3];
+    int near_row[3], far_row[3];
 };
 
-// The octant (0–7), or −1 where the fused form does not apply.
-inline int make_fma_wide_ray(const Ray& ray, FmaWideRayData& r) {
+// False where the fused form does not apply.
+inline bool make_fma_wide_ray(const Ray& ray, FmaWideRayData& r) {
     // All three axes at once in SSE (lane 3 is padding: d = 1, o = 0).
     const __m128 d = _mm_set_ps(1.f, ray.d.z, ray.d.y, ray.d.x);
     const __m128 o = _mm_set_ps(0.f, ray.o.z, ray.o.y, ray.o.x);
@@ -163,7 +171,7 @@ inline int make_fma_wide_ray(const Ray& ray, FmaWideRayData& r) {
     const __m128 big = _mm_set1_ps(FLT_MAX);
     const __m128 ok = _mm_and_ps(_mm_and_ps(_mm_cmple_ps(_mm_and_ps(inv_f, abs_mask), big), _mm_cmple_ps(_mm_and_ps(kn, abs_mask), big)),
                                  _mm_cmple_ps(_mm_and_ps(kf, abs_mask), big));
-    if (_mm_movemask_ps(ok) != 0xf) return -1;
+    if (_mm_movemask_ps(ok) != 0xf) return false;
     alignas(16) float fi[4], fif[4], fkn[4], fkf[4];
     _mm_store_ps(fi, inv); _mm_store_ps(fif, inv_f); _mm_store_ps(fkn, kn); _mm_store_ps(fkf, kf);
     for (int a = 0; a < 3; ++a) {
@@ -172,21 +180,19 @@ inline int make_fma_wide_ray(const Ray& ray, FmaWideRayData& r) {
         r.inv_f[a] = set1(fif[a]);
         r.k_f[a] = set1(fkf[a]);
     }
-    return _mm_movemask_ps(inv) & 7;
+    set_rows(_mm_movemask_ps(inv), r.near_row, r.far_row);
+    return true;
 }
 
-template <int Octant>  // bit a: d[a] < 0
 struct FmaSlab {
     using Data = FmaWideRayData;
-    static constexpr int near_row(int a) { return (Octant >> a) & 1 ? a + 3 : a; }
-    static constexpr int far_row(int a) { return (Octant >> a) & 1 ? a : a + 3; }
     static unsigned test(const WideNode& n, const Data& r, float tmin, float tmax, float* enter_out) {
-        const Vec nx = fmadd(load(n.bounds[near_row(0)]), r.inv_n[0], r.k_n[0]);
-        const Vec ny = fmadd(load(n.bounds[near_row(1)]), r.inv_n[1], r.k_n[1]);
-        const Vec nz = fmadd(load(n.bounds[near_row(2)]), r.inv_n[2], r.k_n[2]);
-        const Vec fx = fmadd(load(n.bounds[far_row(0)]), r.inv_f[0], r.k_f[0]);
-        const Vec fy = fmadd(load(n.bounds[far_row(1)]), r.inv_f[1], r.k_f[1]);
-        const Vec fz = fmadd(load(n.bounds[far_row(2)]), r.inv_f[2], r.k_f[2]);
+        const Vec nx = fmadd(load(n.bounds[r.near_row[0]]), r.inv_n[0], r.k_n[0]);
+        const Vec ny = fmadd(load(n.bounds[r.near_row[1]]), r.inv_n[1], r.k_n[1]);
+        const Vec nz = fmadd(load(n.bounds[r.near_row[2]]), r.inv_n[2], r.k_n[2]);
+        const Vec fx = fmadd(load(n.bounds[r.far_row[0]]), r.inv_f[0], r.k_f[0]);
+        const Vec fy = fmadd(load(n.bounds[r.far_row[1]]), r.inv_f[1], r.k_f[1]);
+        const Vec fz = fmadd(load(n.bounds[r.far_row[2]]), r.inv_f[2], r.k_f[2]);
         const Vec enter = vmax(vmax(nx, set1(tmin)), vmax(ny, nz));
         const Vec leave = vmin(vmin(fx, set1(tmax)), vmin(fy, fz));
         store(enter_out, enter);
@@ -203,23 +209,13 @@ struct SubMulSlab {
     }
 };
 
-// Calls f(slab, data) with the slab test that fits the ray: the fused test compiled for the
-// ray's octant, or the subtract-multiply test.
+// Calls f(slab, data) with the slab test that fits the ray: the fused test, or the
+// subtract-multiply test.
 template <class F>
 bool with_slab(const Ray& ray, F&& f) {
 #if defined(TESSERA_WIDE_FMA)
     FmaWideRayData fr;
-    switch (make_fma_wide_ray(ray, fr)) {
-        case 0: return f(FmaSlab<0>{}, fr);
-        case 1: return f(FmaSlab<1>{}, fr);
-        case 2: return f(FmaSlab<2>{}, fr);
-        case 3: return f(FmaSlab<3>{}, fr);
-        case 4: return f(FmaSlab<4>{}, fr);
-        case 5: return f(FmaSlab<5>{}, fr);
-        case 6: return f(FmaSlab<6>{}, fr);
-        case 7: return f(FmaSlab<7>{}, fr);
-        default: break;
-    }
+    if (make_fma_wide_ray(ray, fr)) return f(FmaSlab{}, fr);
 #endif
     return f(SubMulSlab{}, make_wide_ray(ray));
 }
@@ -246,6 +242,29 @@ inline unsigned pop_lowest(unsigned& mask) {
     const unsigned c = unsigned(std::countr_zero(mask));
     mask &= mask - 1;
     return c;
+}
+
+// Bit c: child c is a leaf. Found in SIMD rather than by a branch per hit child, which
+// mispredicted once per shadow ray in the profile (whether a hit child is a leaf is a coin toss).
+inline unsigned leaf_mask(const WideNode& n) {
+#if defined(__AVX2__)
+    if constexpr (W == 8) {
+        const __m256i c = _mm256_load_si256(reinterpret_cast<const __m256i*>(n.count));
+        return ~unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(c, _mm256_setzero_si256())))) & 0xffu;
+    }
+#endif
+#if defined(__SSE2__)
+    unsigned inner = 0;
+    for (int h = 0; h < W; h += 4) {
+        const __m128i c = _mm_load_si128(reinterpret_cast<const __m128i*>(n.count + h));
+        inner |= unsigned(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(c, _mm_setzero_si128())))) << h;
+    }
+    return ~inner & ((1u << W) - 1);
+#else
+    unsigned m = 0;
+    for (int c = 0; c < W; ++c) m |= unsigned(n.count[c] != 0) << c;
+    return m;
+#endif
 }
 
 }  // namespace wide_detail
@@ -345,24 +364,25 @@ bool any_hit_loop(const WideBvh& bvh, const Ray& ray, const typename Slab::Data&
         const WideNode& n = bvh.nodes[cur];
         ++visited;
         alignas(32) float enter[W];
-        unsigned mask = Slab::test(n, r, ray.tmin, ray.tmax, enter);
-        int next = -1;
-        while (mask) {
-            const unsigned c = pop_lowest(mask);
-            if (n.count[c]) {
-                tests += n.count[c];
-                if (test(n.child[c], n.count[c], ray)) { hit = true; break; }
-            } else if (next < 0) {
-                next = int(c);
-            } else if (enter[c] > enter[next]) {
-                stack[sp++] = n.child[next];
-                next = int(c);
-            } else {
-                stack[sp++] = n.child[c];
-            }
+        const unsigned mask = Slab::test(n, r, ray.tmin, ray.tmax, enter);
+        const unsigned leaves = leaf_mask(n);
+        unsigned hit_leaves = mask & leaves, inner = mask & ~leaves;
+        while (hit_leaves) {
+            const unsigned c = pop_lowest(hit_leaves);
+            tests += n.count[c];
+            if (test(n.child[c], n.count[c], ray)) { hit = true; break; }
         }
         if (hit) break;
-        if (next >= 0) { cur = n.child[next]; continue; }
+        if (inner) {
+            unsigned next = pop_lowest(inner);
+            while (inner) {
+                unsigned c = pop_lowest(inner);
+                if (enter[c] > enter[next]) std::swap(c, next);
+                stack[sp++] = n.child[c];
+            }
+            cur = n.child[next];
+            continue;
+        }
         if (sp == 0) break;
         cur = stack[--sp];
     }
