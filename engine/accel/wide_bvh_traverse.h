@@ -1,10 +1,10 @@
 #pragma once
 // Traversal of the wide BVH: one slab test for all of a node's boxes (AVX for eight, SSE for
 // four, a scalar fallback), then only the hit children are looked at, by bit scan over the
-// hit mask: one hit is visited next without touching the stack, two are ordered with one
-// comparison, more are sorted on the stack. Subtrees beyond the closest hit are skipped on
-// pop. The slab arithmetic is intersect_aabb's, lane by lane, including its NaN rule.
-// (The control flow follows Embree's single-ray traverser.)
+// hit mask: hit leaves are tested there and then; of the inner children one is visited next
+// without touching the stack, two are ordered with one comparison, more are sorted on the
+// stack. Subtrees beyond the closest hit are skipped on pop. The slab arithmetic is
+// intersect_aabb's, lane by lane, including its NaN rule.
 #include <bit>
 #include <cfloat>
 #include <cmath>
@@ -220,11 +220,10 @@ bool with_slab(const Ray& ray, F&& f) {
     return f(SubMulSlab{}, make_wide_ray(ray));
 }
 
-struct alignas(16) Entry {
-    uint32_t child;
-    uint32_t count;  // 0: inner node
+// An inner node waiting on the stack, with the distance at which the ray enters its box.
+struct Entry {
+    uint32_t node;
     float t;
-    uint32_t pad;    // 16 bytes: one move per push and pop
 };
 
 // Each level pushes at most W - 1 entries.
@@ -267,11 +266,30 @@ inline unsigned leaf_mask(const WideNode& n) {
 #endif
 }
 
+// Bit c of mask stays where enter[c] < t.
+inline unsigned keep_before(unsigned mask, const float* enter, float t) {
+#if defined(TESSERA_WIDE_SIMD)
+    const Vec e = load(enter);
+    return mask & ~le_mask(set1(t), e);  // not t <= enter; enter is never NaN
+#else
+    unsigned keep = 0;
+    for (int c = 0; c < W; ++c) keep |= unsigned(enter[c] < t) << c;
+    return mask & keep;
+#endif
+}
+
 }  // namespace wide_detail
 
 // `test(first, count, ray)` tests the leaf whose entry in the tree is (first, count) (what that
 // names is the caller's: primitives, or blocks of them), lowers ray.tmax to its closest hit
 // and says whether there was one.
+//
+// A node's hit leaves are tested at once, before its inner children are looked at; inner
+// children the leaves' hits now hide are dropped, the others visited nearest first. Only
+// inner nodes go on the stack. (Pushing leaves with the inner children and testing them in
+// distance order, as Embree's traverser does, was 5–9% slower on incoherent and camera
+// rays in `tessera bench rays`: whether a popped entry is a leaf mispredicted 0.6 times per
+// ray, and most leaves a ray's box test keeps are tested either way.)
 namespace wide_detail {
 
 template <class Slab, class LeafTest>
@@ -280,46 +298,49 @@ bool closest_hit_loop(const WideBvh& bvh, Ray& ray, const typename Slab::Data& r
     uint64_t visited = 0, tests = 0;
     Entry stack[kStack];
     int sp = 0;
-    Entry cur{0, 0, ray.tmin, 0};
+    uint32_t cur = 0;
     for (;;) {
-        if (cur.count) {
-            tests += cur.count;
-            hit |= test(cur.child, cur.count, ray);
-        } else {
-            const WideNode& n = bvh.nodes[cur.child];
-            ++visited;
-            alignas(32) float enter[W];
-            unsigned mask = Slab::test(n, r, ray.tmin, ray.tmax, enter);
-            if (mask) {
-                const unsigned c0 = pop_lowest(mask);
-                const Entry e0{n.child[c0], n.count[c0], enter[c0], 0};
-                if (!mask) { cur = e0; continue; }
-                const unsigned c1 = pop_lowest(mask);
-                const Entry e1{n.child[c1], n.count[c1], enter[c1], 0};
-                if (!mask) {
-                    if (e0.t <= e1.t) { stack[sp++] = e1; cur = e0; }
-                    else { stack[sp++] = e0; cur = e1; }
-                    continue;
-                }
-                // Three or more: push them all, sort the pushed run farthest first, take the nearest.
-                Entry* run = stack + sp;
-                int k = 2;
-                run[0] = e0;
-                run[1] = e1;
-                while (mask) {
-                    const unsigned c = pop_lowest(mask);
-                    run[k++] = Entry{n.child[c], n.count[c], enter[c], 0};
-                }
-                for (int i = 1; i < k; ++i) {
-                    const Entry e = run[i];
-                    int j = i;
-                    while (j > 0 && run[j - 1].t < e.t) { run[j] = run[j - 1]; --j; }
-                    run[j] = e;
-                }
-                sp += k - 1;
-                cur = run[k - 1];
+        const WideNode& n = bvh.nodes[cur];
+        ++visited;
+        alignas(32) float enter[W];
+        unsigned mask = Slab::test(n, r, ray.tmin, ray.tmax, enter);
+        const unsigned leaves = leaf_mask(n);
+        if (unsigned hit_leaves = mask & leaves) {
+            do {
+                const unsigned c = pop_lowest(hit_leaves);
+                tests += n.count[c];
+                hit |= test(n.child[c], n.count[c], ray);
+            } while (hit_leaves);
+            mask = keep_before(mask & ~leaves, enter, ray.tmax);
+        }
+        if (mask) {
+            const unsigned c0 = pop_lowest(mask);
+            if (!mask) { cur = n.child[c0]; continue; }
+            const unsigned c1 = pop_lowest(mask);
+            const Entry e0{n.child[c0], enter[c0]}, e1{n.child[c1], enter[c1]};
+            if (!mask) {
+                if (e0.t <= e1.t) { stack[sp++] = e1; cur = e0.node; }
+                else { stack[sp++] = e0; cur = e1.node; }
                 continue;
             }
+            // Three or more: push them all, sort the pushed run farthest first, take the nearest.
+            Entry* run = stack + sp;
+            int k = 2;
+            run[0] = e0;
+            run[1] = e1;
+            while (mask) {
+                const unsigned c = pop_lowest(mask);
+                run[k++] = Entry{n.child[c], enter[c]};
+            }
+            for (int i = 1; i < k; ++i) {
+                const Entry e = run[i];
+                int j = i;
+                while (j > 0 && run[j - 1].t < e.t) { run[j] = run[j - 1]; --j; }
+                run[j] = e;
+            }
+            sp += k - 1;
+            cur = run[k - 1].node;
+            continue;
         }
         // Pop the next subtree that may still hold a closer hit.
         for (;;) {
@@ -328,8 +349,8 @@ bool closest_hit_loop(const WideBvh& bvh, Ray& ray, const typename Slab::Data& r
                 counters.prim_tests += tests;
                 return hit;
             }
-            cur = stack[--sp];
-            if (cur.t < ray.tmax) break;
+            const Entry e = stack[--sp];
+            if (e.t < ray.tmax) { cur = e.node; break; }
         }
     }
 }
