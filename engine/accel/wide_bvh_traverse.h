@@ -62,9 +62,9 @@ inline Vec fmadd(Vec a, Vec b, Vec c) { return _mm_fmadd_ps(a, b, c); }
 // Which row of a node holds each axis's near and far plane; bit a of neg: d[a] < 0.
 inline void set_rows(int neg, int* near_row, int* far_row) {
     for (int a = 0; a < 3; ++a) {
-        const bool n = neg & (1 << a);
-        near_row[a] = n ? a + 3 : a;
-        far_row[a] = n ? a : a + 3;
+        const int flip = 3 * ((neg >> a) & 1);  // arithmetic, not a branch per axis
+        near_row[a] = a + flip;
+        far_row[a] = a + 3 - flip;
     }
 }
 
