@@ -14,6 +14,17 @@ struct TraversalCounters {
 };
 
 // `test(prim_id, ray)` returns true on a hit and then lowers ray.tmax to the hit distance.
+// Pops into `node` the next stacked subtree a closest-hit ray may still meet before tmax
+// (entries hold .node and the entry distance .t); false once the stack is empty.
+template <class Entry>
+inline bool pop_closer(const Entry* stack, int& sp, float tmax, uint32_t& node) {
+    while (sp > 0) {
+        const Entry& e = stack[--sp];
+        if (e.t < tmax) { node = e.node; return true; }
+    }
+    return false;
+}
+
 template <class PrimTest>
 bool bvh_closest_hit(const Bvh& bvh, Ray& ray, PrimTest&& test, TraversalCounters& counters) {
     if (bvh.nodes.empty()) return false;
@@ -47,15 +58,10 @@ bool bvh_closest_hit(const Bvh& bvh, Ray& ray, PrimTest&& test, TraversalCounter
             if (tl != INFINITY) { current = l; continue; }
             if (tr != INFINITY) { current = r; continue; }
         }
-        // Pop the next subtree that may still hold a closer hit.
-        for (;;) {
-            if (sp == 0) {
-                counters.nodes_visited += visited;
-                counters.prim_tests += tests;
-                return hit;
-            }
-            const Entry e = stack[--sp];
-            if (e.t < ray.tmax) { current = e.node; break; }
+        if (!pop_closer(stack, sp, ray.tmax, current)) {
+            counters.nodes_visited += visited;
+            counters.prim_tests += tests;
+            return hit;
         }
     }
 }

@@ -342,15 +342,10 @@ bool closest_hit_loop(const WideBvh& bvh, Ray& ray, const typename Slab::Data& r
             cur = run[k - 1].node;
             continue;
         }
-        // Pop the next subtree that may still hold a closer hit.
-        for (;;) {
-            if (sp == 0) {
-                counters.nodes_visited += visited;
-                counters.prim_tests += tests;
-                return hit;
-            }
-            const Entry e = stack[--sp];
-            if (e.t < ray.tmax) { cur = e.node; break; }
+        if (!pop_closer(stack, sp, ray.tmax, cur)) {
+            counters.nodes_visited += visited;
+            counters.prim_tests += tests;
+            return hit;
         }
     }
 }
