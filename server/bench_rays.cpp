@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -72,45 +73,89 @@ std::pair<double, double> work_per_ray(const RenderScene& s, const std::vector<R
     return {double(tc.nodes_visited) / n, double(tc.prim_tests) / n};
 }
 
-// Mrays/s over `rays` with `threads` threads; `any` selects occlusion queries.
-double throughput(const RenderScene& s, const std::vector<Ray>& rays, int threads, bool any, double min_seconds, uint64_t& hits) {
+// One slice of a measurement: `passes` passes over `rays` on `threads` threads, started once
+// (threads take chunks of the passes' rays from a shared counter, so none idles at the end of
+// a pass). Returns seconds; `hits` counts the first pass's hits.
+double run_slice(const RenderScene& s, const std::vector<Ray>& rays, int threads, bool any, size_t passes, uint64_t& hits) {
+    constexpr size_t kChunk = 1024;
+    const size_t total = rays.size() * passes;
     std::atomic<size_t> next{0};
     std::atomic<uint64_t> hit_count{0};
     auto work = [&] {
         TraversalCounters tc;
         uint64_t local = 0;
         for (;;) {
-            const size_t begin = next.fetch_add(4096);
-            if (begin >= rays.size()) break;
-            const size_t end = std::min(rays.size(), begin + 4096);
+            const size_t begin = next.fetch_add(kChunk);
+            if (begin >= total) break;
+            const size_t end = std::min(total, begin + kChunk);
             for (size_t i = begin; i < end; ++i) {
-                if (any) local += occluded(s, rays[i], tc);
+                const Ray& ray = rays[i % rays.size()];
+                bool h;
+                if (any) h = occluded(s, ray, tc);
                 else {
-                    Ray r = rays[i];
-                    Hit h;
-                    local += intersect(s, r, h, tc);
+                    Ray r = ray;
+                    Hit hit;
+                    h = intersect(s, r, hit, tc);
                 }
+                local += (i < rays.size()) & h;
             }
         }
         hit_count += local;
     };
-    // Whole passes over the set until at least min_seconds have passed: a pass over a small set
-    // takes milliseconds, where thread start-up and timer noise would dominate.
     const auto t0 = Clock::now();
-    size_t traced = 0;
-    double secs = 0;
-    do {
-        next = 0;
-        hit_count = 0;
-        std::vector<std::thread> pool;
-        for (int i = 1; i < threads; ++i) pool.emplace_back(work);
-        work();
-        for (auto& t : pool) t.join();
-        traced += rays.size();
-        secs = std::chrono::duration<double>(Clock::now() - t0).count();
-    } while (secs < min_seconds);
+    std::vector<std::thread> pool;
+    for (int i = 1; i < threads; ++i) pool.emplace_back(work);
+    work();
+    for (auto& t : pool) t.join();
     hits = hit_count;
-    return double(traced) / secs * 1e-6;
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+struct PairedThroughput {
+    double ours = 0, embree = 0;  // Mrays/s, medians over the slices
+    double ratio = 0;             // median over the rounds of ours / Embree within the round
+    uint64_t ours_hits = 0, embree_hits = 0;
+};
+
+double median(std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    const size_t n = v.size();
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// Ours and Embree in alternating slices (ours first in even rounds, Embree first in odd); the
+// ratio is the median over the rounds of the ratio within a round. On a shared host the
+// machine's speed drifts and dips: two back-to-back measurements of half a second each took
+// a dip into the ratio (the two-thread ratio of one scene scattered from 0.58 to 0.85 between
+// runs), where a round's two slices are a few tens of milliseconds apart and a dip spoils a
+// few rounds, not the median. Threads are started once per slice, not once per pass.
+PairedThroughput paired_throughput(const RenderScene& ours, const RenderScene& emb, const std::vector<Ray>& rays, int threads, bool any,
+                                   double min_seconds) {
+    constexpr int kRounds = 9;
+    PairedThroughput out;
+    if (rays.empty()) return out;
+    const RenderScene* side[2] = {&ours, &emb};
+    uint64_t* hits[2] = {&out.ours_hits, &out.embree_hits};
+    size_t passes[2];
+    for (int k = 0; k < 2; ++k) {  // warm-up pass, which also sizes the slices
+        const double one = run_slice(*side[k], rays, threads, any, 1, *hits[k]);
+        passes[k] = size_t(std::max(1.0, std::ceil(min_seconds / kRounds / std::max(one, 1e-9))));
+    }
+    std::vector<double> rate[2], ratio;
+    for (int round = 0; round < kRounds; ++round) {
+        double r[2];
+        for (int j = 0; j < 2; ++j) {
+            const int k = (round & 1) ? 1 - j : j;
+            uint64_t unused;
+            r[k] = double(rays.size() * passes[k]) / run_slice(*side[k], rays, threads, any, passes[k], unused) * 1e-6;
+            rate[k].push_back(r[k]);
+        }
+        ratio.push_back(r[0] / r[1]);
+    }
+    out.ours = median(rate[0]);
+    out.embree = median(rate[1]);
+    out.ratio = median(ratio);
+    return out;
 }
 
 }  // namespace
@@ -134,7 +179,7 @@ int bench_rays(int argc, char** argv) {
         else {
             std::fprintf(stderr, "usage: tessera bench rays [--cs184 DIR] [--scene NAME] [--rays KIND] [--seconds S]\n"
                                  "  --scene: only scenes whose name contains NAME; --rays: only camera, incoherent or shadow rays\n"
-                                 "  --seconds: time per measurement (0.3)\n");
+                                 "  --seconds: time per BVH and measurement, in 9 alternating rounds (0.3)\n");
             return 2;
         }
     }
@@ -192,12 +237,11 @@ int bench_rays(int argc, char** argv) {
             if (!std::string(label).starts_with(only_rays)) continue;
             const auto [nodes, blocks] = work_per_ray(ours, *set, any);
             for (int t : {1, all}) {
-                uint64_t h1 = 0, h2 = 0;
-                const double a = throughput(ours, *set, t, any, min_seconds, h1);
-                const double b = throughput(emb, *set, t, any, min_seconds, h2);
+                const PairedThroughput p = paired_throughput(ours, emb, *set, t, any, min_seconds);
+                const uint64_t h1 = p.ours_hits, h2 = p.embree_hits;
                 char row[512];
                 std::snprintf(row, sizeof row, "| %s | %s | %zu | %.1f / %.1f | %d | %.2f | %.2f | %.2f× | %s |\n", name.c_str(), label,
-                              set->size(), nodes, blocks, t, a, b, a / b, h1 == h2 ? "same" : ("ours " + std::to_string(h1) + ", Embree " + std::to_string(h2)).c_str());
+                              set->size(), nodes, blocks, t, p.ours, p.embree, p.ratio, h1 == h2 ? "same" : ("ours " + std::to_string(h1) + ", Embree " + std::to_string(h2)).c_str());
                 throughput_rows.push_back(row);
             }
         }
