@@ -78,27 +78,26 @@ std::pair<double, double> work_per_ray(const RenderScene& s, const std::vector<R
 // a pass). Returns seconds; `hits` counts the first pass's hits.
 double run_slice(const RenderScene& s, const std::vector<Ray>& rays, int threads, bool any, size_t passes, uint64_t& hits) {
     constexpr size_t kChunk = 1024;
-    const size_t total = rays.size() * passes;
+    const size_t per_pass = (rays.size() + kChunk - 1) / kChunk, chunks = per_pass * passes;
     std::atomic<size_t> next{0};
     std::atomic<uint64_t> hit_count{0};
     auto work = [&] {
         TraversalCounters tc;
         uint64_t local = 0;
         for (;;) {
-            const size_t begin = next.fetch_add(kChunk);
-            if (begin >= total) break;
-            const size_t end = std::min(total, begin + kChunk);
+            const size_t k = next.fetch_add(1);  // chunk k: pass k / per_pass (division per chunk, not per ray)
+            if (k >= chunks) break;
+            const size_t begin = (k % per_pass) * kChunk, end = std::min(rays.size(), begin + kChunk);
+            uint64_t found = 0;
             for (size_t i = begin; i < end; ++i) {
-                const Ray& ray = rays[i % rays.size()];
-                bool h;
-                if (any) h = occluded(s, ray, tc);
+                if (any) found += occluded(s, rays[i], tc);
                 else {
-                    Ray r = ray;
+                    Ray r = rays[i];
                     Hit hit;
-                    h = intersect(s, r, hit, tc);
+                    found += intersect(s, r, hit, tc);
                 }
-                local += (i < rays.size()) & h;
             }
+            if (k < per_pass) local += found;
         }
         hit_count += local;
     };
