@@ -45,7 +45,7 @@ RaySets make_rays(const RenderScene& s) {
             SurfaceInteraction si = surface_at(s, ray, h);
             if (glm::dot(si.ng, ray.d) > 0.f) { si.ng = -si.ng; si.ns = -si.ns; }
             const glm::vec3 wi = Frame(si.ng).to_world(sample_cosine_hemisphere(rng.next_float(), rng.next_float()));
-            r.incoherent.push_back(spawn_ray(si.p, si.p_err, si.ng, wi));
+            r.incoherent.push_back(spawn_ray(si.p, si.p_err, si.ng, wi, si.tri));
             // Toward a point of a light if there is one, else toward the top of the scene's box.
             glm::vec3 target = top + 0.3f * s.bounds.extent() * glm::vec3(rng.next_float() - 0.5f, 0.f, rng.next_float() - 0.5f);
             if (!s.light_triangles.empty()) {
@@ -53,7 +53,7 @@ RaySets make_rays(const RenderScene& s) {
                 const glm::vec2 b = sample_triangle(rng.next_float(), rng.next_float());
                 target = t.p0 + b.y * t.e1 + (1.f - b.x - b.y) * t.e2;
             }
-            r.shadow.push_back(spawn_ray_to(si.p, si.p_err, si.ng, target));
+            r.shadow.push_back(spawn_ray_to(si.p, si.p_err, si.ng, target, si.tri));
         }
     return r;
 }

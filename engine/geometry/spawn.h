@@ -23,17 +23,20 @@ inline glm::vec3 offset_ray_origin(const glm::vec3& p, const glm::vec3& p_err, c
     return po;
 }
 
-inline Ray spawn_ray(const glm::vec3& p, const glm::vec3& p_err, const glm::vec3& ng, const glm::vec3& dir) {
-    return Ray{offset_ray_origin(p, p_err, ng, dir), 0.f, dir, INFINITY};
+// `tri`: the triangle p lies on (SurfaceInteraction::tri), which the ray then never tests.
+inline Ray spawn_ray(const glm::vec3& p, const glm::vec3& p_err, const glm::vec3& ng, const glm::vec3& dir,
+                     uint32_t tri = kNoTriangle) {
+    return Ray{offset_ray_origin(p, p_err, ng, dir), 0.f, dir, INFINITY, tri};
 }
 
 // A ray from a surface point toward a target point (shadow rays); it stops just short of the
 // target so that the target's own surface is not reported as an occluder.
 inline constexpr float shadow_epsilon = 1e-4f;
 
-inline Ray spawn_ray_to(const glm::vec3& p, const glm::vec3& p_err, const glm::vec3& ng, const glm::vec3& target) {
+inline Ray spawn_ray_to(const glm::vec3& p, const glm::vec3& p_err, const glm::vec3& ng, const glm::vec3& target,
+                         uint32_t tri = kNoTriangle) {
     const glm::vec3 o = offset_ray_origin(p, p_err, ng, target - p);
-    return Ray{o, 0.f, target - o, 1.f - shadow_epsilon};
+    return Ray{o, 0.f, target - o, 1.f - shadow_epsilon, tri};
 }
 
 }  // namespace tessera

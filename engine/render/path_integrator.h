@@ -42,7 +42,7 @@ public:
             const glm::vec3 wi = Frame(si.ns).to_world(sample_cosine_hemisphere(rng.next_float(), rng.next_float()));
             if (glm::dot(wi, si.ng) <= 0.f) break;  // below the true surface (shading normal bent away)
             beta *= m.albedo;
-            Ray next = spawn_ray(si.p, si.p_err, si.ng, wi);
+            Ray next = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri);
             ++stats_.bounce_rays;
             if (!intersect(s_, next, hit, stats_.traversal)) break;
             si = surface_at(s_, next, hit);
@@ -89,14 +89,14 @@ private:
                 const float c = glm::dot(si.ns, wi);
                 if (c <= 0.f || glm::dot(si.ng, wi) <= 0.f) continue;
                 ++stats_.shadow_rays;
-                if (!occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, dl.position), stats_.traversal))
+                if (!occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, dl.position, si.tri), stats_.traversal))
                     Ld += f * dl.intensity * (c / dist2);
             } else {
                 const glm::vec3 wi = -dl.direction;
                 const float c = glm::dot(si.ns, wi);
                 if (c <= 0.f || glm::dot(si.ng, wi) <= 0.f) continue;
                 ++stats_.shadow_rays;
-                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi), stats_.traversal)) Ld += f * dl.intensity * c;
+                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri), stats_.traversal)) Ld += f * dl.intensity * c;
             }
         }
         const int n = std::max(1, st_.light_rays);
@@ -106,7 +106,7 @@ private:
             for (int i = 0; i < count; ++i) {
                 const glm::vec3 wi = frame.to_world(sample_uniform_hemisphere(rng.next_float(), rng.next_float()));
                 if (glm::dot(wi, si.ng) <= 0.f) continue;
-                Ray r = spawn_ray(si.p, si.p_err, si.ng, wi);
+                Ray r = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri);
                 ++stats_.shadow_rays;
                 Hit h;
                 glm::vec3 Le;
@@ -125,7 +125,7 @@ private:
             const float c = glm::dot(si.ns, ls.wi);
             if (c <= 0.f || glm::dot(si.ng, ls.wi) <= 0.f) return;
             ++stats_.shadow_rays;
-            if (occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, ls.point), stats_.traversal)) return;
+            if (occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, ls.point, si.tri), stats_.traversal)) return;
             const float pdf = ls.pdf_w * pick;
             const float w = mis ? power_heuristic(pdf, cosine_hemisphere_pdf(c)) : 1.f;
             Ld += f * ls.Le * (w * c / (pdf * float(n)));
@@ -148,7 +148,7 @@ private:
                 const glm::vec3 wl = sample_cosine_hemisphere(rng.next_float(), rng.next_float());
                 const glm::vec3 wi = frame.to_world(wl);
                 if (glm::dot(wi, si.ng) <= 0.f || wl.z <= 0.f) continue;
-                Ray r = spawn_ray(si.p, si.p_err, si.ng, wi);
+                Ray r = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri);
                 ++stats_.shadow_rays;
                 Hit h;
                 if (!intersect(s_, r, h, stats_.traversal) || h.sphere) continue;
@@ -169,7 +169,7 @@ private:
                 const glm::vec3 wi = frame.to_world(sample_cosine_hemisphere(rng.next_float(), rng.next_float()));
                 if (glm::dot(wi, si.ng) <= 0.f || wi.y <= 0.f) continue;
                 ++stats_.shadow_rays;
-                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi), stats_.traversal)) Ld += m.albedo * s_.sky / float(n);
+                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri), stats_.traversal)) Ld += m.albedo * s_.sky / float(n);
             }
         }
         return Ld;

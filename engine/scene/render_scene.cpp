@@ -285,6 +285,7 @@ bool test_blocks(const RenderScene& scene, const Triangle4Ray& r4, uint32_t firs
         } else {
             h.mask = 0;
             for (int l = 0; l < 4; ++l) {
+                if (block.prim[l] == ray.origin_tri) continue;
                 const TriangleVerts v = triangle4_verts(block, l);
                 TriangleHit th;
                 if (!intersect_triangle_moller_trumbore(ray, v.p0, v.p1, v.p2, th)) continue;
@@ -396,6 +397,7 @@ SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hi
     ns = nlen > 1e-6f ? ns / nlen : si.ng;
     si.ns = glm::dot(ns, si.ng) < 0.f ? -ns : ns;
     si.material = sh.material;
+    si.tri = hit.prim;
     return si;
 }
 

@@ -121,6 +121,7 @@ struct SurfaceInteraction {
     glm::vec3 ns;      // unit shading normal, on the same side as ng
     uint32_t material;
     float t;
+    uint32_t tri = kNoTriangle;  // the triangle (Hit::prim) p lies on; spawned rays skip it
 };
 
 // Lowers ray.tmax to the hit distance.

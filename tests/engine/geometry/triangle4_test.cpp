@@ -67,6 +67,47 @@ TEST(Triangle4, EveryLaneMatchesTheScalarTestBitForBit) {
     EXPECT_GT(zero_edge_cases, n / 3);
 }
 
+// A ray that leaves a triangle skips the lanes holding it (a leaf's last block repeats its last
+// triangle, so that can be two lanes); the other lanes answer as before, to the bit.
+TEST(Triangle4, LanesHoldingTheOriginTriangleNeverHit) {
+    Pcg32 rng(3, 5);
+    const int n = 100000 / test::kWorkScale;
+    int skipped_hits = 0;
+    for (int i = 0; i < n; ++i) {
+        Triangle4 block;
+        for (int l = 0; l < 4; ++l) {
+            for (int k = 0; k < 3; ++k) {
+                const glm::vec3 p = random_point(rng, 1.f, glm::vec3(0.f, 0.f, -2.f));
+                for (int a = 0; a < 3; ++a) block.p[k][a][l] = p[a];
+            }
+            block.prim[l] = 10 + uint32_t(l);
+        }
+        if (rng.next_u32() % 4 == 0) {  // a repeated last triangle
+            for (int k = 0; k < 3; ++k)
+                for (int a = 0; a < 3; ++a) block.p[k][a][3] = block.p[k][a][2];
+            block.prim[3] = block.prim[2];
+        }
+        Ray ray;
+        ray.o = random_point(rng, 0.2f, glm::vec3(0.f));
+        ray.d = triangle4_vertex(block, 0, int(rng.next_u32() % 4)) * 0.3f + random_point(rng, 0.3f, glm::vec3(0.f, 0.f, -1.f)) - ray.o;
+        Triangle4Hits all, skipping;
+        intersect_triangle4(ray, make_triangle4_ray(ray), block, all);
+        ray.origin_tri = block.prim[rng.next_u32() % 4];
+        intersect_triangle4(ray, make_triangle4_ray(ray), block, skipping);
+        for (int l = 0; l < 4; ++l) {
+            const bool hit = all.mask & (1 << l);
+            if (block.prim[l] == ray.origin_tri) {
+                EXPECT_FALSE(skipping.mask & (1 << l)) << "case " << i << " lane " << l;
+                skipped_hits += hit;
+                continue;
+            }
+            ASSERT_EQ(hit, bool(skipping.mask & (1 << l))) << "case " << i << " lane " << l;
+            if (hit) EXPECT_EQ(std::bit_cast<uint32_t>(all.t[l]), std::bit_cast<uint32_t>(skipping.t[l]));
+        }
+    }
+    EXPECT_GT(skipped_hits, n / 20) << "the skipped lanes must often be hit, or the test shows nothing";
+}
+
 TEST(Triangle4, NearestLaneIsTheFirstOfEquals) {
     Triangle4Hits h;
     h.mask = 0b1110;
