@@ -32,20 +32,21 @@ inline TriangleVerts triangle4_verts(const Triangle4& t, int lane) {
 // The ray as the 4-wide test wants it: origin and shear broadcast, in the permuted axis order.
 struct Triangle4Ray {
     WatertightRay w;
-    uint32_t skip = kNoTriangle;  // Ray::origin_tri: lanes holding it never hit
+    // Ray::origin_tri: lanes holding it never hit.
 #if defined(__SSE2__)
-    __m128i skip4;
+    __m128i skip;  // in every lane
     __m128 o[3];  // o[kx], o[ky], o[kz]
     __m128 sx, sy, sz;
+#else
+    uint32_t skip;
 #endif
 };
 
 inline Triangle4Ray make_triangle4_ray(const Ray& ray) {
     Triangle4Ray r;
     r.w = make_watertight_ray(ray.d);
-    r.skip = ray.origin_tri;
 #if defined(__SSE2__)
-    r.skip4 = _mm_set1_epi32(int(ray.origin_tri));
+    r.skip = _mm_set1_epi32(int(ray.origin_tri));
     const float o[3] = {ray.o.x, ray.o.y, ray.o.z};  // not glm's operator[], a switch
     r.o[0] = _mm_set1_ps(o[r.w.kx]);
     r.o[1] = _mm_set1_ps(o[r.w.ky]);
@@ -53,6 +54,8 @@ inline Triangle4Ray make_triangle4_ray(const Ray& ray) {
     r.sx = _mm_set1_ps(r.w.sx);
     r.sy = _mm_set1_ps(r.w.sy);
     r.sz = _mm_set1_ps(r.w.sz);
+#else
+    r.skip = ray.origin_tri;
 #endif
     return r;
 }
@@ -101,7 +104,7 @@ inline void intersect_triangle4(const Ray& ray, const Triangle4Ray& r, const Tri
     const __m128 pos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(e, zero));
     const __m128 det = _mm_add_ps(_mm_add_ps(u, v), e);
     __m128 ok = _mm_andnot_ps(_mm_and_ps(neg, pos), _mm_cmpneq_ps(det, zero));
-    ok = _mm_andnot_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(tri.prim)), r.skip4)), ok);
+    ok = _mm_andnot_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(tri.prim)), r.skip)), ok);
     if (!_mm_movemask_ps(ok)) { out.mask = 0; return; }
     const __m128 az = _mm_mul_ps(r.sz, Akz), bz = _mm_mul_ps(r.sz, Bkz), cz = _mm_mul_ps(r.sz, Ckz);
     const __m128 T = _mm_add_ps(_mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)), _mm_mul_ps(e, cz));
