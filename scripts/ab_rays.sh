@@ -3,7 +3,7 @@
 # binaries in turn, REPS times, and prints each one's one-thread ours/Embree ratios and their
 # mean. Alternating whole runs keeps the host's drift out of the comparison between builds.
 #   scripts/ab_rays.sh SCENE camera|incoherent|shadow REPS BIN_A BIN_B [...]
-#   e.g. scripts/ab_rays.sh building shadow 4 /tmp/before/tessera build/release/server/tessera
+#   e.g. scripts/ab_rays.sh building shadow 4 /tmp/before/tessera build/release/cli/tessera
 # SECONDS_PER_ROW (default 0.5) is passed as --seconds.
 set -euo pipefail
 if [ $# -lt 5 ]; then

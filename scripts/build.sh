@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Configures and builds one CMake preset (release by default: build/release/server/tessera).
+# Configures and builds one CMake preset (release by default: build/release/cli/tessera).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 preset="${1:-release}"

@@ -9,4 +9,4 @@ bash scripts/setup.sh
 bash scripts/build.sh release
 args=()
 [ -d ../shared/scenes/cs184 ] && args+=(--scenes ../shared/scenes/cs184)
-exec ./build/release/server/tessera serve "${args[@]}" "$@"
+exec ./build/release/cli/tessera serve "${args[@]}" "$@"

@@ -12,11 +12,18 @@
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
 #include "engine/scene/procedural.h"
-#include "server/comparison.h"
+#include "api/comparison.h"
 #include "server/problem.h"
 
 namespace tessera::server {
 namespace fs = std::filesystem;
+using api::ComparisonConfig;
+using api::ComparisonResult;
+using api::standard_configs;
+using api::run_comparison;
+using api::comparison_json;
+using api::comparison_markdown;
+using api::comparison_svg;
 using nlohmann::json;
 
 namespace {

@@ -11,13 +11,13 @@
 
 #include <spdlog/spdlog.h>
 
-#include "server/commands.h"
+#include "server/serve_command.h"
 #include "server/http_api.h"
 #include "server/job_service.h"
 
 extern const char* const kTesseraOpenApiYaml;
 
-namespace tessera::cli {
+namespace tessera::server {
 namespace {
 
 constexpr const char* kHelp = R"(usage: tessera serve [options]   (each option also as an environment variable TESSERA_<NAME>)
@@ -39,8 +39,8 @@ struct Options {
     std::string host = "127.0.0.1";
     int port = 8080;
     std::string log_level = "info";
-    server::ServiceConfig service;
-    server::HttpLimits http;
+    ServiceConfig service;
+    HttpLimits http;
 };
 
 long long number(const std::string& flag, const std::string& v, long long lo, long long hi) {
@@ -128,16 +128,16 @@ int serve_command(int argc, char** argv) {
     std::signal(SIGPIPE, SIG_IGN);
 
     const std::string openapi = (std::filesystem::path(o.service.data_dir) / "openapi.yaml").string();
-    std::unique_ptr<server::JobService> service;
-    std::unique_ptr<server::HttpApi> api;
+    std::unique_ptr<JobService> service;
+    std::unique_ptr<HttpApi> api;
     int port = 0;
     try {
-        service = std::make_unique<server::JobService>(o.service);
+        service = std::make_unique<JobService>(o.service);
         {
             std::ofstream out(openapi);
             out << kTesseraOpenApiYaml;
         }
-        api = std::make_unique<server::HttpApi>(*service, o.http, openapi);
+        api = std::make_unique<HttpApi>(*service, o.http, openapi);
         port = api->bind(o.host, o.port);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "tessera serve: %s\n", e.what());
@@ -164,4 +164,4 @@ int serve_command(int argc, char** argv) {
     return 0;
 }
 
-}  // namespace tessera::cli
+}  // namespace tessera::server

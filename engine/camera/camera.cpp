@@ -1,5 +1,6 @@
 #include "engine/camera/camera.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace tessera {
@@ -24,6 +25,29 @@ Camera make_camera(const CameraDesc& desc, int width, int height) {
     c.znear = desc.znear;
     c.zfar = desc.zfar;
     return c;
+}
+
+bool frame_camera(const std::optional<CameraDesc>& from_file, const Aabb& bounds, CameraDesc& out) {
+    const glm::vec3 center = bounds.empty() ? glm::vec3(0.f) : bounds.centroid();
+    const float diag = bounds.empty() ? 1.f : std::max(glm::length(bounds.extent()), 1e-30f);
+    if (from_file) {
+        out = *from_file;
+        if (out.cs184_orbit_dir) {
+            out.look_at = center;
+            out.position = center + 1.5f * diag * *out.cs184_orbit_dir;
+            out.up = {0, 1, 0};
+        }
+        return false;
+    }
+    CameraDesc c;
+    const float tan_v = std::tan(glm::radians(c.vfov_deg) * 0.5f);
+    c.focal_px = 300.f / tan_v;  // the CS184 default fitted to 800x600
+    c.look_at = center;
+    c.position = center + 1.5f * diag * glm::normalize(glm::vec3(0.35f, 0.3f, 1.f));
+    c.znear = 1e-4f * diag;
+    c.zfar = 10.f * diag;
+    out = c;
+    return true;
 }
 
 }  // namespace tessera

@@ -4,6 +4,9 @@
 // and tmax.
 #include <glm/glm.hpp>
 
+#include <optional>
+
+#include "engine/geometry/aabb.h"
 #include "engine/geometry/ray.h"
 #include "engine/scene/scene_description.h"
 
@@ -21,6 +24,10 @@ struct Camera {
 // app does; otherwise the vertical field of view is kept and the horizontal one follows the
 // output's aspect ratio.
 Camera make_camera(const CameraDesc& desc, int width, int height);
+
+// The camera a scene is seen through: the file's, placed by CS184's orbit rule when it asks for
+// it, or, when the file has none, a default that frames `bounds`. Returns true for the default.
+bool frame_camera(const std::optional<CameraDesc>& from_file, const Aabb& bounds, CameraDesc& out);
 
 // (u, v) in [0,1]², v = 0 at the bottom of the image. The direction has unit length, so t
 // measures distance and the clip planes mean what they say.

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <sstream>
 
+#include "engine/render/film.h"
+
 namespace tessera {
 
 const char* to_string(StopReason r) {
@@ -16,6 +18,42 @@ const char* to_string(StopReason r) {
         case StopReason::canceled: return "canceled";
     }
     return "?";
+}
+
+ConvergencePoint measure_error(const Film& film, const Image* reference) {
+    ConvergencePoint pt;
+    const size_t n = film.sum.size();
+    double spp = 0, est = 0, rel = 0, mse = 0, mae = 0;
+    size_t est_n = 0;
+    constexpr double eps = 0.01;
+    for (size_t i = 0; i < n; ++i) {
+        const double c = double(film.count[i]);
+        spp += c;
+        if (c == 0) continue;
+        const glm::dvec3 mean = film.sum[i] / c;
+        if (!film.sum_odd.empty() && film.count[i] >= 2) {
+            const double n_odd = std::floor(c / 2), n_even = c - n_odd;
+            const glm::dvec3 b = film.sum_odd[i] / n_odd, a = (film.sum[i] - film.sum_odd[i]) / n_even;
+            for (int k = 0; k < 3; ++k) est += (a[k] - b[k]) * (a[k] - b[k]) / 4.0 / (mean[k] * mean[k] + eps);
+            ++est_n;
+        }
+        if (reference) {
+            for (int k = 0; k < 3; ++k) {
+                const double r = reference->rgb[i * 3 + size_t(k)], d = mean[k] - r;
+                rel += d * d / (r * r + eps);
+                mse += d * d;
+                mae += std::abs(d);
+            }
+        }
+    }
+    pt.spp_mean = n ? spp / double(n) : 0;
+    if (!film.sum_odd.empty() && est_n) pt.est_rel_mse = est / double(3 * est_n);
+    if (reference) {
+        pt.rel_mse = rel / double(3 * n);
+        pt.mse = mse / double(3 * n);
+        pt.mae = mae / double(3 * n);
+    }
+    return pt;
 }
 
 std::string convergence_csv(const ConvergenceCurve& c) {

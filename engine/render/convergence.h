@@ -7,6 +7,9 @@
 
 namespace tessera {
 
+struct Film;
+struct Image;
+
 struct ConvergencePoint {
     double seconds = 0;      // since the render started
     double spp_mean = 0;     // samples per pixel so far
@@ -25,6 +28,10 @@ struct ConvergenceCurve {
     std::vector<ConvergencePoint> points;
     StopReason stop = StopReason::spp;
 };
+
+// The error of the film so far, by the definitions above: the half-buffer estimate when the
+// film keeps the odd samples, and the error against `reference` when given (same size).
+ConvergencePoint measure_error(const Film& film, const Image* reference);
 
 // CSV with a header line; empty fields where a value is not measured.
 std::string convergence_csv(const ConvergenceCurve& c);

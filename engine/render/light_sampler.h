@@ -6,7 +6,7 @@
 
 #include "engine/sampling/rng.h"
 #include "engine/sampling/warp.h"
-#include "engine/scene/render_scene.h"
+#include "engine/scene/intersect.h"
 
 namespace tessera {
 

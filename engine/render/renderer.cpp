@@ -36,43 +36,6 @@ std::vector<Tile> make_tiles(int w, int h, int size) {
     return tiles;
 }
 
-// The error of the film so far (see convergence.h for the definitions).
-ConvergencePoint measure(const Film& film, const Image* reference) {
-    ConvergencePoint pt;
-    const size_t n = film.sum.size();
-    double spp = 0, est = 0, rel = 0, mse = 0, mae = 0;
-    size_t est_n = 0;
-    constexpr double eps = 0.01;
-    for (size_t i = 0; i < n; ++i) {
-        const double c = double(film.count[i]);
-        spp += c;
-        if (c == 0) continue;
-        const glm::dvec3 mean = film.sum[i] / c;
-        if (!film.sum_odd.empty() && film.count[i] >= 2) {
-            const double n_odd = std::floor(c / 2), n_even = c - n_odd;
-            const glm::dvec3 b = film.sum_odd[i] / n_odd, a = (film.sum[i] - film.sum_odd[i]) / n_even;
-            for (int k = 0; k < 3; ++k) est += (a[k] - b[k]) * (a[k] - b[k]) / 4.0 / (mean[k] * mean[k] + eps);
-            ++est_n;
-        }
-        if (reference) {
-            for (int k = 0; k < 3; ++k) {
-                const double r = reference->rgb[i * 3 + size_t(k)], d = mean[k] - r;
-                rel += d * d / (r * r + eps);
-                mse += d * d;
-                mae += std::abs(d);
-            }
-        }
-    }
-    pt.spp_mean = n ? spp / double(n) : 0;
-    if (!film.sum_odd.empty() && est_n) pt.est_rel_mse = est / double(3 * est_n);
-    if (reference) {
-        pt.rel_mse = rel / double(3 * n);
-        pt.mse = mse / double(3 * n);
-        pt.mae = mae / double(3 * n);
-    }
-    return pt;
-}
-
 }  // namespace
 
 RenderResult render(const RenderScene& scene, const RenderSettings& settings, const RenderCallbacks& callbacks) {
@@ -82,10 +45,10 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
     const bool adaptive = settings.adaptive.has_value();
     const Image* reference = callbacks.reference && callbacks.reference->width == settings.width &&
                                      callbacks.reference->height == settings.height ? callbacks.reference : nullptr;
-    const bool measure_error = settings.estimate_error || settings.target_error > 0 || callbacks.on_pass || reference;
+    const bool measuring = settings.estimate_error || settings.target_error > 0 || callbacks.on_pass || reference;
     // Passes of doubling spp only when something is measured or a time limit may cut the
     // render short; otherwise one pass (nothing to report in between).
-    const bool progressive = measure_error || settings.time_limit_s > 0;
+    const bool progressive = measuring || settings.time_limit_s > 0;
     Film film(settings.width, settings.height, settings.estimate_error || (settings.target_error > 0 && !reference), adaptive);
     film.describe(result.built, result.left_out);
     if (settings.integrator == Integrator::path) {
@@ -153,7 +116,7 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
         if (abort_pass && !stop_cancel) stop_time = true;
 
         ConvergencePoint pt;
-        if (measure_error) pt = measure(film, reference);
+        if (measuring) pt = measure_error(film, reference);
         else pt.spp_mean = double(samples_done.load()) / (double(settings.width) * settings.height);
         pt.seconds = elapsed();
         result.curve.points.push_back(pt);

@@ -13,6 +13,7 @@
 #include "engine/camera/camera.h"
 #include "engine/geometry/ray.h"
 #include "engine/geometry/triangle4.h"
+#include "engine/scene/lights.h"
 #include "engine/scene/scene_description.h"
 
 namespace tessera {
@@ -27,33 +28,8 @@ struct Material {
     bool emissive() const { return emission.x > 0.f || emission.y > 0.f || emission.z > 0.f; }
 };
 
-inline constexpr uint32_t kNoLight = ~0u;
 struct TriangleShading { uint32_t n0, n1, n2; uint32_t material; uint32_t light = kNoLight; };
 struct Sphere { glm::vec3 center; float radius; uint32_t material; };
-
-// An area light: the triangles of one emissive mesh, one of which is picked by area per sample.
-// A CS184 parallelogram light becomes such a mesh too, so that every strategy sees the same
-// emitters (hemisphere sampling finds them by hitting geometry).
-struct LightTriangle {
-    glm::vec3 p0, e1, e2;
-    glm::vec3 n;  // unit normal, cross(e1, e2) direction
-    float cdf;    // cumulative area fraction within its light, ending at 1
-};
-struct AreaLight {
-    uint32_t first, count;  // into RenderScene::light_triangles
-    float area;
-    glm::vec3 radiance;
-    bool double_sided;
-    float power_cdf;        // cumulative share of the total emitted power, ending at 1
-    float power_pmf;        // this light's share
-};
-enum class DeltaKind { point, directional };
-struct DeltaLight {
-    DeltaKind kind;
-    glm::vec3 position;   // point
-    glm::vec3 direction;  // directional: the direction light travels (unit)
-    glm::vec3 intensity;  // point: W/sr; directional: irradiance
-};
 
 // What building the render scene did and left out, and what it cost (reported per job).
 struct BuildReport {
@@ -104,29 +80,5 @@ struct RenderScene {
 };
 
 RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOptions& options);
-
-// Closest hit, as found by traversal; the surface details are computed only for the final hit.
-struct Hit {
-    float t = INFINITY;
-    uint32_t prim = 0;         // triangle (index of tri_shading) or sphere
-    float b1 = 0.f, b2 = 0.f;  // barycentrics of p1, p2 (triangles)
-    bool sphere = false;
-    uint32_t slot = 0;         // triangles: 4 × block + lane, where the vertices are
-};
-
-struct SurfaceInteraction {
-    glm::vec3 p;       // hit point, computed from the surface (barycentrics / sphere), not o + t·d
-    glm::vec3 p_err;   // conservative bound on p's rounding error (for spawn.h)
-    glm::vec3 ng;      // unit geometric normal (facing is not flipped)
-    glm::vec3 ns;      // unit shading normal, on the same side as ng
-    uint32_t material;
-    float t;
-    uint32_t tri = kNoTriangle;  // the triangle (Hit::prim) p lies on; spawned rays skip it
-};
-
-// Lowers ray.tmax to the hit distance.
-bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& counters);
-bool occluded(const RenderScene& scene, const Ray& ray, TraversalCounters& counters);
-SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hit& hit);
 
 }  // namespace tessera

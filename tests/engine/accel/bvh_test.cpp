@@ -5,7 +5,7 @@
 #include "engine/io/scene_loader.h"
 #include "engine/sampling/rng.h"
 #include "engine/scene/procedural.h"
-#include "engine/scene/render_scene.h"
+#include "engine/scene/intersect.h"
 #include "tests/test_paths.h"
 #include "tests/test_scale.h"
 

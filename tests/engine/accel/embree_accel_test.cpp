@@ -1,4 +1,5 @@
 #include "engine/accel/embree_accel.h"
+#include "engine/scene/intersect.h"
 
 #include <gtest/gtest.h>
 

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "engine/scene/procedural.h"
-#include "engine/scene/render_scene.h"
+#include "engine/scene/intersect.h"
 
 namespace tessera {
 namespace {

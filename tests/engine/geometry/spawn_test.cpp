@@ -7,7 +7,7 @@
 #include "engine/sampling/rng.h"
 #include "engine/sampling/warp.h"
 #include "engine/scene/procedural.h"
-#include "engine/scene/render_scene.h"
+#include "engine/scene/intersect.h"
 #include "tests/test_scale.h"
 
 namespace tessera {

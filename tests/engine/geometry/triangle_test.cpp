@@ -4,7 +4,7 @@
 
 #include "engine/sampling/rng.h"
 #include "engine/scene/procedural.h"
-#include "engine/scene/render_scene.h"
+#include "engine/scene/intersect.h"
 #include "tests/test_scale.h"
 
 namespace tessera {

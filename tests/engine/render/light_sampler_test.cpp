@@ -1,4 +1,5 @@
 #include "engine/render/light_sampler.h"
+#include "engine/scene/intersect.h"
 
 #include <gtest/gtest.h>
 

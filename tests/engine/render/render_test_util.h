@@ -3,7 +3,7 @@
 #include <cmath>
 
 #include "engine/render/renderer.h"
-#include "engine/scene/render_scene.h"
+#include "engine/scene/intersect.h"
 
 namespace tessera::test {
 

@@ -5,7 +5,7 @@
 
 #include "engine/io/gltf_writer.h"
 #include "engine/scene/procedural.h"
-#include "server/commands.h"
+#include "cli/commands.h"
 
 namespace tessera::cli {
 

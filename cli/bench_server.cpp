@@ -18,7 +18,7 @@
 #include "engine/io/image_io.h"
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
-#include "server/bench_common.h"
+#include "cli/bench_common.h"
 #include "server/http_api.h"
 
 namespace tessera::cli {

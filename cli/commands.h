@@ -5,6 +5,5 @@ namespace tessera::cli {
 int render_command(int argc, char** argv);
 int bench_command(int argc, char** argv);
 int generate_command(int argc, char** argv);
-int serve_command(int argc, char** argv);
 
 }  // namespace tessera::cli

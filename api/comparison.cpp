@@ -1,9 +1,9 @@
-#include "server/comparison.h"
+#include "api/comparison.h"
 
 #include <cmath>
 #include <cstdio>
 
-namespace tessera::server {
+namespace tessera::api {
 namespace {
 
 // Time at which the curve first reaches `target` (log-log interpolation), or -1.
@@ -138,4 +138,4 @@ std::string comparison_svg(const ComparisonResult& r, const std::string& title) 
     return convergence_svg(curves, labels, title);
 }
 
-}  // namespace tessera::server
+}  // namespace tessera::api

@@ -3,7 +3,8 @@
 #include <cstring>
 #include <exception>
 
-#include "server/commands.h"
+#include "cli/commands.h"
+#include "server/serve_command.h"
 
 namespace {
 
@@ -27,7 +28,7 @@ int main(int argc, char** argv) {
     }
     try {
         if (!std::strcmp(argv[1], "render")) return tessera::cli::render_command(argc - 2, argv + 2);
-        if (!std::strcmp(argv[1], "serve")) return tessera::cli::serve_command(argc - 2, argv + 2);
+        if (!std::strcmp(argv[1], "serve")) return tessera::server::serve_command(argc - 2, argv + 2);
         if (!std::strcmp(argv[1], "bench")) return tessera::cli::bench_command(argc - 2, argv + 2);
         if (!std::strcmp(argv[1], "generate")) return tessera::cli::generate_command(argc - 2, argv + 2);
     } catch (const std::exception& e) {

@@ -11,7 +11,7 @@
 #include "engine/io/image_io.h"
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
-#include "server/bench_common.h"
+#include "cli/bench_common.h"
 
 namespace tessera::cli {
 namespace {

@@ -13,12 +13,13 @@
 #include <vector>
 
 #include "engine/geometry/spawn.h"
+#include "engine/scene/intersect.h"
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
 #include "engine/sampling/rng.h"
 #include "engine/sampling/warp.h"
 #include "engine/scene/procedural.h"
-#include "server/bench_common.h"
+#include "cli/bench_common.h"
 
 namespace tessera::cli {
 namespace {

@@ -13,8 +13,8 @@
 
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
-#include "server/bench_common.h"
-#include "server/comparison.h"
+#include "cli/bench_common.h"
+#include "api/comparison.h"
 
 namespace tessera::cli {
 
@@ -49,13 +49,13 @@ int bench_convergence(int argc, char** argv) {
     base.width = width;
     base.height = height;
     base.max_depth = depth;
-    const server::ComparisonResult r =
-        server::run_comparison(desc, server::standard_configs(base), base, ref_spp, budget, reps, target);
+    const api::ComparisonResult r =
+        api::run_comparison(desc, api::standard_configs(base), base, ref_spp, budget, reps, target);
     std::printf("Scene %s, %d×%d, depth %d, reference %d spp MIS (%.1f s). Each configuration: %d runs of %.1f s "
                 "against the reference (relMSE, ε = 0.01).\n\n%s", scene_name.c_str(), width, height, depth, ref_spp,
-                r.reference_seconds, reps, budget, server::comparison_markdown(r, budget, target).c_str());
+                r.reference_seconds, reps, budget, api::comparison_markdown(r, budget, target).c_str());
     if (!out_svg.empty()) {
-        std::ofstream(out_svg) << server::comparison_svg(r, scene_name + ": relative MSE against time (first run of each)");
+        std::ofstream(out_svg) << api::comparison_svg(r, scene_name + ": relative MSE against time (first run of each)");
         std::printf("\nPlot: %s\n", out_svg.c_str());
     }
     return 0;

@@ -12,8 +12,8 @@
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
 #include "engine/scene/procedural.h"
-#include "server/bench_common.h"
-#include "server/commands.h"
+#include "cli/bench_common.h"
+#include "cli/commands.h"
 
 namespace tessera::cli {
 namespace {

@@ -14,7 +14,7 @@
 #include "engine/io/image_io.h"
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
-#include "server/commands.h"
+#include "cli/commands.h"
 
 namespace tessera::cli {
 namespace {

@@ -5,7 +5,7 @@
 #include "engine/render/film.h"
 #include "engine/render/renderer.h"
 #include "engine/scene/procedural.h"
-#include "server/bench_common.h"
+#include "cli/bench_common.h"
 
 namespace tessera::cli {
 

@@ -9,7 +9,7 @@
 #include "engine/render/renderer.h"
 #include "engine/scene/render_scene.h"
 
-namespace tessera::server {
+namespace tessera::api {
 
 struct ComparisonConfig {
     std::string label;
@@ -44,4 +44,4 @@ std::string comparison_svg(const ComparisonResult& r, const std::string& title);
 // The standard set of configurations: strategies, light rays, adaptive, BVH types.
 std::vector<ComparisonConfig> standard_configs(const RenderSettings& base);
 
-}  // namespace tessera::server
+}  // namespace tessera::api

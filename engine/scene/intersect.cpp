@@ -1,0 +1,139 @@
+#include "engine/scene/intersect.h"
+
+#include "engine/accel/wide_bvh_traverse.h"
+#include "engine/core/float_util.h"
+#include "engine/geometry/sphere.h"
+#include "engine/geometry/triangle.h"
+
+namespace tessera {
+
+namespace {
+
+template <bool kAnyHit, class R, class OnHit>
+bool test_blocks(const RenderScene& scene, const Triangle4Ray& r4, uint32_t first, uint32_t count, R& ray, OnHit&& on_hit) {
+    bool found = false;
+    for (uint32_t b = first; b < first + count; ++b) {
+        const Triangle4& block = scene.tri_blocks[b];
+        Triangle4Hits h;
+        if (scene.triangle_test == TriangleTest::watertight) {
+            intersect_triangle4(ray, r4, block, h);
+        } else {
+            h.mask = 0;
+            for (int l = 0; l < 4; ++l) {
+                if (block.prim[l] == ray.origin_tri) continue;
+                const TriangleVerts v = triangle4_verts(block, l);
+                TriangleHit th;
+                if (!intersect_triangle_moller_trumbore(ray, v.p0, v.p1, v.p2, th)) continue;
+                h.mask |= 1 << l;
+                h.t[l] = th.t; h.b1[l] = th.b1; h.b2[l] = th.b2;
+            }
+        }
+        if (!h.mask) continue;
+        if constexpr (kAnyHit) return true;
+        else {
+            const int l = nearest_lane(h);
+            ray.tmax = h.t[l];
+            on_hit(block.prim[l], b * 4 + uint32_t(l), h.t[l], h.b1[l], h.b2[l]);
+            found = true;
+        }
+    }
+    return found;
+}
+
+}  // namespace
+
+bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& counters) {
+    bool found = false;
+    if (scene.embree) {
+        uint32_t prim;
+        float b1, b2;
+        if (embree_intersect(*scene.embree, ray, prim, b1, b2)) {
+            hit = Hit{ray.tmax, prim, b1, b2, false, prim};
+            found = true;
+        }
+    } else if (scene.triangle_count()) {
+        const Triangle4Ray r4 = make_triangle4_ray(ray);
+        found = wide_closest_hit(scene.tri_wide, ray, [&](uint32_t first, uint32_t count, Ray& r) {
+            return test_blocks<false>(scene, r4, first, count, r, [&](uint32_t prim, uint32_t slot, float t, float b1, float b2) {
+                hit = Hit{t, prim, b1, b2, false, slot};
+            });
+        }, counters);
+    }
+    if (!scene.spheres.empty()) {
+        const Sphere* sph = scene.spheres.data();
+        found |= bvh_closest_hit(scene.sphere_bvh, ray, [&](uint32_t i, Ray& r) {
+            float t;
+            if (!intersect_sphere(r, sph[i].center, sph[i].radius, t)) return false;
+            r.tmax = t;
+            hit = Hit{t, i, 0.f, 0.f, true, 0};
+            return true;
+        }, counters);
+    }
+    return found;
+}
+
+bool occluded(const RenderScene& scene, const Ray& ray, TraversalCounters& counters) {
+    // Spheres first: there are few of them and, where there are any, they are the likely
+    // occluders; an early hit skips the triangle BVH altogether.
+    if (!scene.spheres.empty()) {
+        const Sphere* sph = scene.spheres.data();
+        if (bvh_any_hit(scene.sphere_bvh, ray, [&](uint32_t i, const Ray& r) {
+                float t;
+                return intersect_sphere(r, sph[i].center, sph[i].radius, t);
+            }, counters))
+            return true;
+    }
+    if (!scene.triangle_count()) return false;
+    if (scene.embree) return embree_occluded(*scene.embree, ray);
+    const Triangle4Ray r4 = make_triangle4_ray(ray);
+    return wide_any_hit(scene.tri_wide, ray, [&](uint32_t first, uint32_t count, const Ray& r) {
+        return test_blocks<true>(scene, r4, first, count, r, [](uint32_t, uint32_t, float, float, float) {});
+    }, counters);
+}
+
+SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hit& hit) {
+    SurfaceInteraction si;
+    si.t = hit.t;
+    if (hit.sphere) {
+        const Sphere& s = scene.spheres[hit.prim];
+        glm::vec3 rel = ray.o + hit.t * ray.d - s.center;
+        const float len = glm::length(rel);
+        // Re-project onto the surface; the error bound then scales with the sphere, not with t.
+        rel = len > 0.f ? rel * (s.radius / len) : glm::vec3(0, s.radius, 0);
+        si.p = s.center + rel;
+        si.p_err = gamma(5) * glm::abs(rel) + gamma(2) * glm::abs(si.p);
+        si.ng = glm::normalize(rel);
+        si.ns = si.ng;
+        si.material = s.material;
+        return si;
+    }
+    const TriangleVerts t = triangle4_verts(scene.tri_blocks[hit.slot / 4], int(hit.slot % 4));
+    const TriangleShading& sh = scene.tri_shading[hit.prim];
+    const float b0 = 1.f - hit.b1 - hit.b2;
+    // Relative to p0: edges of nearby vertices subtract exactly, so far from the origin p is
+    // within half an ulp of the true point and cannot fall outside a neighbouring face.
+    si.p = t.p0 + (hit.b1 * (t.p1 - t.p0) + hit.b2 * (t.p2 - t.p0));
+    si.p_err = gamma(7) * (glm::abs(b0 * t.p0) + glm::abs(hit.b1 * t.p1) + glm::abs(hit.b2 * t.p2));
+    // A hit on a shared edge may round onto the plane of the neighbouring face; a ray spawned
+    // there and leaving through that face meets it at t ≈ 0 with either sign. Pulling the
+    // point toward its triangle's interior by the error bound moves it off that plane.
+    const glm::vec3 to_centroid = t.p0 + ((t.p1 - t.p0) + (t.p2 - t.p0)) * (1.f / 3.f) - si.p;
+    const float dist = glm::length(to_centroid);
+    const float need = 2.f * std::max(si.p_err.x, std::max(si.p_err.y, si.p_err.z));
+    if (dist > 0.f) {
+        si.p += to_centroid * std::min(0.5f, need / dist);
+        si.p_err += gamma(2) * glm::abs(si.p);
+    }
+    glm::vec3 ng = glm::cross(t.p1 - t.p0, t.p2 - t.p0);
+    const float len = glm::length(ng);
+    si.ng = len > 0.f ? ng / len : glm::vec3(0, 1, 0);
+    glm::vec3 ns = b0 * scene.normals[sh.n0] + hit.b1 * scene.normals[sh.n1] + hit.b2 * scene.normals[sh.n2];
+    const float nlen = glm::length(ns);
+    ns = nlen > 1e-6f ? ns / nlen : si.ng;
+    si.ns = glm::dot(ns, si.ng) < 0.f ? -ns : ns;
+    si.material = sh.material;
+    si.tri = hit.prim;
+    return si;
+}
+
+}  // namespace tessera

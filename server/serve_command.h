@@ -1,0 +1,9 @@
+#pragma once
+// `tessera serve`: the HTTP render server with its queue and store, as one command.
+namespace tessera::server {
+
+// Parses the serve options (flags, or TESSERA_<NAME> environment variables) and serves until
+// SIGINT/SIGTERM; returns the process exit status.
+int serve_command(int argc, char** argv);
+
+}  // namespace tessera::server
