@@ -1,18 +1,20 @@
 // `tessera bench`: benchmarks that reproduce the write-ups' tables, each figure measured in
 // this run, side by side, on this machine.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <string>
 #include <vector>
+
+#include <CLI/CLI.hpp>
 
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
 #include "engine/scene/procedural.h"
 #include "cli/bench_common.h"
+#include "cli/cli_parse.h"
 #include "cli/commands.h"
 
 namespace tessera::cli {
@@ -73,17 +75,19 @@ int bench_bvh(int argc, char** argv) {
     int threads = 0;
     uint64_t big = 1'000'000;
     double budget = 2e9;  // triangle tests allowed for the brute-force row of one scene
-    for (int i = 0; i < argc; ++i) {
-        const std::string a = argv[i];
-        if (a == "--cs184" && i + 1 < argc) cs184 = argv[++i];
-        else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
-        else if (a == "--big-triangles" && i + 1 < argc) big = std::strtoull(argv[++i], nullptr, 10);
-        else if (a == "--none-budget" && i + 1 < argc) budget = std::atof(argv[++i]);
-        else {
-            std::fprintf(stderr, "usage: tessera bench bvh [--cs184 DIR] [--threads N] [--big-triangles N] [--none-budget TESTS]\n");
-            return 2;
-        }
-    }
+    CLI::App app{"The BVH table: build time, render time, speedup against brute force and cost per ray, for each "
+                 "builder on the CS184 meshes and a displaced sphere.", "bench bvh"};
+    app.option_defaults()->always_capture_default();
+    app.add_option("--cs184", cs184, "the CS184 scene folder")->type_name("DIR");
+    app.add_option("--threads", threads, "render threads (0: all cores)")->check(CLI::Range(0, 1024));
+    // The same bounds as `tessera generate displaced_sphere`.
+    app.add_option("--big-triangles", big, "triangles in the displaced sphere")
+        ->check(CLI::Range(uint64_t{8}, uint64_t{20'000'000}));
+    app.add_option("--none-budget", budget, "triangle tests allowed for one scene's brute-force row; beyond it a "
+                                            "smaller frame is rendered and its time scaled")
+        ->type_name("TESTS")
+        ->check(CLI::Range(1.0, 1e13));
+    if (const auto status = parse_args(app, argc, argv)) return *status;
     std::vector<BenchScene> scenes;
     for (const char* f : {"meshedit/cow.dae", "sky/CBbunny.dae", "meshedit/maxplanck.dae"}) {
         const std::string path = cs184 + "/" + f;
@@ -153,13 +157,12 @@ int bench_bvh(int argc, char** argv) {
 // with different seeds; efficiency = 1 / (variance × time), higher is better.
 int bench_lights(int argc, char** argv) {
     int spp = 8, lamps = 32;
-    for (int i = 0; i < argc; ++i) {
-        const std::string a = argv[i];
-        if (a == "--spp" && i + 1 < argc) spp = std::atoi(argv[++i]);
-        else if (a == "--lamps" && i + 1 < argc) lamps = std::atoi(argv[++i]);
-        else { std::fprintf(stderr, "usage: tessera bench lights [--spp N] [--lamps N]\n"); return 2; }
-    }
-    if (spp < 1 || lamps < 1 || lamps > 4096) { std::fprintf(stderr, "tessera bench lights: out of range\n"); return 2; }
+    CLI::App app{"Light selection: every light sampled against one light per sample chosen by power, on a box lit by "
+                 "many lamps; noise, time and efficiency 1/(variance × time).", "bench lights"};
+    app.option_defaults()->always_capture_default();
+    app.add_option("--spp", spp, "samples per pixel")->check(CLI::Range(1, 1 << 16));
+    app.add_option("--lamps", lamps, "lamps in the box")->check(CLI::Range(1, 4096));
+    if (const auto status = parse_args(app, argc, argv)) return *status;
     const RenderScene scene = build_render_scene(many_lights(lamps), RenderSceneOptions{});
     std::printf("builtin:many_lights (%d lamps), 320×240, %d spp, 4 light rays, depth 1, light sampling\n\n", lamps, spp);
     std::printf("| selection | time (s) | shadow rays | mean | per-pixel variance | efficiency 1/(var·s) |\n|---|---:|---:|---:|---:|---:|\n");
@@ -193,18 +196,50 @@ int bench_lights(int argc, char** argv) {
     return 0;
 }
 
+struct Kind {
+    const char* name;
+    int (*run)(int argc, char** argv);
+    const char* what;
+};
+
+const Kind kKinds[] = {
+    {"bvh", bench_bvh, "the BVH table: build time, render time, speedup, cost per ray"},
+    {"figures", bench_figures, "the write-ups' comparison images and tables (docs/figures)"},
+    {"lights", bench_lights, "light selection: every light against one chosen by power"},
+    {"server", bench_server, "the HTTP server: request latency, throughput, overhead per job"},
+    {"convergence", bench_convergence, "sampling strategies at equal time against a reference"},
+    {"leave-out", bench_leave_out, "what leaving out unneeded work saves"},
+    {"rays", bench_rays, "our BVH and Embree on the same rays"},
+};
+
 }  // namespace
 
 int bench_command(int argc, char** argv) {
-    if (argc >= 1 && !std::strcmp(argv[0], "bvh")) return bench_bvh(argc - 1, argv + 1);
-    if (argc >= 1 && !std::strcmp(argv[0], "figures")) return bench_figures(argc - 1, argv + 1);
-    if (argc >= 1 && !std::strcmp(argv[0], "lights")) return bench_lights(argc - 1, argv + 1);
-    if (argc >= 1 && !std::strcmp(argv[0], "server")) return bench_server(argc - 1, argv + 1);
-    if (argc >= 1 && !std::strcmp(argv[0], "convergence")) return bench_convergence(argc - 1, argv + 1);
-    if (argc >= 1 && !std::strcmp(argv[0], "leave-out")) return bench_leave_out(argc - 1, argv + 1);
-    if (argc >= 1 && !std::strcmp(argv[0], "rays")) return bench_rays(argc - 1, argv + 1);
-    std::fprintf(stderr, "usage: tessera bench bvh|figures|lights|server|convergence|leave-out|rays [options]\n");
-    return 2;
+    std::vector<std::string> names;
+    std::string kinds_help = "Kinds:\n", usage = "usage: tessera bench ";
+    for (const Kind& k : kKinds) {
+        char line[160];
+        std::snprintf(line, sizeof line, "  %-13s %s\n", k.name, k.what);
+        kinds_help += line;
+        usage += (names.empty() ? "" : "|") + std::string(k.name);
+        names.emplace_back(k.name);
+    }
+    usage += " [options]\n";
+    CLI::App app{"Benchmarks that reproduce the write-ups' tables, each figure measured in this run, on this machine. "
+                 "'tessera bench KIND --help' lists a kind's options.", "bench"};
+    app.footer(kinds_help);
+    std::string kind;
+    app.add_option("kind", kind, "which benchmark")->type_name("KIND")->check(CLI::IsMember(names));
+    // Only the first word is the dispatcher's: the rest belongs to the kind, whose own parser
+    // reads it (and answers its --help).
+    const auto status = parse_args(app, std::min(argc, 1), argv);
+    if (status == 0) return 0;  // --help
+    if (status || kind.empty()) {
+        std::fputs(usage.c_str(), stderr);
+        return 2;
+    }
+    const Kind* k = std::find_if(std::begin(kKinds), std::end(kKinds), [&](const Kind& c) { return kind == c.name; });
+    return k->run(argc - 1, argv + 1);
 }
 
 }  // namespace tessera::cli

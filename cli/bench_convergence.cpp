@@ -5,45 +5,43 @@
 // efficiency 1/(relMSE·time); one SVG plots a curve per configuration.
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include <CLI/CLI.hpp>
 
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
 #include "cli/bench_common.h"
+#include "cli/cli_parse.h"
 #include "api/comparison.h"
 
 namespace tessera::cli {
 
 int bench_convergence(int argc, char** argv) {
     std::string cs184 = default_cs184_dir(), scene_name = "sky/CBspheres_lambertian", out_svg;
-    int width = 160, height = 120, reps = 3, ref_spp = 2048, depth = 5;
+    std::pair<int, int> size{160, 120};
+    int reps = 3, ref_spp = 2048, depth = 5;
     double budget = 2.0, target = 0.01;
-    for (int i = 0; i < argc; ++i) {
-        const std::string a = argv[i];
-        if (a == "--cs184" && i + 1 < argc) cs184 = argv[++i];
-        else if (a == "--scene" && i + 1 < argc) scene_name = argv[++i];
-        else if (a == "-r" && i + 2 < argc) { width = std::atoi(argv[++i]); height = std::atoi(argv[++i]); }
-        else if (a == "--seconds" && i + 1 < argc) budget = std::atof(argv[++i]);
-        else if (a == "--reps" && i + 1 < argc) reps = std::atoi(argv[++i]);
-        else if (a == "--ref-spp" && i + 1 < argc) ref_spp = std::atoi(argv[++i]);
-        else if (a == "--target" && i + 1 < argc) target = std::atof(argv[++i]);
-        else if (a == "--depth" && i + 1 < argc) depth = std::atoi(argv[++i]);
-        else if (a == "--svg" && i + 1 < argc) out_svg = argv[++i];
-        else {
-            std::fprintf(stderr, "usage: tessera bench convergence [--scene sky/CBbunny] [-r W H] [--seconds S] [--reps N] "
-                                 "[--ref-spp N] [--target E] [--depth N] [--svg FILE] [--cs184 DIR]\n");
-            return 2;
-        }
-    }
-    if (width < 8 || height < 8 || width > 2048 || height > 2048 || reps < 1 || reps > 50 || !(budget > 0) || ref_spp < 1 ||
-        !(target > 0) || depth < 0 || depth > 100) {
-        std::fprintf(stderr, "tessera bench convergence: an option is out of range\n");
-        return 2;
-    }
+    CLI::App app{"Sampling strategies compared at equal time against a converged reference: error at equal time, "
+                 "time to a target error, efficiency, and optionally an SVG of the curves.", "bench convergence"};
+    app.option_defaults()->always_capture_default();
+    app.add_option("--scene", scene_name, "a CS184 scene, without .dae (e.g. sky/CBbunny)")->type_name("NAME");
+    app.add_option("-r", size, "image width and height (160 120)")->type_name("W H")->check(CLI::Range(8, 2048));
+    app.add_option("--seconds", budget, "time budget of each run")->type_name("S")->check(CLI::Range(0.01, 3600.0));
+    app.add_option("--reps", reps, "runs of each configuration")->check(CLI::Range(1, 50));
+    app.add_option("--ref-spp", ref_spp, "samples per pixel of the reference")->check(CLI::Range(1, 1 << 20));
+    app.add_option("--target", target, "relative MSE to reach for the time-to-error column")
+        ->type_name("E")
+        ->check(CLI::Range(1e-6, 100.0));
+    app.add_option("--depth", depth, "maximum bounce depth")->check(CLI::Range(0, 100));
+    app.add_option("--svg", out_svg, "also plot the curves to this file")->type_name("FILE");
+    app.add_option("--cs184", cs184, "the CS184 scene folder")->type_name("DIR");
+    if (const auto status = parse_args(app, argc, argv)) return *status;
+    const int width = size.first, height = size.second;
     const SceneDescription desc = load_scene(cs184 + "/" + scene_name + ".dae");
     RenderSettings base;
     base.width = width;

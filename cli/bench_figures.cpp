@@ -2,16 +2,19 @@
 // against light rays, bounce depths, samples per pixel, uniform against adaptive sampling)
 // as images and one Markdown table with times and sample rates.
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include <CLI/CLI.hpp>
 
 #include "engine/io/image_io.h"
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
 #include "cli/bench_common.h"
+#include "cli/cli_parse.h"
 
 namespace tessera::cli {
 namespace {
@@ -38,23 +41,20 @@ const char* strategy_name(DirectLighting d) {
 
 int bench_figures(int argc, char** argv) {
     std::string cs184 = default_cs184_dir(), out = "docs/figures";
-    int width = 320, height = 240, depth_spp = 64, max_spp = 1024;
-    for (int i = 0; i < argc; ++i) {
-        const std::string a = argv[i];
-        if (a == "--cs184" && i + 1 < argc) cs184 = argv[++i];
-        else if (a == "--out" && i + 1 < argc) out = argv[++i];
-        else if (a == "-r" && i + 2 < argc) { width = std::atoi(argv[++i]); height = std::atoi(argv[++i]); }
-        else if (a == "--depth-spp" && i + 1 < argc) depth_spp = std::atoi(argv[++i]);
-        else if (a == "--max-spp" && i + 1 < argc) max_spp = std::atoi(argv[++i]);
-        else {
-            std::fprintf(stderr, "usage: tessera bench figures [--cs184 DIR] [--out DIR] [-r W H] [--depth-spp N] [--max-spp N]\n");
-            return 2;
-        }
-    }
-    if (width < 8 || height < 8 || width > 4096 || height > 4096 || depth_spp < 1 || max_spp < 1) {
-        std::fprintf(stderr, "tessera bench figures: sizes out of range\n");
-        return 2;
-    }
+    std::pair<int, int> size{320, 240};
+    int depth_spp = 64, max_spp = 1024;
+    CLI::App app{"The write-ups' comparisons (direct-lighting strategies against light rays, bounce depths, samples "
+                 "per pixel, uniform against adaptive sampling) as images and one Markdown table.", "bench figures"};
+    app.option_defaults()->always_capture_default();
+    app.add_option("--cs184", cs184, "the CS184 scene folder")->type_name("DIR");
+    app.add_option("--out", out, "folder for the images and README.md")->type_name("DIR");
+    app.add_option("-r", size, "image width and height (320 240)")->type_name("W H")->check(CLI::Range(8, 4096));
+    app.add_option("--depth-spp", depth_spp, "samples per pixel of the bounce-depth figures")->check(CLI::Range(1, 1 << 16));
+    app.add_option("--max-spp", max_spp, "the largest samples per pixel of the spp series, and the budget of uniform "
+                                         "against adaptive")
+        ->check(CLI::Range(1, 1 << 16));
+    if (const auto status = parse_args(app, argc, argv)) return *status;
+    const int width = size.first, height = size.second;
     std::filesystem::create_directories(out);
     std::ofstream md(out + "/README.md");
     md << "# Figures\n\nMade by `tessera bench figures --out " << out << " -r " << width << " " << height << " --depth-spp "

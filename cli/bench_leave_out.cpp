@@ -2,14 +2,21 @@
 #include <cstdio>
 #include <string>
 
+#include <CLI/CLI.hpp>
+
 #include "engine/render/film.h"
 #include "engine/render/renderer.h"
 #include "engine/scene/procedural.h"
 #include "cli/bench_common.h"
+#include "cli/cli_parse.h"
 
 namespace tessera::cli {
 
-int bench_leave_out(int, char**) {
+int bench_leave_out(int argc, char** argv) {
+    // No options, but a parser all the same: --help works and a stray argument is an error.
+    CLI::App app{"What leaving out unneeded work saves: a BVH over a handful of primitives, the error estimate and "
+                 "adaptive statistics, each on and off.", "bench leave-out"};
+    if (const auto status = parse_args(app, argc, argv)) return *status;
     // 1. A BVH over a handful of primitives against testing them all (camera + shadow rays).
     std::printf("Small scenes: triangle BVH (SAH, wide) against one leaf tested directly; CBspheres-like box, "
                 "320×240, 16 spp, depth 2, 1 thread\n\n| triangles | BVH (s) | one leaf (s) | one leaf / BVH |\n|---:|---:|---:|---:|\n");

@@ -5,12 +5,12 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include <CLI/CLI.hpp>
 #include <httplib.h>
 #include <spdlog/spdlog.h>
 #include <nlohmann/json.hpp>
@@ -19,6 +19,7 @@
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
 #include "cli/bench_common.h"
+#include "cli/cli_parse.h"
 #include "server/http_api.h"
 
 namespace tessera::cli {
@@ -38,13 +39,13 @@ double pct(std::vector<double> v, double p) {
 int bench_server(int argc, char** argv) {
     int clients = 16;
     double seconds = 5;
-    for (int i = 0; i < argc; ++i) {
-        const std::string a = argv[i];
-        if (a == "--clients" && i + 1 < argc) clients = std::atoi(argv[++i]);
-        else if (a == "--seconds" && i + 1 < argc) seconds = std::atof(argv[++i]);
-        else { std::fprintf(stderr, "usage: tessera bench server [--clients N] [--seconds S]\n"); return 2; }
-    }
-    if (clients < 1 || clients > 512 || !(seconds > 0 && seconds <= 600)) { std::fprintf(stderr, "out of range\n"); return 2; }
+    CLI::App app{"An in-process server driven by client threads over loopback: status-poll and submit latency and "
+                 "throughput, and the server's overhead on a small job.", "bench server"};
+    app.option_defaults()->always_capture_default();
+    app.add_option("--clients", clients, "client threads")->check(CLI::Range(1, 512));
+    // A phase much shorter than a tenth of a second measures thread start-up, not requests.
+    app.add_option("--seconds", seconds, "length of each phase")->type_name("S")->check(CLI::Range(0.1, 600.0));
+    if (const auto status = parse_args(app, argc, argv)) return *status;
     spdlog::set_level(spdlog::level::warn);  // a log line per request would measure the terminal
     const auto dir = std::filesystem::temp_directory_path() / ("tessera_bench_" + std::to_string(::getpid()));
     std::filesystem::remove_all(dir);

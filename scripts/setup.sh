@@ -11,6 +11,9 @@ packages=(
   libopenimageio-dev openimageio-tools libspdlog-dev libfmt-dev libgtest-dev libgmock-dev
   # COLLADA is XML (pugixml); Google Benchmark for the micro benchmarks
   libpugixml-dev libbenchmark-dev
+  # the command line (subcommands, help, environment variables) is CLI11, fed from api/'s job
+  # field table; yaml-cpp reads api/openapi.yaml in the test that holds it to that table
+  libcli11-dev libyaml-cpp-dev
   # the server's durable job records
   libsqlite3-dev
   # Intel Embree 3, the reference our BVH is measured against (bvh "embree")

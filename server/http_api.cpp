@@ -104,6 +104,9 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
             std::rethrow_exception(ep);
         } catch (const Problem& p) {
             send_problem(res, p);
+        } catch (const StoreError& e) {
+            spdlog::error("job store: {}", e.what());
+            send_problem(res, store_problem(e));
         } catch (const std::exception& e) {
             spdlog::error("internal error: {}", e.what());
             send_problem(res, Problem(500, "internal", "Internal server error", e.what()));

@@ -1,9 +1,13 @@
 #pragma once
-// The job queue and its workers, knowing nothing of HTTP: jobs are accepted into the durable
-// store first, then queued in memory (priority, then first come); workers render them with
-// the engine and write the results under <data-dir>/jobs/<id>/.
+// The job queue and its workers, knowing nothing of HTTP: a job is parsed once into its typed
+// value (api/job.h), stored durably as that value's JSON, then queued in memory (priority, then
+// first come); workers run it through the job runner (api/job_runner.h), which writes the
+// results under <data-dir>/jobs/<id>/. No exception leaves a worker: a job that cannot run
+// fails with its reason, and a store that refuses a write (full disk, read-only file) is
+// retried until it takes it, while submissions get 507 or 503.
 #include <atomic>
 #include <condition_variable>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -14,7 +18,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "api/job_spec.h"
+#include "api/job.h"
+#include "api/job_status.h"
 #include "server/job_store.h"
 #include "server/scene_catalog.h"
 
@@ -25,6 +30,7 @@ struct ServiceConfig {
     std::string project_scenes;            // our scenes/ folder
     std::vector<std::string> scene_dirs;   // --scenes
     int render_threads = 0;                // 0: all cores
+    int64_t max_store_bytes = 0;           // the job store's size bound (0: none)
     int concurrent_jobs = 1;
     size_t max_queued = 1000;
     api::JobLimits job_limits;
@@ -35,6 +41,7 @@ struct ServiceMetrics {
     std::atomic<uint64_t> rays{0};
     std::atomic<uint64_t> render_micros{0};
     std::atomic<uint64_t> jobs_submitted{0};
+    std::atomic<uint64_t> store_errors{0};
 };
 
 class JobService {
@@ -61,6 +68,7 @@ public:
     size_t queue_depth();
     std::map<std::string, size_t> counts_by_state();
     ServiceMetrics& metrics() { return metrics_; }
+    JobStore& store() { return store_; }
     SceneCatalog& catalog() { return catalog_; }
     const ServiceConfig& config() const { return config_; }
 
@@ -81,11 +89,16 @@ private:
     };
 
     void worker();
-    void run_job(const JobRecord& rec, Running& running);
-    void run_comparison_job(const JobRecord& rec, Running& running);
-    nlohmann::json enqueue(const std::string& spec_json, int priority, const std::string& scene);
+    // Takes the next queued job into `running_`; false when stopping.
+    bool take_next(JobRecord& rec, std::shared_ptr<Running>& running);
+    void run(const JobRecord& rec, Running& running);
+    // Runs a store change until the store takes it (a full disk, a read-only file: retried
+    // with back-off); false if the service stops first.
+    bool until_stored(const std::string& id, const char* what, const std::function<void()>& change);
+    nlohmann::json enqueue(const api::Job& job);
     nlohmann::json status_json(const JobRecord& rec);
     std::string job_dir(const std::string& id) const;
+    std::string scene_source(const std::string& scene);
 
     ServiceConfig config_;
     JobStore store_;

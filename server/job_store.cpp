@@ -1,6 +1,8 @@
 #include "server/job_store.h"
 
 #include <sqlite3.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <limits>
@@ -10,28 +12,6 @@
 #include <utility>
 
 namespace tessera::server {
-
-const char* to_string(JobState s) {
-    switch (s) {
-    case JobState::queued: return "queued";
-    case JobState::running: return "running";
-    case JobState::succeeded: return "succeeded";
-    case JobState::failed: return "failed";
-    case JobState::canceled: return "canceled";
-    }
-    return "unknown";
-}
-
-bool parse_job_state(const std::string& s, JobState& out) {
-    for (JobState st : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed,
-                        JobState::canceled}) {
-        if (s == to_string(st)) {
-            out = st;
-            return true;
-        }
-    }
-    return false;
-}
 
 namespace {
 
@@ -58,7 +38,8 @@ CREATE UNIQUE INDEX IF NOT EXISTS jobs_seq ON jobs (seq);
 )";
 
 [[noreturn]] void fail(sqlite3* db, const std::string& op) {
-    throw std::runtime_error("job store: " + op + ": " + (db ? sqlite3_errmsg(db) : "out of memory"));
+    const bool full = db && (sqlite3_errcode(db) == SQLITE_FULL || sqlite3_extended_errcode(db) == SQLITE_IOERR_WRITE);
+    throw StoreError("job store: " + op + ": " + (db ? sqlite3_errmsg(db) : "out of memory"), full);
 }
 
 void exec(sqlite3* db, const char* sql, const char* op) {
@@ -147,7 +128,7 @@ JobRecord read_row(sqlite3_stmt* st) {
     r.id = column_text(st, 0);
     const std::string state = column_text(st, 1);
     if (!parse_job_state(state, r.state))
-        throw std::runtime_error("job store: job " + r.id + " has unknown state '" + state + "'");
+        throw StoreError("job store: job " + r.id + " has unknown state '" + state + "'", false);
     r.spec_json = column_text(st, 2);
     r.priority = sqlite3_column_int(st, 3);
     r.seq = sqlite3_column_int64(st, 4);
@@ -169,6 +150,10 @@ int64_t to_i64(size_t v) {
 
 struct JobStore::Impl {
     sqlite3* db = nullptr;
+    std::string path;
+    int64_t max_bytes = 0;
+    dev_t dev = 0;
+    ino_t ino = 0;
     std::mutex mu;
     // Keyed by the SQL text; every statement is a constant, so the cache stays small.
     std::unordered_map<std::string, sqlite3_stmt*> cache;
@@ -208,9 +193,93 @@ struct JobStore::Impl {
 
     void refuse_newer(int version, const std::string& path) {
         if (version > kSchemaVersion)
-            throw std::runtime_error("job store: " + path + " has schema version " + std::to_string(version) +
+            throw StoreError("job store: " + path + " has schema version " + std::to_string(version) +
                                      ", newer than this server supports (" + std::to_string(kSchemaVersion) +
-                                     "); refusing to open it");
+                                     "); refusing to open it", false);
+    }
+
+    void open() {
+        const int rc = sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
+                                       nullptr);
+        try {
+            if (rc != SQLITE_OK) fail(db, "open " + path);
+            exec(db, "PRAGMA busy_timeout=5000", "set busy_timeout");
+            // Checked before switching to WAL so a newer server's file is left exactly as it was.
+            refuse_newer(user_version(), path);
+            {
+                Stmt s = prepare("PRAGMA journal_mode=WAL", "set journal_mode");
+                const std::string mode = s.step() ? column_text(s.get(), 0) : "";
+                // In-memory databases cannot use WAL and report "memory"; they are not durable anyway.
+                if (mode != "wal" && mode != "memory")
+                    throw StoreError("job store: " + path + ": could not enable WAL (journal_mode=" + mode + ")", false);
+            }
+            // WAL + synchronous=NORMAL: a commit is in the WAL file (the OS page cache) before it
+            // returns, so it survives the process dying at any point, kill -9 included. Only an OS
+            // crash or power loss can drop the last few commits; that trade buys no fsync per commit.
+            exec(db, "PRAGMA synchronous=NORMAL", "set synchronous");
+            exec(db, "PRAGMA foreign_keys=ON", "set foreign_keys");
+            apply_max_bytes();
+
+            Transaction tx(db, "create schema");
+            const int version = user_version();  // again: another process may have upgraded meanwhile
+            refuse_newer(version, path);
+            exec(db, kSchema, "create schema");
+            if (version < kSchemaVersion)
+                exec(db, ("PRAGMA user_version=" + std::to_string(kSchemaVersion)).c_str(), "set schema version");
+            tx.commit();
+            remember_file();
+        } catch (...) {
+            close();
+            throw;
+        }
+    }
+
+    // max_page_count is per connection; 0 restores SQLite's own (about 2^32 pages).
+    void apply_max_bytes() {
+        int64_t pages = 4294967294;
+        if (max_bytes > 0) {
+            Stmt s = prepare("PRAGMA page_size", "read page size");
+            const int64_t page = s.step() ? sqlite3_column_int64(s.get(), 0) : 4096;
+            pages = std::max<int64_t>(1, max_bytes / std::max<int64_t>(1, page));
+        }
+        exec(db, ("PRAGMA max_page_count=" + std::to_string(pages)).c_str(), "set max_page_count");
+    }
+
+    void remember_file() {
+        struct stat st{};
+        if (::stat(path.c_str(), &st) == 0) {
+            dev = st.st_dev;
+            ino = st.st_ino;
+        }
+    }
+
+    // Before a change: if the file at `path` is no longer the one this connection writes (it
+    // was deleted or replaced), every later commit would go to an unlinked file and vanish at
+    // the next start. Copy the open database to `path` (SQLite's online backup) and continue
+    // there; if that fails, refuse the change.
+    void ensure_file() {
+        if (path.empty() || path == ":memory:") return;
+        struct stat st{};
+        if (::stat(path.c_str(), &st) == 0 && st.st_dev == dev && st.st_ino == ino) return;
+        for (const char* suffix : {"-wal", "-shm"}) ::unlink((path + suffix).c_str());
+        sqlite3* fresh = nullptr;
+        int rc = sqlite3_open_v2(path.c_str(), &fresh, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
+                                 nullptr);
+        if (rc == SQLITE_OK) {
+            sqlite3_backup* b = sqlite3_backup_init(fresh, "main", db, "main");
+            rc = b ? sqlite3_backup_step(b, -1) : sqlite3_errcode(fresh);
+            if (b) sqlite3_backup_finish(b);
+            rc = rc == SQLITE_DONE ? SQLITE_OK : rc;
+        }
+        if (rc != SQLITE_OK) {
+            const std::string why = fresh ? sqlite3_errmsg(fresh) : "out of memory";
+            const bool full = fresh && sqlite3_errcode(fresh) == SQLITE_FULL;
+            sqlite3_close_v2(fresh);
+            throw StoreError("job store: " + path + " was removed and could not be written anew: " + why, full);
+        }
+        sqlite3_close_v2(fresh);
+        close();
+        open();
     }
 
     void close() {
@@ -221,45 +290,23 @@ struct JobStore::Impl {
     }
 };
 
-JobStore::JobStore(const std::string& path) : impl_(std::make_unique<Impl>()) {
-    Impl& m = *impl_;
-    const int rc = sqlite3_open_v2(path.c_str(), &m.db,
-                                   SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX, nullptr);
-    try {
-        if (rc != SQLITE_OK) fail(m.db, "open " + path);
-        exec(m.db, "PRAGMA busy_timeout=5000", "set busy_timeout");
-        // Checked before switching to WAL so a newer server's file is left exactly as it was.
-        m.refuse_newer(m.user_version(), path);
-        {
-            Stmt s = m.prepare("PRAGMA journal_mode=WAL", "set journal_mode");
-            const std::string mode = s.step() ? column_text(s.get(), 0) : "";
-            // In-memory databases cannot use WAL and report "memory"; they are not durable anyway.
-            if (mode != "wal" && mode != "memory")
-                throw std::runtime_error("job store: " + path + ": could not enable WAL (journal_mode=" + mode + ")");
-        }
-        // WAL + synchronous=NORMAL: a commit is in the WAL file (the OS page cache) before it
-        // returns, so it survives the process dying at any point, kill -9 included. Only an OS
-        // crash or power loss can drop the last few commits; that trade buys no fsync per commit.
-        exec(m.db, "PRAGMA synchronous=NORMAL", "set synchronous");
-        exec(m.db, "PRAGMA foreign_keys=ON", "set foreign_keys");
+JobStore::JobStore(const std::string& path, int64_t max_bytes) : impl_(std::make_unique<Impl>()) {
+    impl_->path = path;
+    impl_->max_bytes = max_bytes;
+    impl_->open();
+}
 
-        Transaction tx(m.db, "create schema");
-        const int version = m.user_version();  // again: another process may have upgraded meanwhile
-        m.refuse_newer(version, path);
-        exec(m.db, kSchema, "create schema");
-        if (version < kSchemaVersion)
-            exec(m.db, ("PRAGMA user_version=" + std::to_string(kSchemaVersion)).c_str(), "set schema version");
-        tx.commit();
-    } catch (...) {
-        m.close();
-        throw;
-    }
+void JobStore::set_max_bytes(int64_t max_bytes) {
+    std::lock_guard lock(impl_->mu);
+    impl_->max_bytes = max_bytes;
+    impl_->apply_max_bytes();
 }
 
 JobStore::~JobStore() { impl_->close(); }
 
 void JobStore::insert(JobRecord& rec) {
     std::lock_guard lock(impl_->mu);
+    impl_->ensure_file();
     Impl& m = *impl_;
     Transaction tx(m.db, "insert");
     int64_t seq = 1;
@@ -305,6 +352,7 @@ size_t JobStore::count(std::optional<JobState> state) const {
 // count says whether this call made the transition, with no read-then-write race.
 bool JobStore::mark_running(const std::string& id, double started_at) {
     std::lock_guard lock(impl_->mu);
+    impl_->ensure_file();
     return impl_->change("mark_running",
                          "UPDATE jobs SET state = 'running', started_at = ?2, attempts = attempts + 1 "
                          "WHERE id = ?1 AND state = 'queued'",
@@ -316,6 +364,7 @@ bool JobStore::finish(const std::string& id, JobState state, double finished_at,
     if (!is_final(state))
         throw std::invalid_argument(std::string("job store: finish needs a final state, got ") + to_string(state));
     std::lock_guard lock(impl_->mu);
+    impl_->ensure_file();
     return impl_->change("finish",
                          "UPDATE jobs SET state = ?2, finished_at = ?3, error = ?4, report_json = ?5 "
                          "WHERE id = ?1 AND state IN ('queued', 'running')",
@@ -325,12 +374,14 @@ bool JobStore::finish(const std::string& id, JobState state, double finished_at,
 // Both requeues keep attempts: it counts starts, and the interrupted run did start.
 bool JobStore::requeue(const std::string& id) {
     std::lock_guard lock(impl_->mu);
+    impl_->ensure_file();
     return impl_->change("requeue",
                          "UPDATE jobs SET state = 'queued', started_at = 0 WHERE id = ?1 AND state = 'running'", id) == 1;
 }
 
 int JobStore::requeue_all_running() {
     std::lock_guard lock(impl_->mu);
+    impl_->ensure_file();
     return impl_->change("requeue_all_running",
                          "UPDATE jobs SET state = 'queued', started_at = 0 WHERE state = 'running'");
 }
@@ -342,6 +393,7 @@ std::vector<JobRecord> JobStore::queued_in_order() const {
 
 bool JobStore::remove_final(const std::string& id) {
     std::lock_guard lock(impl_->mu);
+    impl_->ensure_file();
     return impl_->change("remove_final",
                          "DELETE FROM jobs WHERE id = ?1 AND state IN ('succeeded', 'failed', 'canceled')", id) == 1;
 }

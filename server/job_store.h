@@ -1,20 +1,32 @@
 #pragma once
 // Durable job records: SQLite in WAL mode at <data-dir>/tessera.db. Every state change is a
 // committed transaction before it is acknowledged, so a restart (even after kill -9) finds
-// every accepted job. Thread-safe: one connection behind a mutex.
+// every accepted job. Thread-safe: one connection behind a mutex. Every failure is a
+// StoreError; a database file deleted under the running server is written anew from the open
+// connection before the next change, so what was accepted stays on disk.
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "api/job_status.h"
+
 namespace tessera::server {
 
-enum class JobState { queued, running, succeeded, failed, canceled };
+using api::JobState;
+using api::is_final;
+using api::parse_job_state;
+using api::to_string;
 
-const char* to_string(JobState s);
-bool parse_job_state(const std::string& s, JobState& out);
-inline bool is_final(JobState s) { return s == JobState::succeeded || s == JobState::failed || s == JobState::canceled; }
+// SQLite refused: `full` when the disk or the database's size limit is full (space may come
+// back), otherwise the file is unusable for now (read-only, I/O error). Callers answer 507 or
+// 503 and keep serving; nothing here is fatal to the process.
+struct StoreError : std::runtime_error {
+    bool full;
+    StoreError(const std::string& what, bool full_) : std::runtime_error(what), full(full_) {}
+};
 
 struct JobRecord {
     std::string id;           // 16 lowercase hex characters
@@ -26,14 +38,15 @@ struct JobRecord {
     double started_at = 0;
     double finished_at = 0;
     std::string error;        // set when failed
-    std::string report_json;  // set when finished (timings and statistics), "" otherwise
+    std::string report_json;  // set when finished: the status summary (api::status_summary), "" otherwise
     int attempts = 0;         // times the job was started (a restart re-queues running jobs)
 };
 
 class JobStore {
 public:
-    // Opens or creates the database; throws std::runtime_error with SQLite's message.
-    explicit JobStore(const std::string& path);
+    // Opens or creates the database; throws StoreError with SQLite's message. `max_bytes`
+    // (0: none) bounds the file's size (SQLite's max_page_count): past it, writes fail as full.
+    explicit JobStore(const std::string& path, int64_t max_bytes = 0);
     ~JobStore();
     JobStore(const JobStore&) = delete;
     JobStore& operator=(const JobStore&) = delete;
@@ -58,6 +71,9 @@ public:
     std::vector<JobRecord> queued_in_order() const;
     // Deletes a record (only final ones); false if missing or not final.
     bool remove_final(const std::string& id);
+
+    // Changes the size bound (0: none) of an open store.
+    void set_max_bytes(int64_t max_bytes);
 
 private:
     struct Impl;

@@ -4,6 +4,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "server/job_store.h"
+
 namespace tessera::server {
 
 struct Problem : std::runtime_error {
@@ -20,5 +22,15 @@ struct Problem : std::runtime_error {
     Problem& with_location(std::string l) { location = std::move(l); return *this; }
     Problem& with_retry_after(int s) { retry_after = s; return *this; }
 };
+
+// What a client sees when the store refuses: 507 while it is full (a disk, or the size bound),
+// 503 while it is unusable; both say when to retry.
+inline Problem store_problem(const StoreError& e) {
+    if (e.full)
+        return Problem(507, "insufficient-storage", "The job store is full",
+                       std::string("no space left (") + e.what() + "); retry when space is freed")
+            .with_retry_after(30);
+    return Problem(503, "store-unavailable", "The job store is unavailable", e.what()).with_retry_after(10);
+}
 
 }  // namespace tessera::server

@@ -5,7 +5,7 @@
 #include <fstream>
 #include <random>
 
-#include "engine/geometry/aabb.h"
+#include "api/scene_summary.h"
 #include "engine/io/scene_loader.h"
 #include "server/problem.h"
 
@@ -29,21 +29,6 @@ std::string random_hex(size_t n) {
 }
 
 }  // namespace
-
-nlohmann::json describe_scene(const SceneDescription& s) {
-    Aabb b;
-    for (const auto& m : s.meshes) for (const auto& p : m.positions) b.expand(p);
-    for (const auto& sp : s.spheres) { b.expand(sp.center - glm::vec3(sp.radius)); b.expand(sp.center + glm::vec3(sp.radius)); }
-    nlohmann::json j = {{"triangles", s.triangle_count()}, {"spheres", s.spheres.size()}, {"lights", s.lights.size()},
-                        {"warnings", s.warnings}};
-    size_t emissive = 0;
-    for (const auto& m : s.meshes)
-        if (m.material >= 0 && s.materials[size_t(m.material)].kind == MaterialKind::emission) ++emissive;
-    j["emissive_meshes"] = emissive;
-    if (!b.empty()) j["bounds"] = {{"min", {b.lo.x, b.lo.y, b.lo.z}}, {"max", {b.hi.x, b.hi.y, b.hi.z}}};
-    else j["bounds"] = nullptr;
-    return j;
-}
 
 SceneCatalog::SceneCatalog(std::string project_dir, std::vector<std::string> dirs, std::string upload_dir)
     : project_dir_(std::move(project_dir)), dirs_(std::move(dirs)), upload_dir_(std::move(upload_dir)) {
@@ -110,7 +95,7 @@ nlohmann::json SceneCatalog::describe(const CatalogEntry& e, const LoadLimits& l
     }
     nlohmann::json d = e.path == "builtin:displaced_sphere"
                            ? nlohmann::json{{"triangles", 1002528}, {"spheres", 0}, {"lights", 1}, {"note", "?triangles=N sets the size"}}
-                           : describe_scene(load_scene(e.path, limits));
+                           : api::describe_scene(load_scene(e.path, limits));
     std::lock_guard<std::mutex> lock(mutex_);
     details_[e.path] = {mtime, d};
     return d;
@@ -131,12 +116,23 @@ CatalogEntry SceneCatalog::add_upload(const std::string& filename, const std::st
             .with_field("name");
     const std::string id = random_hex(16);
     const fs::path dir = fs::path(upload_dir_) / id;
-    fs::create_directories(dir);
     const fs::path file = dir / filename;
     {
-        std::ofstream out(file, std::ios::binary);
-        out.write(bytes.data(), std::streamsize(bytes.size()));
-        if (!out) throw std::runtime_error("cannot write upload " + file.string());
+        // A full disk refuses the upload (507) and leaves nothing half-written behind.
+        std::error_code ec;
+        fs::create_directories(dir, ec);
+        std::ofstream out;
+        if (!ec) {
+            out.open(file, std::ios::binary);
+            out.write(bytes.data(), std::streamsize(bytes.size()));
+            out.close();
+        }
+        if (ec || !out) {
+            fs::remove_all(dir, ec);
+            throw Problem(507, "insufficient-storage", "The upload could not be stored",
+                          "writing the scene file failed (the disk may be full); retry when space is freed")
+                .with_retry_after(30);
+        }
     }
     try {
         load_scene(file.string(), limits);  // validation: a broken upload is refused, not stored

@@ -44,7 +44,4 @@ private:
     std::map<std::string, std::pair<long long, nlohmann::json>> details_;  // path → (mtime, details)
 };
 
-// A scene's counts and bounds as the API reports them.
-nlohmann::json describe_scene(const SceneDescription& s);
-
 }  // namespace tessera::server

@@ -1,14 +1,18 @@
 // `tessera serve`: the HTTP render server. Every flag also reads TESSERA_<FLAG> from the
 // environment (TESSERA_PORT, TESSERA_DATA_DIR, ...); a flag given on the command line wins.
+#include <cctype>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
 #include "server/serve_command.h"
@@ -20,21 +24,6 @@ extern const char* const kTesseraOpenApiYaml;
 namespace tessera::server {
 namespace {
 
-constexpr const char* kHelp = R"(usage: tessera serve [options]   (each option also as an environment variable TESSERA_<NAME>)
-  --host ADDR           listen address (127.0.0.1)
-  --port N              port; 0 picks a free one and logs it (8080)
-  --data-dir DIR        job records, uploads and results (./data)
-  --scenes DIR          a folder of scenes for the catalog (repeatable; TESSERA_SCENES is ':'-separated)
-  --threads N           render threads per job (0: all cores)
-  --max-jobs N          jobs rendered at the same time (1)
-  --max-queued N        queued jobs before 429 (1000)
-  --max-body BYTES      job request body (1048576)      --max-upload BYTES   scene upload (268435456)
-  --max-pixels N        width × height (268435456)      --max-spp N          (65536)
-  --max-depth N         (1000)                          --max-light-rays N   (1024)
-  --max-triangles N     triangles in a scene (50000000)
-  --log-level LEVEL     trace|debug|info|warn|error (info)
-)";
-
 struct Options {
     std::string host = "127.0.0.1";
     int port = 8080;
@@ -43,74 +32,75 @@ struct Options {
     HttpLimits http;
 };
 
-long long number(const std::string& flag, const std::string& v, long long lo, long long hi) {
-    char* end = nullptr;
-    const long long n = std::strtoll(v.c_str(), &end, 10);
-    if (v.empty() || *end != '\0' || n < lo || n > hi)
-        throw std::invalid_argument(flag + " must be a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" + v + "'");
-    return n;
+// cli/cli_parse.h's parse_args, which this layer may not include: the exit status to end with
+// (0 after --help, 2 for a bad flag or value), or nothing when the server should start.
+std::optional<int> parse_args(CLI::App& app, int argc, char** argv) {
+    std::vector<std::string> args;
+    for (int i = argc - 1; i >= 0; --i) args.emplace_back(argv[i]);  // CLI11 takes them reversed
+    try {
+        app.parse(args);
+    } catch (const CLI::CallForHelp&) {
+        std::fputs(app.help().c_str(), stdout);
+        return 0;
+    } catch (const CLI::ExtrasError& e) {
+        std::fprintf(stderr, "tessera serve: unknown flag or extra argument: %s (see --help)\n", e.what());
+        return 2;
+    } catch (const CLI::ParseError& e) {
+        std::fprintf(stderr, "tessera serve: %s\n", e.what());
+        return 2;
+    }
+    return std::nullopt;
 }
-
-// Applies one option (from a flag or the environment).
-void apply(Options& o, const std::string& name, const std::string& v) {
-    auto& lim = o.service.job_limits;
-    if (name == "host") o.host = v;
-    else if (name == "port") o.port = int(number("--port", v, 0, 65535));
-    else if (name == "data-dir") o.service.data_dir = v;
-    else if (name == "scenes") o.service.scene_dirs.push_back(v);
-    else if (name == "threads") o.service.render_threads = int(number("--threads", v, 0, 1024));
-    else if (name == "max-jobs") o.service.concurrent_jobs = int(number("--max-jobs", v, 1, 64));
-    else if (name == "max-queued") o.service.max_queued = size_t(number("--max-queued", v, 1, 10'000'000));
-    else if (name == "max-body") o.http.max_job_body = size_t(number("--max-body", v, 256, 1ll << 30));
-    else if (name == "max-upload") o.http.max_upload = size_t(number("--max-upload", v, 1024, 1ll << 34));
-    else if (name == "max-pixels") lim.max_pixels = number("--max-pixels", v, 1, 1ll << 32);
-    else if (name == "max-spp") lim.max_spp = int(number("--max-spp", v, 1, 1 << 24));
-    else if (name == "max-depth") lim.max_depth = int(number("--max-depth", v, 0, 100000));
-    else if (name == "max-light-rays") lim.max_light_rays = int(number("--max-light-rays", v, 1, 1 << 20));
-    else if (name == "max-triangles") {
-        o.service.load_limits.max_triangles = uint64_t(number("--max-triangles", v, 1, 1ll << 40));
-        o.service.load_limits.max_vertices = o.service.load_limits.max_triangles * 3;
-    } else if (name == "log-level") o.log_level = v;
-    else throw std::invalid_argument("unknown option --" + name + " (see tessera serve --help)");
-}
-
-const char* kNames[] = {"host", "port", "data-dir", "scenes", "threads", "max-jobs", "max-queued", "max-body",
-                        "max-upload", "max-pixels", "max-spp", "max-depth", "max-light-rays", "max-triangles", "log-level"};
 
 }  // namespace
 
 int serve_command(int argc, char** argv) {
     Options o;
     o.service.project_scenes = TESSERA_DEFAULT_SCENES_DIR;
-    try {
-        for (const char* n : kNames) {
-            std::string env = "TESSERA_";
-            for (const char* c = n; *c; ++c) env += *c == '-' ? '_' : char(std::toupper(*c));
-            const char* v = std::getenv(env.c_str());
-            if (!v || !*v) continue;
-            if (std::string(n) == "scenes") {
-                std::string all = v;
-                for (size_t start = 0; start <= all.size();) {
-                    const size_t colon = all.find(':', start);
-                    const std::string part = all.substr(start, colon == std::string::npos ? std::string::npos : colon - start);
-                    if (!part.empty()) apply(o, n, part);
-                    if (colon == std::string::npos) break;
-                    start = colon + 1;
-                }
-            } else {
-                apply(o, n, v);
-            }
+    auto& lim = o.service.job_limits;
+    CLI::App app{"The HTTP render server. Each option can also be given as an environment variable TESSERA_<NAME> "
+                 "(TESSERA_PORT, TESSERA_DATA_DIR, ...); a flag on the command line wins.", "serve"};
+    app.option_defaults()->always_capture_default();
+    auto option = [&](const std::string& name, auto& value, const std::string& what) {
+        std::string env = "TESSERA_";
+        for (char c : name) env += c == '-' ? '_' : char(std::toupper(static_cast<unsigned char>(c)));
+        return app.add_option("--" + name, value, what)->envname(env);
+    };
+    option("host", o.host, "listen address")->type_name("ADDR");
+    option("port", o.port, "port; 0 picks a free one and logs it")->check(CLI::Range(0, 65535));
+    option("data-dir", o.service.data_dir, "job records, uploads and results")->type_name("DIR");
+    // Not through option(): TESSERA_SCENES holds several folders, and they add to the flags'
+    // rather than give way to them (the container image passes --scenes itself).
+    std::vector<std::string> scene_flags;
+    app.add_option("--scenes", scene_flags, "a folder of scenes for the catalog (repeatable; TESSERA_SCENES: "
+                                            "':'-separated folders, added before these)")
+        ->type_name("DIR")
+        ->default_str("");
+    option("threads", o.service.render_threads, "render threads per job (0: all cores)")->check(CLI::Range(0, 1024));
+    option("max-jobs", o.service.concurrent_jobs, "jobs rendered at the same time")->check(CLI::Range(1, 64));
+    option("max-queued", o.service.max_queued, "queued jobs before 429")->check(CLI::Range(1, 10'000'000));
+    option("max-body", o.http.max_job_body, "bytes of a job request body")->type_name("BYTES")->check(CLI::Range(256LL, 1LL << 30));
+    option("max-upload", o.http.max_upload, "bytes of a scene upload")->type_name("BYTES")->check(CLI::Range(1024LL, 1LL << 34));
+    option("max-pixels", lim.max_pixels, "width × height of a job")->check(CLI::Range(1LL, 1LL << 32));
+    option("max-spp", lim.max_spp, "samples per pixel of a job")->check(CLI::Range(1, 1 << 24));
+    option("max-depth", lim.max_depth, "bounce depth of a job")->check(CLI::Range(0, 100000));
+    option("max-light-rays", lim.max_light_rays, "light rays per hit of a job")->check(CLI::Range(1, 1 << 20));
+    CLI::Option* max_triangles = option("max-triangles", o.service.load_limits.max_triangles, "triangles in a scene")
+                                     ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 40));
+    option("log-level", o.log_level, "log level: trace|debug|info|warn|error")->type_name("LEVEL");
+    if (const auto status = parse_args(app, argc, argv)) return *status;
+    if (max_triangles->count() > 0) o.service.load_limits.max_vertices = o.service.load_limits.max_triangles * 3;
+    if (const char* env = std::getenv("TESSERA_SCENES")) {
+        const std::string all = env;
+        for (size_t start = 0; start <= all.size();) {
+            const size_t colon = all.find(':', start);
+            const std::string part = all.substr(start, colon == std::string::npos ? std::string::npos : colon - start);
+            if (!part.empty()) o.service.scene_dirs.push_back(part);
+            if (colon == std::string::npos) break;
+            start = colon + 1;
         }
-        for (int i = 0; i < argc; ++i) {
-            const std::string a = argv[i];
-            if (a == "--help" || a == "-h") { std::fputs(kHelp, stdout); return 0; }
-            if (a.rfind("--", 0) != 0 || i + 1 >= argc) throw std::invalid_argument("expected --option VALUE, got '" + a + "'");
-            apply(o, a.substr(2), argv[++i]);
-        }
-    } catch (const std::invalid_argument& e) {
-        std::fprintf(stderr, "tessera serve: %s\n", e.what());
-        return 2;
     }
+    o.service.scene_dirs.insert(o.service.scene_dirs.end(), scene_flags.begin(), scene_flags.end());
     const auto level = spdlog::level::from_str(o.log_level);
     if (level == spdlog::level::off && o.log_level != "off") {
         std::fprintf(stderr, "tessera serve: unknown log level '%s'\n", o.log_level.c_str());

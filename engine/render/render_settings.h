@@ -1,5 +1,6 @@
 #pragma once
 // What a render does, as plain data with defaults; validated once at the edge (api/, CLI).
+// A job's defaults are api/job_fields.cpp's; these agree with them (tests/api/job_fields_test.cpp).
 #include <cstdint>
 #include <optional>
 
@@ -22,8 +23,8 @@ struct AdaptiveSettings {
 };
 
 struct RenderSettings {
-    int width = 480;
-    int height = 360;
+    int width = 800;
+    int height = 600;
     int spp = 1;
     int light_rays = 1;       // samples per area light per shading point
     int max_depth = 1;        // CS184 meaning: 0 emitted only, 1 direct, n bounces

@@ -1,0 +1,93 @@
+#pragma once
+// The job contract: a job is one typed value, a render or an equal-time comparison. Every
+// field is declared once, in the tables of job_fields.cpp (name, type, default, bounds, help,
+// command-line names); parsing, serialization, the CLI's flags and the check against
+// api/openapi.yaml all read those tables.
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "engine/render/render_settings.h"
+#include "engine/scene/render_scene.h"
+
+namespace tessera::api {
+
+// Bad input: `pointer` names the offending field ("/spp", "/adaptive/batch"; "" for the body).
+class InvalidJob : public std::runtime_error {
+public:
+    InvalidJob(std::string pointer, const std::string& what) : std::runtime_error(what), pointer_(std::move(pointer)) {}
+    const std::string& pointer() const { return pointer_; }
+
+private:
+    std::string pointer_;
+};
+
+// Limits against absurd or abusive jobs (configurable by the server), checked at submission
+// only: a stored job is never re-checked against limits that changed since.
+struct JobLimits {
+    int64_t max_pixels = 16384ll * 16384;
+    int max_dimension = 16384;
+    int max_spp = 1 << 16;
+    int max_depth = 1000;
+    int max_light_rays = 1024;
+    double max_time_limit_s = 7 * 24 * 3600.0;
+    // No limits: how a stored job, already checked when it was accepted, is read back.
+    static JobLimits none();
+};
+
+// One image: the scene, how to render it, and its place in the queue.
+struct RenderJob {
+    std::string scene;
+    RenderSettings render;             // engine settings; `threads` is the runner's, not the job's
+    RenderSceneOptions scene_options;  // BVH and triangle test
+    int priority = 0;
+    std::string reference;             // a finished job whose image the error is measured against
+};
+
+// One configuration of a comparison: a label and the render fields it sets (the rest are the
+// comparison's or the defaults).
+struct ComparisonConfigJob {
+    std::string label;
+    RenderJob job;
+    nlohmann::json given;  // the fields as given, label included (what to_json shows)
+};
+
+// Sampling configurations compared at equal time against a converged reference.
+struct ComparisonJob {
+    std::string scene;
+    int width = 0, height = 0, max_depth = 0;
+    double seconds = 0;
+    int reps = 0, reference_spp = 0;
+    double target_error = 0;
+    int priority = 0;
+    bool standard_configs = true;  // "configs": "standard"
+    std::vector<ComparisonConfigJob> configs;
+};
+
+using Job = std::variant<RenderJob, ComparisonJob>;
+
+// A render job with every field at its declared default (scene empty).
+RenderJob default_render_job();
+
+// POST /v1/jobs and the CLI's job: throws InvalidJob. Only "scene" is required; unknown fields
+// are errors.
+RenderJob parse_render_job(const nlohmann::json& body, const JobLimits& limits = {});
+// POST /v1/comparisons: throws InvalidJob.
+ComparisonJob parse_comparison_job(const nlohmann::json& body, const JobLimits& limits = {});
+
+// The effective job, every field present (GET /v1/jobs/{id} "settings", report.json). A
+// comparison carries "kind": "comparison".
+nlohmann::json to_json(const RenderJob& job);
+nlohmann::json to_json(const ComparisonJob& job);
+nlohmann::json to_json(const Job& job);
+// A stored job (to_json's output) read back, without limits; throws InvalidJob.
+Job job_from_json(const nlohmann::json& stored);
+
+const std::string& scene_of(const Job& job);
+int priority_of(const Job& job);
+
+}  // namespace tessera::api

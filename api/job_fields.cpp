@@ -1,0 +1,443 @@
+#include "api/job_fields.h"
+
+#include <array>
+#include <cmath>
+#include <limits>
+#include <type_traits>
+
+#include "engine/accel/embree_accel.h"
+
+namespace tessera::api {
+namespace {
+
+using nlohmann::json;
+
+// A member reached through a path of member pointers: at<&RenderJob::render, &RenderSettings::spp>(job).
+template <auto... Path, class T>
+decltype(auto) at(T& object) {
+    return (object .* ... .* Path);
+}
+
+template <class Job, auto... Path>
+void set_number(Job& j, const json& v, const ParseContext&) {
+    auto& member = at<Path...>(j);
+    using M = std::remove_reference_t<decltype(member)>;
+    if constexpr (std::is_floating_point_v<M>) member = M(v.get<double>());
+    else member = M(v.get<int64_t>());
+}
+
+template <class Job, auto... Path>
+json get_member(const Job& j) {
+    return at<Path...>(j);
+}
+
+// Enumerations by name: one list per enum gives the JSON names, the parser's check and the
+// error message's list of choices.
+template <class E>
+struct Named {
+    std::string_view name;
+    E value;
+};
+
+constexpr Named<BvhType> kBvh[] = {
+    {"none", BvhType::none}, {"midpoint", BvhType::midpoint}, {"median", BvhType::median}, {"sah", BvhType::sah},
+    {"embree", BvhType::embree}};
+constexpr Named<DirectLighting> kDirect[] = {
+    {"hemisphere", DirectLighting::hemisphere}, {"importance", DirectLighting::importance}, {"mis", DirectLighting::mis}};
+constexpr Named<BounceMode> kBounces[] = {{"accumulate", BounceMode::accumulate}, {"nth", BounceMode::nth}};
+constexpr Named<LightingOutput> kLighting[] = {
+    {"all", LightingOutput::all}, {"direct", LightingOutput::direct}, {"indirect", LightingOutput::indirect}};
+constexpr Named<LightSelection> kSelection[] = {{"all", LightSelection::all}, {"power", LightSelection::power}};
+constexpr Named<Integrator> kIntegrator[] = {{"path", Integrator::path}, {"normals", Integrator::normals}};
+constexpr Named<TriangleTest> kTriangle[] = {
+    {"watertight", TriangleTest::watertight}, {"moller_trumbore", TriangleTest::moller_trumbore}};
+
+template <auto& Table>
+constexpr auto names_of() {
+    std::array<std::string_view, std::size(Table)> names{};
+    for (size_t i = 0; i < names.size(); ++i) names[i] = Table[i].name;
+    return names;
+}
+template <auto& Table>
+constexpr auto kNames = names_of<Table>();
+
+template <class Job, auto& Table, auto... Path>
+void set_choice(Job& j, const json& v, const ParseContext& ctx) {
+    const std::string s = v.get<std::string>();
+    for (const auto& [name, value] : Table)
+        if (s == name) {
+            if constexpr (std::is_same_v<decltype(value), const BvhType>) {
+                if (value == BvhType::embree && !embree_available())
+                    throw InvalidJob(ctx.pointer, ctx.pointer + " \"embree\" is not available: this build has no Embree "
+                                                                "(install libembree-dev and rebuild)");
+            }
+            at<Path...>(j) = value;
+            return;
+        }
+}
+
+template <class Job, auto& Table, auto... Path>
+json get_choice(const Job& j) {
+    for (const auto& [name, value] : Table)
+        if (at<Path...>(j) == value) return std::string(name);
+    return "?";
+}
+
+template <class Job, auto... Path>
+void set_text(Job& j, const json& v, const ParseContext&) {
+    at<Path...>(j) = v.is_null() ? std::string() : v.get<std::string>();
+}
+
+template <class Job, auto... Path>
+json get_nullable_text(const Job& j) {
+    const std::string& s = at<Path...>(j);
+    return s.empty() ? json(nullptr) : json(s);
+}
+
+// A row with its identity set and everything else at the struct's defaults.
+template <class Job>
+constexpr Field<Job> field(std::string_view name, FieldKind kind, std::string_view help, std::string_view def) {
+    Field<Job> f;
+    f.name = name;
+    f.kind = kind;
+    f.help = help;
+    f.default_json = def;
+    return f;
+}
+
+constexpr int64_t kInt64Max = std::numeric_limits<int64_t>::max();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Field constructors, so that each table row reads as one declaration.
+template <class Job, auto... Path>
+constexpr Field<Job> integer(std::string_view name, int64_t lo, int64_t hi, std::string_view def, std::string_view help,
+                             std::string_view cli = {}, Limit limit = Limit::none) {
+    Field<Job> f = field<Job>(name, FieldKind::integer, help, def);
+    f.min_int = lo;
+    f.max_int = hi;
+    f.limit = limit;
+    f.set = &set_number<Job, Path...>;
+    f.get = &get_member<Job, Path...>;
+    f.cli = cli;
+    return f;
+}
+
+template <class Job, auto... Path>
+constexpr Field<Job> number(std::string_view name, double lo, double hi, std::string_view def, std::string_view help,
+                            std::string_view cli = {}, Limit limit = Limit::none, bool exclusive_min = false) {
+    Field<Job> f = field<Job>(name, FieldKind::number, help, def);
+    f.min_num = lo;
+    f.max_num = hi;
+    f.exclusive_min = exclusive_min;
+    f.limit = limit;
+    f.set = &set_number<Job, Path...>;
+    f.get = &get_member<Job, Path...>;
+    f.cli = cli;
+    return f;
+}
+
+template <class Job, auto& Table, auto... Path>
+constexpr Field<Job> choice(std::string_view name, std::string_view def, std::string_view help, std::string_view cli = {}) {
+    Field<Job> f = field<Job>(name, FieldKind::choice, help, def);
+    f.choices = kNames<Table>;
+    f.set = &set_choice<Job, Table, Path...>;
+    f.get = &get_choice<Job, Table, Path...>;
+    f.cli = cli;
+    return f;
+}
+
+template <class Job>
+constexpr Field<Job> scene_field(std::string_view help) {
+    Field<Job> f = field<Job>("scene", FieldKind::text, help, "");
+    f.min_int = 1;
+    f.max_int = 4096;
+    f.set = &set_text<Job, &Job::scene>;
+    f.get = &get_member<Job, &Job::scene>;
+    f.per_config = false;
+    return f;
+}
+
+template <class Job>
+constexpr Field<Job> not_per_config(Field<Job> f) {
+    f.per_config = false;
+    return f;
+}
+
+// "adaptive": null, or an object of the adaptive table's fields.
+void set_adaptive(RenderJob& j, const json& v, const ParseContext& ctx) {
+    if (v.is_null()) {
+        j.render.adaptive.reset();
+        return;
+    }
+    if (!v.is_object()) throw InvalidJob(ctx.pointer, ctx.pointer + " must be an object {\"batch\", \"tolerance\"} or null");
+    AdaptiveSettings a;
+    apply_defaults(adaptive_fields(), a);
+    parse_fields(v, adaptive_fields(), a, ctx.pointer, ctx.limits);
+    j.render.adaptive = a;
+}
+
+json get_adaptive(const RenderJob& j) {
+    return j.render.adaptive ? fields_to_json(adaptive_fields(), *j.render.adaptive) : json(nullptr);
+}
+
+const Field<AdaptiveSettings> kAdaptiveFields[] = {
+    integer<AdaptiveSettings, &AdaptiveSettings::batch>("batch", 1, 1 << 16, "32", "Samples between convergence checks.",
+                                                        {}, Limit::spp),
+    number<AdaptiveSettings, &AdaptiveSettings::tolerance>("tolerance", 0, 1e6, "0.05",
+                                                           "Stop a pixel when 1.96·σ/√n ≤ tolerance·μ."),
+};
+
+const Field<RenderJob> kRenderFields[] = {
+    scene_field<RenderJob>("A scene name from GET /v1/scenes, or (CLI) a .dae/.gltf/.glb file or builtin:NAME."),
+    not_per_config(integer<RenderJob, &RenderJob::render, &RenderSettings::width>(
+        "width", 1, 16384, "800", "Image width in pixels.", "--width", Limit::dimension)),
+    not_per_config(integer<RenderJob, &RenderJob::render, &RenderSettings::height>(
+        "height", 1, 16384, "600", "Image height in pixels.", "--height", Limit::dimension)),
+    not_per_config(integer<RenderJob, &RenderJob::render, &RenderSettings::spp>(
+        "spp", 1, 1 << 16, "1", "Samples per pixel (the maximum, with adaptive sampling).", "-s,--spp", Limit::spp)),
+    integer<RenderJob, &RenderJob::render, &RenderSettings::light_rays>(
+        "light_rays", 1, 1024, "1", "Samples per area light per shading point.", "-l,--light-rays", Limit::light_rays),
+    integer<RenderJob, &RenderJob::render, &RenderSettings::max_depth>(
+        "max_depth", 0, 1000, "1", "Max ray depth: 0 emitted light, 1 direct, n bounces.", "-m,--max-depth", Limit::depth),
+    choice<RenderJob, kBvh, &RenderJob::scene_options, &RenderSceneOptions::bvh, &BvhBuildOptions::type>(
+        "bvh", "\"sah\"", "Triangle BVH (embree: Intel Embree 3, for comparison).", "--bvh"),
+    integer<RenderJob, &RenderJob::scene_options, &RenderSceneOptions::bvh, &BvhBuildOptions::max_leaf_size>(
+        "max_leaf_size", 1, 255, "8", "Largest BVH leaf, in triangles.", "--max-leaf"),
+    choice<RenderJob, kTriangle, &RenderJob::scene_options, &RenderSceneOptions::triangle_test>(
+        "triangle_test", "\"watertight\"", "Ray-triangle test.", "--triangle-test"),
+    choice<RenderJob, kDirect, &RenderJob::render, &RenderSettings::direct>(
+        "direct", "\"importance\"", "Direct lighting: hemisphere, light (importance) sampling, or MIS of both.", "--direct"),
+    choice<RenderJob, kIntegrator, &RenderJob::render, &RenderSettings::integrator>(
+        "integrator", "\"path\"", "Path tracing, or the surface normals as colours.", "--integrator"),
+    number<RenderJob, &RenderJob::render, &RenderSettings::russian_roulette>(
+        "russian_roulette", 0, 1, "0", "Russian roulette continuation probability; 0 turns it off.", "--rr"),
+    choice<RenderJob, kBounces, &RenderJob::render, &RenderSettings::bounces>(
+        "bounces", "\"accumulate\"", "accumulate every bounce, or keep only bounce max_depth (nth).", "--bounces"),
+    choice<RenderJob, kLighting, &RenderJob::render, &RenderSettings::output>(
+        "lighting", "\"all\"", "all light, direct (bounces 0-1) or indirect (bounces 2 and up).", "--lighting"),
+    choice<RenderJob, kSelection, &RenderJob::render, &RenderSettings::light_selection>(
+        "light_selection", "\"all\"", "Every area light light_rays times (all), or light_rays in all by power.",
+        "--light-selection"),
+    [] {
+        Field<RenderJob> f = field<RenderJob>("adaptive", FieldKind::object, "Adaptive sampling {batch, tolerance}, or null (off).", "null");
+        f.nullable = true;
+        f.set = &set_adaptive;
+        f.get = &get_adaptive;
+        return f;
+    }(),
+    integer<RenderJob, &RenderJob::render, &RenderSettings::tile_size>("tile_size", 1, 4096, "32", "Tile edge in pixels.",
+                                                                      "--tile"),
+    not_per_config(integer<RenderJob, &RenderJob::render, &RenderSettings::seed>(
+        "seed", 0, kInt64Max, "0", "Seed of every pixel's random streams.", "--seed")),
+    not_per_config(integer<RenderJob, &RenderJob::priority>("priority", -1000, 1000, "0",
+                                                            "Queue priority: higher runs first.")),
+    not_per_config(number<RenderJob, &RenderJob::render, &RenderSettings::time_limit_s>(
+        "time_limit_s", 0, 7 * 24 * 3600.0, "0", "Wall-clock limit in seconds from the job's start; 0: none.",
+        "--time-limit", Limit::time_limit)),
+    not_per_config(number<RenderJob, &RenderJob::render, &RenderSettings::target_error>(
+        "target_error", 0, 1e6, "0", "Stop at this relative MSE; 0: none.", "--target-error")),
+    [] {
+        Field<RenderJob> f = field<RenderJob>("reference", FieldKind::job_id, "A finished job whose image the error is measured against.",
+                           "null");
+        f.nullable = true;
+        f.set = &set_text<RenderJob, &RenderJob::reference>;
+        f.get = &get_nullable_text<RenderJob, &RenderJob::reference>;
+        f.per_config = false;
+        return f;
+    }(),
+};
+
+// "configs": "standard", or 1 to 32 objects with a label and render fields.
+void set_configs(ComparisonJob& j, const json& v, const ParseContext& ctx) {
+    j.configs.clear();
+    j.standard_configs = v.is_string() && v == "standard";
+    if (j.standard_configs) return;
+    if (!v.is_array() || v.empty() || v.size() > 32)
+        throw InvalidJob(ctx.pointer, ctx.pointer + " must be \"standard\" or an array of 1 to 32 configurations");
+    for (size_t i = 0; i < v.size(); ++i) {
+        const std::string p = ctx.pointer + "/" + std::to_string(i);
+        if (!v[i].is_object() || !v[i].contains("label") || !v[i]["label"].is_string())
+            throw InvalidJob(p, p + " needs a \"label\"");
+        json fields = v[i];
+        fields.erase("label");
+        ComparisonConfigJob c{v[i]["label"].get<std::string>(), default_render_job(), v[i]};
+        parse_fields(fields, render_job_fields(), c.job, p, ctx.limits, true);
+        j.configs.push_back(std::move(c));
+    }
+}
+
+json get_configs(const ComparisonJob& j) {
+    if (j.standard_configs) return "standard";
+    json list = json::array();
+    for (const ComparisonConfigJob& c : j.configs) list.push_back(c.given);
+    return list;
+}
+
+const Field<ComparisonJob> kComparisonFields[] = {
+    scene_field<ComparisonJob>("A scene name from GET /v1/scenes."),
+    integer<ComparisonJob, &ComparisonJob::width>("width", 8, 1024, "160", "Image width of every run."),
+    integer<ComparisonJob, &ComparisonJob::height>("height", 8, 1024, "120", "Image height of every run."),
+    integer<ComparisonJob, &ComparisonJob::max_depth>("max_depth", 0, 1000, "5", "Max ray depth of every run.", {},
+                                                      Limit::depth),
+    number<ComparisonJob, &ComparisonJob::seconds>("seconds", 0, 600, "2", "Render time of each run.", {}, Limit::none,
+                                                   true),
+    integer<ComparisonJob, &ComparisonJob::reps>("reps", 1, 20, "3", "Runs per configuration."),
+    integer<ComparisonJob, &ComparisonJob::reference_spp>("reference_spp", 1, 1 << 16, "1024",
+                                                          "Samples per pixel of the reference (MIS).", {}, Limit::spp),
+    number<ComparisonJob, &ComparisonJob::target_error>("target_error", 0, kInf, "0.01",
+                                                        "The relative MSE whose time to reach is reported.", {},
+                                                        Limit::none, true),
+    integer<ComparisonJob, &ComparisonJob::priority>("priority", -1000, 1000, "0", "Queue priority: higher runs first."),
+    [] {
+        Field<ComparisonJob> f = field<ComparisonJob>("configs", FieldKind::object,
+                               "\"standard\", or a list of {label, render fields except scene, width, height, spp, seed, "
+                               "priority, time_limit_s, target_error, reference}.",
+                               "\"standard\"");
+        f.set = &set_configs;
+        f.get = &get_configs;
+        return f;
+    }(),
+};
+
+std::string describe_type(const json& v) { return v.type_name(); }
+
+std::string bounds_text(double lo, double hi) {
+    auto num = [](double x) {
+        if (std::isinf(x)) return std::string(x > 0 ? "inf" : "-inf");
+        return std::to_string(x);
+    };
+    return "[" + num(lo) + ", " + num(hi) + "]";
+}
+
+}  // namespace
+
+JobLimits JobLimits::none() {
+    JobLimits l;
+    l.max_pixels = std::numeric_limits<int64_t>::max();
+    l.max_dimension = std::numeric_limits<int>::max();
+    l.max_spp = std::numeric_limits<int>::max();
+    l.max_depth = std::numeric_limits<int>::max();
+    l.max_light_rays = std::numeric_limits<int>::max();
+    l.max_time_limit_s = std::numeric_limits<double>::max();
+    return l;
+}
+
+std::span<const Field<RenderJob>> render_job_fields() { return kRenderFields; }
+std::span<const Field<AdaptiveSettings>> adaptive_fields() { return kAdaptiveFields; }
+std::span<const Field<ComparisonJob>> comparison_job_fields() { return kComparisonFields; }
+
+template <class Job>
+json check_value(const Field<Job>& f, const json& v, const ParseContext& ctx) {
+    const std::string& ptr = ctx.pointer;
+    if (f.nullable && v.is_null()) return v;
+    switch (f.kind) {
+        case FieldKind::integer: {
+            const int64_t hi = f.limit == Limit::none ? f.max_int : int64_t(field_max(f, ctx.limits));
+            auto out_of_range = [&] {
+                return InvalidJob(ptr, ptr + " must lie in [" + std::to_string(f.min_int) + ", " + std::to_string(hi) +
+                                           "], got " + v.dump());
+            };
+            int64_t n = 0;
+            if (v.is_number_unsigned() && v.get<uint64_t>() > uint64_t(kInt64Max)) {
+                throw out_of_range();  // above every bound a field can have
+            } else if (v.is_number_integer()) {
+                n = v.get<int64_t>();
+            } else if (v.is_number_float() && std::trunc(v.get<double>()) == v.get<double>()) {
+                // 2^63 and beyond do not fit: out of range rather than converted.
+                if (std::abs(v.get<double>()) >= 9223372036854775808.0) throw out_of_range();
+                n = int64_t(v.get<double>());
+            } else {
+                throw InvalidJob(ptr, ptr + " must be an integer, not " + describe_type(v));
+            }
+            if (n < f.min_int || n > hi) throw out_of_range();
+            return n;
+        }
+        case FieldKind::number: {
+            if (!v.is_number()) throw InvalidJob(ptr, ptr + " must be a number, not " + describe_type(v));
+            const double d = v.get<double>(), hi = field_max(f, ctx.limits);
+            const bool low = f.exclusive_min ? !(d > f.min_num) : !(d >= f.min_num);
+            if (!std::isfinite(d) || low || d > hi) {
+                if (f.exclusive_min)
+                    throw InvalidJob(ptr, ptr + " must lie in (" + bounds_text(f.min_num, hi).substr(1) + ", got " + v.dump());
+                throw InvalidJob(ptr, ptr + " must lie in " + bounds_text(f.min_num, hi) + ", got " + v.dump());
+            }
+            return d;
+        }
+        case FieldKind::text: {
+            if (!v.is_string()) throw InvalidJob(ptr, ptr + " must be a string, not " + describe_type(v));
+            const size_t n = v.get_ref<const std::string&>().size();
+            if (int64_t(n) < f.min_int || int64_t(n) > f.max_int)
+                throw InvalidJob(ptr, ptr + " must be a non-empty name of at most " + std::to_string(f.max_int) +
+                                          " characters");
+            return v;
+        }
+        case FieldKind::choice: {
+            if (!v.is_string()) throw InvalidJob(ptr, ptr + " must be a string, not " + describe_type(v));
+            std::string list;
+            for (std::string_view c : f.choices) {
+                if (v.get_ref<const std::string&>() == c) return v;
+                list += (list.empty() ? "" : "|") + std::string(c);
+            }
+            throw InvalidJob(ptr, ptr + " must be one of " + list + ", got " + v.dump());
+        }
+        case FieldKind::job_id: {
+            if (!v.is_string() || v.get_ref<const std::string&>().size() != 16 ||
+                v.get_ref<const std::string&>().find_first_not_of("0123456789abcdef") != std::string::npos)
+                throw InvalidJob(ptr, ptr + " must be the id of a finished job (16 hex digits) or null");
+            return v;
+        }
+        case FieldKind::object: return v;
+    }
+    return v;
+}
+
+template <class Job>
+void parse_fields(const json& body, std::span<const Field<Job>> table, Job& out, const std::string& prefix,
+                  const JobLimits& limits, bool per_config_only) {
+    if (!body.is_object())
+        throw InvalidJob(prefix, (prefix.empty() ? std::string("the job") : prefix) + " must be a JSON object, not " +
+                                     describe_type(body));
+    for (const auto& [key, v] : body.items()) {
+        const std::string ptr = prefix + "/" + key;
+        const Field<Job>* field = nullptr;
+        for (const Field<Job>& f : table)
+            if (f.name == key) field = &f;
+        if (!field) {
+            std::string known;
+            for (const Field<Job>& f : table)
+                if (!per_config_only || f.per_config) known += (known.empty() ? "" : ", ") + std::string(f.name);
+            throw InvalidJob(ptr, "unknown field " + ptr + " (expected " + known + ")");
+        }
+        if (per_config_only && !field->per_config)
+            throw InvalidJob(ptr, ptr + " is set by the comparison, not per configuration");
+        const ParseContext ctx{ptr, limits};
+        field->set(out, check_value(*field, v, ctx), ctx);
+    }
+    for (const Field<Job>& f : table)
+        if (f.default_json.empty() && !body.contains(std::string(f.name)) && !per_config_only)
+            throw InvalidJob(prefix + "/" + std::string(f.name), prefix + "/" + std::string(f.name) + " is required");
+}
+
+template <class Job>
+void apply_defaults(std::span<const Field<Job>> table, Job& out) {
+    const JobLimits none = JobLimits::none();
+    for (const Field<Job>& f : table) {
+        if (f.default_json.empty()) continue;
+        const ParseContext ctx{"/" + std::string(f.name), none};
+        f.set(out, check_value(f, json::parse(f.default_json), ctx), ctx);
+    }
+}
+
+template json check_value(const Field<RenderJob>&, const json&, const ParseContext&);
+template json check_value(const Field<ComparisonJob>&, const json&, const ParseContext&);
+template json check_value(const Field<AdaptiveSettings>&, const json&, const ParseContext&);
+template void parse_fields(const json&, std::span<const Field<RenderJob>>, RenderJob&, const std::string&, const JobLimits&, bool);
+template void parse_fields(const json&, std::span<const Field<ComparisonJob>>, ComparisonJob&, const std::string&,
+                           const JobLimits&, bool);
+template void apply_defaults(std::span<const Field<RenderJob>>, RenderJob&);
+template void apply_defaults(std::span<const Field<ComparisonJob>>, ComparisonJob&);
+template void apply_defaults(std::span<const Field<AdaptiveSettings>>, AdaptiveSettings&);
+template void parse_fields(const json&, std::span<const Field<AdaptiveSettings>>, AdaptiveSettings&, const std::string&,
+                           const JobLimits&, bool);
+
+}  // namespace tessera::api

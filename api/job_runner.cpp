@@ -1,0 +1,164 @@
+#include "api/job_runner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "api/comparison.h"
+
+namespace tessera::api {
+namespace {
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+double seconds_between(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
+
+bool stop_requested(const RunCallbacks& cb) { return cb.stop && cb.stop->load(); }
+
+// Writes a text file whole or throws naming it (a full disk must fail the job, not leave a
+// truncated report behind a success).
+void write_text(const std::string& path, const std::string& text) {
+    if (path.empty()) return;
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out) throw std::runtime_error("cannot write " + path);
+}
+
+JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutputs& out, const RunCallbacks& cb) {
+    const auto t0 = Clock::now();
+    RenderReport rep;
+    rep.job = job;
+    const SceneDescription desc = load_scene(opt.scene_source, opt.load_limits);
+    const auto t_loaded = Clock::now();
+    const RenderScene scene = build_render_scene(desc, job.scene_options);
+    const auto t_built = Clock::now();
+
+    // The runner's settings: the job's, with how this runner runs it.
+    RenderSettings settings = job.render;
+    settings.threads = opt.threads;
+    settings.estimate_error = opt.record_convergence;
+    // The time limit counts from the job's start (loading included); the renderer stops at it
+    // and keeps the samples it has.
+    if (job.render.time_limit_s > 0)
+        settings.time_limit_s = std::max(1e-3, job.render.time_limit_s - seconds_between(t0, Clock::now()));
+    Image reference;
+    RenderCallbacks rcb;
+    rcb.cancel = cb.stop;
+    std::atomic<size_t> tiles_done{0}, tiles_total{0};  // written by the render threads
+    rcb.progress = [&](const RenderProgress& p) {
+        tiles_done = p.tiles_done;
+        tiles_total = p.tiles_total;
+        if (cb.progress) cb.progress(p);
+    };
+    if (!opt.reference_image.empty()) {
+        if (!std::filesystem::exists(opt.reference_image)) throw std::runtime_error("the reference job's image was deleted");
+        reference = read_image(opt.reference_image);
+        rcb.reference = &reference;
+    }
+    const RenderResult result = render(scene, settings, rcb);
+    const auto t_rendered = Clock::now();
+    JobOutcome outcome;
+    if (stop_requested(cb)) {
+        outcome.stopped = true;
+        return outcome;
+    }
+
+    const RenderStats& st = result.stats;
+    Metadata meta = {{"tessera:scene", job.scene}, {"tessera:settings", to_json(job).dump()},
+                     {"tessera:samples", std::to_string(st.samples)},
+                     {"tessera:render_seconds", std::to_string(st.render_seconds)}};
+    if (!opt.job_id.empty()) meta.insert(meta.begin(), {"tessera:job", opt.job_id});
+    if (!out.png.empty()) write_png(out.png, result.image, out.tone, meta);
+    if (!out.exr.empty()) write_exr(out.exr, result.image, meta);
+    if (!out.rate_png.empty()) write_rate_png(out.rate_png, result.image, settings.spp, meta);
+    write_text(out.convergence_csv, convergence_csv(result.curve));
+    if (!out.convergence_svg.empty()) {
+        const std::string who = opt.job_id.empty() ? std::string("Render") : "Job " + opt.job_id;
+        write_text(out.convergence_svg,
+                   convergence_svg({result.curve}, {job.reference.empty() ? "estimated (half buffers)" : "against job " + job.reference},
+                                   who + ": error against time (" + job.scene + ")"));
+    }
+    const auto t_written = Clock::now();
+
+    rep.stats = st;
+    rep.tiles_done = tiles_done;
+    rep.tiles_total = tiles_total;
+    rep.triangles = scene.triangle_count();
+    rep.spheres = scene.spheres.size();
+    rep.bvh = scene.tri_bvh_stats;
+    rep.accel_bytes = scene.triangle_accel_bytes();
+    rep.scene_build = scene.report;
+    rep.render_built = result.built;
+    rep.render_left_out = result.left_out;
+    rep.curve = result.curve;
+    float smin = INFINITY, smax = 0;
+    for (float c : result.image.sample_count) { smin = std::min(smin, c); smax = std::max(smax, c); }
+    rep.spp_min = smin;
+    rep.spp_max = smax;
+    double mean = 0;
+    for (float v : result.image.rgb) mean += v;
+    rep.mean_radiance = result.image.rgb.empty() ? 0.0 : mean / double(result.image.rgb.size());
+    rep.timings = {seconds_between(t0, t_loaded), seconds_between(t_loaded, t_built), st.render_seconds,
+                   seconds_between(t_rendered, t_written), seconds_between(t0, Clock::now())};
+    outcome.report = to_json(rep);
+    write_text(out.report_json, outcome.report.dump(2));
+    outcome.summary = status_summary(rep);
+    outcome.rays = st.rays();
+    outcome.render_seconds = st.render_seconds;
+    outcome.render = std::move(rep);
+    return outcome;
+}
+
+JobOutcome run_comparison_job(const ComparisonJob& job, const RunOptions& opt, const RunOutputs& out, const RunCallbacks& cb) {
+    const SceneDescription desc = load_scene(opt.scene_source, opt.load_limits);
+    RenderSettings base = default_render_job().render;
+    base.width = job.width;
+    base.height = job.height;
+    base.max_depth = job.max_depth;
+    base.threads = opt.threads;
+    std::vector<ComparisonConfig> configs;
+    if (job.standard_configs) {
+        configs = standard_configs(base);
+    } else {
+        for (const ComparisonConfigJob& c : job.configs) configs.push_back({c.label, c.job.render, c.job.scene_options});
+    }
+    for (auto& c : configs) c.settings.threads = opt.threads;
+    const ComparisonResult r =
+        run_comparison(desc, configs, base, job.reference_spp, job.seconds, job.reps, job.target_error, cb.stop);
+    JobOutcome outcome;
+    if (stop_requested(cb)) {
+        outcome.stopped = true;
+        return outcome;
+    }
+    outcome.report = {{"settings", to_json(job)}, {"comparison", comparison_json(r, job.seconds, job.target_error)},
+                      {"table_markdown", comparison_markdown(r, job.seconds, job.target_error)}};
+    write_text(out.report_json, outcome.report.dump(2));
+    write_text(out.convergence_svg, comparison_svg(r, job.scene + ": relative MSE against time (first run of each)"));
+    outcome.summary = {{"comparison", outcome.report["comparison"]}};
+    return outcome;
+}
+
+}  // namespace
+
+RunOutputs RunOutputs::in_directory(const std::string& dir) {
+    const std::filesystem::path d(dir);
+    RunOutputs o;
+    o.png = (d / "image.png").string();
+    o.exr = (d / "image.exr").string();
+    o.rate_png = (d / "rate.png").string();
+    o.convergence_csv = (d / "convergence.csv").string();
+    o.convergence_svg = (d / "convergence.svg").string();
+    o.report_json = (d / "report.json").string();
+    return o;
+}
+
+JobOutcome run_job(const Job& job, const RunOptions& options, const RunOutputs& outputs, const RunCallbacks& callbacks) {
+    if (const auto* r = std::get_if<RenderJob>(&job)) return run_render(*r, options, outputs, callbacks);
+    return run_comparison_job(std::get<ComparisonJob>(job), options, outputs, callbacks);
+}
+
+}  // namespace tessera::api

@@ -1,0 +1,57 @@
+#pragma once
+// The one path from a typed job to its result files and report: load the scene, build it,
+// render (or run the comparison), write the images and the report. `tessera render`, the
+// server's workers and the coming render nodes all run jobs through here, so a job renders
+// the same image whoever runs it.
+#include <atomic>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "api/job.h"
+#include "api/report.h"
+#include "engine/io/image_io.h"
+#include "engine/io/scene_loader.h"
+
+namespace tessera::api {
+
+// How this runner runs the job: not part of the job (the same job gives the same image with
+// any of these).
+struct RunOptions {
+    std::string scene_source;       // what load_scene takes: a file path, or builtin:NAME[?params]
+    LoadLimits load_limits;
+    int threads = 0;                // 0: all cores
+    std::string job_id;             // names the job in metadata and plot titles; "" for none
+    std::string reference_image;    // the reference job's EXR (RenderJob::reference, resolved)
+    bool record_convergence = true; // keep the half buffers and report the estimated error
+};
+
+// Where the results go; an empty path is not written.
+struct RunOutputs {
+    std::string png, exr, rate_png, convergence_csv, convergence_svg, report_json;
+    ToneCurve tone = ToneCurve::srgb;
+    // Every result file in `dir` under the server's names (image.png, image.exr, ...).
+    static RunOutputs in_directory(const std::string& dir);
+};
+
+struct RunCallbacks {
+    std::function<void(const RenderProgress&)> progress;  // from render threads: cheap, thread-safe
+    const std::atomic<bool>* stop = nullptr;             // set: end early, write nothing
+};
+
+struct JobOutcome {
+    bool stopped = false;            // `stop` ended the job; nothing was written
+    nlohmann::json report;           // report.json's content
+    nlohmann::json summary;          // what the job's status shows (status_summary)
+    std::optional<RenderReport> render;  // a render job's typed report
+    uint64_t rays = 0;
+    double render_seconds = 0;
+};
+
+// Throws SceneError for a scene that does not load, std::runtime_error (or a filesystem
+// error) for a result that cannot be written; the caller decides what the job's state becomes.
+JobOutcome run_job(const Job& job, const RunOptions& options, const RunOutputs& outputs, const RunCallbacks& callbacks = {});
+
+}  // namespace tessera::api

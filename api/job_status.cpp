@@ -1,0 +1,69 @@
+#include "api/job_status.h"
+
+namespace tessera::api {
+
+using nlohmann::json;
+
+const char* to_string(JobState s) {
+    switch (s) {
+    case JobState::queued: return "queued";
+    case JobState::running: return "running";
+    case JobState::succeeded: return "succeeded";
+    case JobState::failed: return "failed";
+    case JobState::canceled: return "canceled";
+    }
+    return "unknown";
+}
+
+bool parse_job_state(const std::string& s, JobState& out) {
+    for (JobState st : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed, JobState::canceled}) {
+        if (s == to_string(st)) {
+            out = st;
+            return true;
+        }
+    }
+    return false;
+}
+
+namespace {
+
+json or_null(double v) { return v > 0 ? json(v) : json(nullptr); }
+
+json progress_json(const JobProgress& p) {
+    return {{"fraction", p.fraction}, {"tiles_done", p.tiles_done}, {"tiles_total", p.tiles_total},
+            {"samples_done", p.samples_done}};
+}
+
+}  // namespace
+
+json to_json(const JobStatus& s) {
+    json j;
+    j["id"] = s.id;
+    j["state"] = to_string(s.state);
+    j["settings"] = s.settings;
+    j["priority"] = s.priority;
+    j["created_at"] = or_null(s.created_at);
+    j["started_at"] = or_null(s.started_at);
+    j["finished_at"] = or_null(s.finished_at);
+    j["attempts"] = s.attempts;
+    j["error"] = s.error.empty() ? json(nullptr) : json(s.error);
+    j["queue_position"] = s.queue_position ? json(*s.queue_position) : json(nullptr);
+    JobProgress progress;
+    progress.fraction = s.state == JobState::succeeded ? 1.0 : 0.0;
+    j["progress"] = progress_json(s.live_progress ? *s.live_progress : progress);
+    const bool has_summary = s.summary.is_object();
+    if (s.state == JobState::succeeded && has_summary && s.summary.contains("progress")) j["progress"] = s.summary["progress"];
+    json timings = {{"queued_s", nullptr}, {"load_s", nullptr}, {"bvh_s", nullptr}, {"render_s", nullptr},
+                    {"write_s", nullptr}, {"total_s", nullptr}};
+    if (s.started_at > 0) timings["queued_s"] = s.started_at - s.created_at;
+    if (has_summary && s.summary.contains("timings"))
+        for (const auto& [k, v] : s.summary["timings"].items()) timings[k] = v;
+    j["timings"] = timings;
+    j["stats"] = has_summary && s.summary.contains("stats") ? s.summary["stats"] : json(nullptr);
+    const std::string self = "/v1/jobs/" + s.id;
+    j["links"] = {{"self", self}, {"image_png", self + "/image.png"}, {"image_exr", self + "/image.exr"},
+                  {"rate_png", self + "/rate.png"}, {"report", self + "/report.json"}};
+    return j;
+}
+
+}  // namespace tessera::api

@@ -1,0 +1,38 @@
+#pragma once
+// A job's state and status as GET /v1/jobs/{id} answers it: the typed record the server fills
+// from its store and queue, and its JSON.
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace tessera::api {
+
+enum class JobState { queued, running, succeeded, failed, canceled };
+
+const char* to_string(JobState s);
+bool parse_job_state(const std::string& s, JobState& out);
+inline bool is_final(JobState s) { return s == JobState::succeeded || s == JobState::failed || s == JobState::canceled; }
+
+struct JobProgress {
+    double fraction = 0;
+    uint64_t tiles_done = 0, tiles_total = 0, samples_done = 0;
+};
+
+struct JobStatus {
+    std::string id;
+    JobState state = JobState::queued;
+    nlohmann::json settings;   // the stored job (to_json of the typed job)
+    int priority = 0;
+    double created_at = 0, started_at = 0, finished_at = 0;  // unix seconds; 0: not yet
+    int attempts = 0;
+    std::string error;
+    std::optional<size_t> queue_position;
+    std::optional<JobProgress> live_progress;  // a running job's, from its renderer
+    nlohmann::json summary;    // the finished job's status_summary (timings, stats, progress), or null
+};
+
+nlohmann::json to_json(const JobStatus& s);
+
+}  // namespace tessera::api

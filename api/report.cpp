@@ -1,0 +1,69 @@
+#include "api/report.h"
+
+namespace tessera::api {
+
+using nlohmann::json;
+
+namespace {
+
+json timings_json(const JobTimings& t) {
+    return {{"load_s", t.load_s}, {"bvh_s", t.bvh_s}, {"render_s", t.render_s}, {"write_s", t.write_s}, {"total_s", t.total_s}};
+}
+
+json stats_json(const RenderReport& r) {
+    const RenderStats& st = r.stats;
+    const double npx = double(r.job.render.width) * r.job.render.height;
+    const double per_ray = st.rays() ? 1.0 / double(st.rays()) : 0.0;
+    return {{"rays_camera", st.camera_rays}, {"rays_shadow", st.shadow_rays}, {"rays_bounce", st.bounce_rays},
+            {"mrays_per_s", st.render_seconds > 0 ? double(st.rays()) / st.render_seconds * 1e-6 : 0.0},
+            {"bvh_nodes", r.bvh.node_count}, {"bvh_depth", r.bvh.depth},
+            {"bvh_sah_cost", r.bvh.sah_cost}, {"bvh_bytes", r.accel_bytes},
+            {"nodes_per_ray", double(st.traversal.nodes_visited) * per_ray},
+            {"prim_tests_per_ray", double(st.traversal.prim_tests) * per_ray},
+            {"spp_mean", double(st.samples) / npx}, {"spp_min", float(r.spp_min)}, {"spp_max", float(r.spp_max)},
+            {"nonfinite_samples", st.nonfinite_samples}, {"max_sample_luminance", st.max_sample},
+            {"threads", st.threads}};
+}
+
+json progress_json(const RenderReport& r) {
+    return {{"fraction", 1.0}, {"tiles_done", r.tiles_done}, {"tiles_total", r.tiles_total}, {"samples_done", r.stats.samples}};
+}
+
+}  // namespace
+
+json to_json(const RenderReport& r) {
+    json report;
+    report["settings"] = to_json(r.job);
+    report["timings"] = timings_json(r.timings);
+    report["stats"] = stats_json(r);
+    report["scene"] = {{"name", r.job.scene}, {"triangles", r.triangles}, {"spheres", r.spheres},
+                       {"built", r.scene_build.built}, {"left_out", r.scene_build.left_out},
+                       {"warnings", r.scene_build.warnings}, {"build_s", r.scene_build.seconds}};
+    json points = json::array();
+    for (const ConvergencePoint& p : r.curve.points) {
+        json jp = {{"seconds", p.seconds}, {"spp_mean", p.spp_mean}};
+        jp["est_rel_mse"] = p.est_rel_mse >= 0 ? json(p.est_rel_mse) : json(nullptr);
+        if (p.rel_mse >= 0) {
+            jp["rel_mse"] = p.rel_mse;
+            jp["mse"] = p.mse;
+            jp["mae"] = p.mae;
+        }
+        points.push_back(jp);
+    }
+    const std::string& ref = r.job.reference;
+    report["convergence"] = {
+        {"stop_reason", to_string(r.curve.stop)},
+        {"error_measure", ref.empty()
+                              ? "estimated relative MSE from the even- and odd-sample half buffers: mean ((A-B)^2/4)/(x^2+0.01)"
+                              : "relative MSE against job " + ref + ": mean (x-r)^2/(r^2+0.01); the half-buffer estimate too"},
+        {"points", points}};
+    report["render"] = {{"built", r.render_built}, {"left_out", r.render_left_out}};
+    report["progress"] = progress_json(r);
+    return report;
+}
+
+json status_summary(const RenderReport& r) {
+    return {{"timings", timings_json(r.timings)}, {"stats", stats_json(r)}, {"progress", progress_json(r)}};
+}
+
+}  // namespace tessera::api

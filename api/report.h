@@ -1,0 +1,42 @@
+#pragma once
+// What a finished render job reports, as a typed value (the runner fills it, the CLI prints it)
+// and as JSON (report.json, and the timings and statistics of GET /v1/jobs/{id}).
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "api/job.h"
+#include "engine/render/renderer.h"
+
+namespace tessera::api {
+
+struct JobTimings {
+    double load_s = 0, bvh_s = 0, render_s = 0, write_s = 0, total_s = 0;
+};
+
+struct RenderReport {
+    RenderJob job;
+    JobTimings timings;
+    RenderStats stats;
+    // The scene as built for this job.
+    size_t triangles = 0, spheres = 0;
+    BvhBuildStats bvh;
+    size_t accel_bytes = 0;
+    BuildReport scene_build;
+    // What the render built and left out (film buffers, bounces, light paths).
+    std::vector<std::string> render_built, render_left_out;
+    ConvergenceCurve curve;
+    double spp_min = 0, spp_max = 0;
+    double mean_radiance = 0;  // of the linear image, over pixels and channels
+    size_t tiles_done = 0, tiles_total = 0;
+};
+
+// report.json: settings, timings, statistics, scene, convergence, render, progress.
+nlohmann::json to_json(const RenderReport& r);
+// The part of a report that a job's status shows ("timings", "stats", "progress"); what the
+// job store keeps, so a status poll never reads the whole report.
+nlohmann::json status_summary(const RenderReport& r);
+
+}  // namespace tessera::api

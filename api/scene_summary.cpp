@@ -1,0 +1,22 @@
+#include "api/scene_summary.h"
+
+#include "engine/geometry/aabb.h"
+
+namespace tessera::api {
+
+nlohmann::json describe_scene(const SceneDescription& s) {
+    Aabb b;
+    for (const auto& m : s.meshes) for (const auto& p : m.positions) b.expand(p);
+    for (const auto& sp : s.spheres) { b.expand(sp.center - glm::vec3(sp.radius)); b.expand(sp.center + glm::vec3(sp.radius)); }
+    nlohmann::json j = {{"triangles", s.triangle_count()}, {"spheres", s.spheres.size()}, {"lights", s.lights.size()},
+                        {"warnings", s.warnings}};
+    size_t emissive = 0;
+    for (const auto& m : s.meshes)
+        if (m.material >= 0 && s.materials[size_t(m.material)].kind == MaterialKind::emission) ++emissive;
+    j["emissive_meshes"] = emissive;
+    if (!b.empty()) j["bounds"] = {{"min", {b.lo.x, b.lo.y, b.lo.z}}, {"max", {b.hi.x, b.hi.y, b.hi.z}}};
+    else j["bounds"] = nullptr;
+    return j;
+}
+
+}  // namespace tessera::api

@@ -1,0 +1,65 @@
+#include "cli/job_flags.h"
+
+#include <cstring>
+#include <stdexcept>
+
+#include "api/job_fields.h"
+
+namespace tessera::cli {
+namespace {
+
+// The first of an option's names, for messages ("-s" of "-s,--spp").
+std::string flag_name(std::string_view cli) { return std::string(cli.substr(0, cli.find(','))); }
+
+}  // namespace
+
+void JobFlags::add_to(CLI::App& app, const std::string& group) {
+    for (const api::Field<api::RenderJob>& f : api::render_job_fields()) {
+        if (f.cli.empty()) continue;
+        std::string help(f.help);
+        help += " (job field " + std::string(f.name) + ", default " + std::string(f.default_json) + ")";
+        Given& g = values_[std::string(f.name)];
+        g.option = app.add_option(std::string(f.cli), g.value, help)->group(group);
+        switch (f.kind) {
+            case api::FieldKind::integer: g.option->type_name("N"); break;
+            case api::FieldKind::number: g.option->type_name("X"); break;
+            case api::FieldKind::choice: {
+                std::string choices;
+                for (std::string_view c : f.choices) choices += (choices.empty() ? "" : "|") + std::string(c);
+                g.option->type_name(choices);
+                break;
+            }
+            default: g.option->type_name("TEXT"); break;
+        }
+    }
+}
+
+nlohmann::json JobFlags::given() const {
+    nlohmann::json body = nlohmann::json::object();
+    for (const api::Field<api::RenderJob>& f : api::render_job_fields()) {
+        const auto it = values_.find(std::string(f.name));
+        if (it == values_.end() || !it->second.option || it->second.option->count() == 0) continue;
+        const std::string& v = it->second.value;
+        const std::string flag = flag_name(f.cli);
+        size_t used = 0;
+        try {
+            if (f.kind == api::FieldKind::integer) {
+                const long long n = std::stoll(v, &used);
+                if (used != v.size()) throw std::invalid_argument("");
+                body[std::string(f.name)] = n;
+            } else if (f.kind == api::FieldKind::number) {
+                const double d = std::stod(v, &used);
+                if (used != v.size()) throw std::invalid_argument("");
+                body[std::string(f.name)] = d;
+            } else {
+                body[std::string(f.name)] = v;
+            }
+        } catch (const std::exception&) {
+            throw std::invalid_argument(flag + (f.kind == api::FieldKind::integer ? " needs a whole number" : " needs a number") +
+                                        ", got '" + v + "'");
+        }
+    }
+    return body;
+}
+
+}  // namespace tessera::cli

@@ -1,0 +1,153 @@
+#include "api/job.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace tessera::api {
+namespace {
+
+using nlohmann::json;
+
+std::string pointer_of(const json& body) {
+    try {
+        parse_render_job(body);
+    } catch (const InvalidJob& e) {
+        return e.pointer();
+    }
+    return "<accepted>";
+}
+
+TEST(RenderJob, OnlySceneIsRequiredAndDefaultsAreDocumented) {
+    const RenderJob j = parse_render_job(json{{"scene", "builtin:cornell_box"}});
+    EXPECT_EQ(j.scene, "builtin:cornell_box");
+    EXPECT_EQ(j.render.width, 800);
+    EXPECT_EQ(j.render.height, 600);
+    EXPECT_EQ(j.render.spp, 1);
+    EXPECT_FALSE(j.render.adaptive.has_value());
+    EXPECT_EQ(j.scene_options.bvh.type, BvhType::sah);
+    const json back = to_json(j);
+    EXPECT_EQ(back["bvh"], "sah");
+    EXPECT_EQ(parse_render_job(back).render.spp, 1) << "to_json round-trips";
+}
+
+TEST(RenderJob, ParsesEveryField) {
+    const RenderJob j = parse_render_job(json::parse(R"({"scene":"x.dae","width":480,"height":360,"spp":64,"light_rays":4,
+        "max_depth":5,"bvh":"median","direct":"mis","russian_roulette":0.7,"bounces":"nth",
+        "adaptive":{"batch":16,"tolerance":0.02},"tile_size":16,"seed":7,"priority":3,"time_limit_s":12.5,
+        "max_leaf_size":8,"triangle_test":"moller_trumbore","integrator":"normals"})"));
+    EXPECT_EQ(j.render.light_rays, 4);
+    EXPECT_EQ(j.render.direct, DirectLighting::mis);
+    EXPECT_EQ(j.render.bounces, BounceMode::nth);
+    ASSERT_TRUE(j.render.adaptive);
+    EXPECT_EQ(j.render.adaptive->batch, 16);
+    EXPECT_FLOAT_EQ(j.render.russian_roulette, 0.7f);
+    EXPECT_EQ(j.scene_options.bvh.type, BvhType::median);
+    EXPECT_EQ(j.scene_options.triangle_test, TriangleTest::moller_trumbore);
+    EXPECT_EQ(j.priority, 3);
+    EXPECT_DOUBLE_EQ(j.render.time_limit_s, 12.5);
+    EXPECT_EQ(j.render.integrator, Integrator::normals);
+}
+
+TEST(RenderJob, ErrorsNameTheField) {
+    EXPECT_EQ(pointer_of(json{{"spp", 4}}), "/scene");
+    EXPECT_EQ(pointer_of(json{{"scene", "a"}, {"spps", 4}}), "/spps");
+    EXPECT_EQ(pointer_of(json{{"scene", "a"}, {"spp", "4"}}), "/spp");
+    EXPECT_EQ(pointer_of(json{{"scene", "a"}, {"spp", 0}}), "/spp");
+    EXPECT_EQ(pointer_of(json{{"scene", "a"}, {"spp", 1.5}}), "/spp");
+    EXPECT_EQ(pointer_of(json{{"scene", "a"}, {"width", 100000}}), "/width");
+    EXPECT_EQ(pointer_of(json{{"scene", "a"}, {"bvh", "kd"}}), "/bvh");
+    EXPECT_EQ(pointer_of(json{{"scene", "a"}, {"russian_roulette", 1.5}}), "/russian_roulette");
+    EXPECT_EQ(pointer_of(json{{"scene", "a"}, {"adaptive", {{"batch", 8}, {"tol", 1}}}}), "/adaptive/tol");
+    EXPECT_EQ(pointer_of(json{{"scene", "a"}, {"adaptive", 3}}), "/adaptive");
+    EXPECT_EQ(pointer_of(json{{"scene", 3}}), "/scene");
+    EXPECT_EQ(pointer_of(json::array()), "");
+    EXPECT_EQ(pointer_of(json{{"scene", "a"}, {"width", 16384}, {"height", 16384}, {"spp", 1}}), "<accepted>");
+    JobLimits tight;
+    tight.max_pixels = 1000;
+    EXPECT_THROW(parse_render_job(json{{"scene", "a"}, {"width", 100}, {"height", 100}}, tight), InvalidJob);
+}
+
+// The limits in force at submission apply to the submission only: a stored job reads back
+// whatever limits the server has since.
+TEST(RenderJob, StoredJobsReadBackWithoutLimits) {
+    JobLimits tight;
+    tight.max_spp = 8;
+    EXPECT_EQ(pointer_of(json{{"scene", "a"}, {"spp", 64}}), "<accepted>");
+    EXPECT_THROW(parse_render_job(json{{"scene", "a"}, {"spp", 64}}, tight), InvalidJob);
+    const Job back = job_from_json(to_json(parse_render_job(json{{"scene", "a"}, {"spp", 64}})));
+    ASSERT_TRUE(std::holds_alternative<RenderJob>(back));
+    EXPECT_EQ(std::get<RenderJob>(back).render.spp, 64);
+}
+
+TEST(RenderJob, SeedCoversInt64AndNoMore) {
+    EXPECT_EQ(parse_render_job(json::parse(R"({"scene":"a","seed":9223372036854775807})")).render.seed,
+              9223372036854775807ull);
+    EXPECT_EQ(pointer_of(json::parse(R"({"scene":"a","seed":9223372036854775808})")), "/seed");
+    EXPECT_EQ(pointer_of(json::parse(R"({"scene":"a","seed":9.3e18})")), "/seed");
+    EXPECT_EQ(pointer_of(json::parse(R"({"scene":"a","seed":-1})")), "/seed");
+}
+
+// Every field survives to_json and back, for a job far from the defaults.
+TEST(RenderJob, RoundTripsEveryField) {
+    const json body = json::parse(R"({"scene":"x.dae","width":48,"height":36,"spp":64,"light_rays":4,
+        "max_depth":5,"bvh":"median","direct":"mis","russian_roulette":0.5,"bounces":"nth","lighting":"indirect",
+        "light_selection":"power","adaptive":{"batch":16,"tolerance":0.25},"tile_size":16,"seed":7,"priority":3,
+        "time_limit_s":12.5,"target_error":0.125,"reference":"0123456789abcdef","max_leaf_size":4,
+        "triangle_test":"moller_trumbore","integrator":"normals"})");
+    const json back = to_json(parse_render_job(body));
+    EXPECT_EQ(back, body) << back.dump();
+    EXPECT_EQ(to_json(std::get<RenderJob>(job_from_json(back))), back);
+}
+
+ComparisonJob comparison(const json& body) { return parse_comparison_job(body); }
+
+std::string comparison_pointer(const json& body) {
+    try {
+        parse_comparison_job(body);
+    } catch (const InvalidJob& e) {
+        return e.pointer();
+    }
+    return "<accepted>";
+}
+
+TEST(ComparisonJob, DefaultsBoundsAndConfigs) {
+    const ComparisonJob c = comparison(json{{"scene", "builtin:cornell_box"}});
+    EXPECT_EQ(c.width, 160);
+    EXPECT_EQ(c.height, 120);
+    EXPECT_EQ(c.max_depth, 5);
+    EXPECT_DOUBLE_EQ(c.seconds, 2.0);
+    EXPECT_EQ(c.reps, 3);
+    EXPECT_EQ(c.reference_spp, 1024);
+    EXPECT_TRUE(c.standard_configs);
+    EXPECT_EQ(comparison_pointer(json{{"width", 64}}), "/scene");
+    EXPECT_EQ(comparison_pointer(json{{"scene", "a"}, {"width", 4}}), "/width");
+    EXPECT_EQ(comparison_pointer(json{{"scene", "a"}, {"seconds", 0}}), "/seconds");
+    EXPECT_EQ(comparison_pointer(json{{"scene", "a"}, {"target_error", 0}}), "/target_error");
+    EXPECT_EQ(comparison_pointer(json{{"scene", "a"}, {"spp", 4}}), "/spp");
+    EXPECT_EQ(comparison_pointer(json{{"scene", "a"}, {"configs", json::array()}}), "/configs");
+    EXPECT_EQ(comparison_pointer(json::parse(R"({"scene":"a","configs":[{"direct":"mis"}]})")), "/configs/0");
+    EXPECT_EQ(comparison_pointer(json::parse(R"({"scene":"a","configs":[{"label":"x","spp":4}]})")), "/configs/0/spp");
+    EXPECT_EQ(comparison_pointer(json::parse(R"({"scene":"a","configs":[{"label":"x","bvh":"kd"}]})")), "/configs/0/bvh");
+    EXPECT_EQ(comparison_pointer(json::parse(R"({"scene":"a","configs":[{"label":"x","adaptive":{"tol":1}}]})")),
+              "/configs/0/adaptive/tol");
+    // A comparison's depth has the jobs' bound (the server's --max-depth), not one of its own.
+    EXPECT_EQ(comparison_pointer(json{{"scene", "a"}, {"max_depth", 500}}), "<accepted>");
+    JobLimits tight;
+    tight.max_depth = 10;
+    EXPECT_THROW(parse_comparison_job(json{{"scene", "a"}, {"max_depth", 11}}, tight), InvalidJob);
+
+    const json body = json::parse(R"({"scene":"a","configs":[{"label":"MIS","direct":"mis","light_rays":4}],"reps":2})");
+    const ComparisonJob parsed = comparison(body);
+    ASSERT_EQ(parsed.configs.size(), 1u);
+    EXPECT_EQ(parsed.configs[0].label, "MIS");
+    EXPECT_EQ(parsed.configs[0].job.render.direct, DirectLighting::mis);
+    EXPECT_EQ(parsed.configs[0].job.render.light_rays, 4);
+    const json stored = to_json(parsed);
+    EXPECT_EQ(stored["kind"], "comparison");
+    const Job back = job_from_json(stored);
+    ASSERT_TRUE(std::holds_alternative<ComparisonJob>(back));
+    EXPECT_EQ(to_json(std::get<ComparisonJob>(back)), stored);
+}
+
+}  // namespace
+}  // namespace tessera::api
