@@ -4,6 +4,9 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <random>
 
 #include <spdlog/spdlog.h>
@@ -35,12 +38,29 @@ bool valid_id(const std::string& id) {
     return id.size() == 16 && id.find_first_not_of("0123456789abcdef") == std::string::npos;
 }
 
+// The data directory, created if need be, after a write into it: a read-only or full disk
+// stops the start with a reason that names the directory, not with SQLite's "unable to open".
+std::string writable_data_dir(const std::string& dir) {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) throw std::runtime_error("data directory " + dir + ": " + ec.message());
+    const std::string probe = (fs::path(dir) / ".write-test").string();
+    std::FILE* f = std::fopen(probe.c_str(), "w");
+    const int err = errno;
+    const bool written = f && std::fputc('x', f) != EOF && std::fflush(f) == 0;
+    const int werr = errno;
+    if (f) std::fclose(f);
+    std::remove(probe.c_str());
+    if (!f) throw std::runtime_error("data directory " + dir + " is not writable: " + std::strerror(err));
+    if (!written) throw std::runtime_error("data directory " + dir + " is not writable: " + std::strerror(werr));
+    return dir;
+}
+
 }  // namespace
 
 JobService::JobService(ServiceConfig config)
     : config_(std::move(config)),
-      store_((fs::create_directories(config_.data_dir), (fs::path(config_.data_dir) / "tessera.db").string()),
-             config_.max_store_bytes),
+      store_(writable_data_dir(config_.data_dir) + "/tessera.db", config_.max_store_bytes),
       catalog_(config_.project_scenes, config_.scene_dirs, (fs::path(config_.data_dir) / "uploads").string()) {
     const int requeued = store_.requeue_all_running();
     if (requeued) spdlog::warn("{} job(s) were running when the server stopped; queued again", requeued);

@@ -87,8 +87,12 @@ int serve_command(int argc, char** argv) {
     option("max-light-rays", lim.max_light_rays, "light rays per hit of a job")->check(CLI::Range(1, 1 << 20));
     CLI::Option* max_triangles = option("max-triangles", o.service.load_limits.max_triangles, "triangles in a scene")
                                      ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 40));
+    int64_t store_mb = 0;
+    option("max-store-mb", store_mb, "size bound of the job store in MiB (0: none); past it new jobs get 507")
+        ->check(CLI::Range(int64_t{0}, int64_t{1} << 30));
     option("log-level", o.log_level, "log level: trace|debug|info|warn|error")->type_name("LEVEL");
     if (const auto status = parse_args(app, argc, argv)) return *status;
+    o.service.max_store_bytes = store_mb << 20;
     if (max_triangles->count() > 0) o.service.load_limits.max_vertices = o.service.load_limits.max_triangles * 3;
     if (const char* env = std::getenv("TESSERA_SCENES")) {
         const std::string all = env;

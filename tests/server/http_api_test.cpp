@@ -27,7 +27,7 @@ const json kSmallJob = {{"scene", "builtin:cornell_box"}, {"width", 32}, {"heigh
 
 class Server : public ::testing::Test {
 protected:
-    void start(size_t max_queued = 1000) {
+    void start(size_t max_queued = 1000, int64_t max_store_bytes = 0) {
         dir_ = fs::temp_directory_path() / ("tessera_http_" + std::to_string(::getpid()) + "_" +
                                             ::testing::UnitTest::GetInstance()->current_test_info()->name());
         fs::remove_all(dir_);
@@ -36,6 +36,7 @@ protected:
         cfg.project_scenes = TESSERA_PROJECT_SCENES;
         cfg.render_threads = 2;
         cfg.max_queued = max_queued;
+        cfg.max_store_bytes = max_store_bytes;
         service_ = std::make_unique<JobService>(cfg);
         std::ofstream(dir_ / "openapi.yaml") << "openapi: 3.0.3\n";
         HttpLimits limits;
@@ -209,6 +210,36 @@ TEST_F(Server, FullQueueAnswers429WithRetryAfter) {
     expect_problem(r, 429);
     EXPECT_FALSE(r->get_header_value("Retry-After").empty());
     client_->Delete("/v1/jobs/" + blocker);
+}
+
+// The store full (a real SQLITE_FULL, from SQLite's own size bound): a new job gets 507 with
+// Retry-After, the server keeps serving and its worker keeps running, nothing accepted is
+// lost, and when space returns everything goes through by itself.
+TEST_F(Server, FullStoreAnswers507KeepsServingAndRecovers) {
+    start(1000, 48 * 1024);
+    const std::string blocker = submit(kLongJob);
+    wait_state(blocker, {"running"});
+    std::vector<std::string> accepted;
+    auto r = post_job(kSmallJob);
+    for (int i = 0; i < 500 && r && r->status == 202; ++i) {
+        accepted.push_back(json::parse(r->body)["id"]);
+        r = post_job(kSmallJob);
+    }
+    expect_problem(r, 507);
+    EXPECT_EQ(json::parse(r->body)["type"], "/problems/insufficient-storage");
+    EXPECT_FALSE(r->get_header_value("Retry-After").empty());
+    ASSERT_FALSE(accepted.empty());
+    // Still serving: health, status of accepted jobs, the list.
+    EXPECT_EQ(client_->Get("/healthz")->status, 200);
+    EXPECT_EQ(status(accepted.front())["state"], "queued");
+    EXPECT_EQ(client_->Get("/v1/jobs?limit=5")->status, 200);
+    // The running job finishes while the store is full: its record waits until space returns.
+    client_->Delete("/v1/jobs/" + blocker);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    service_->store().set_max_bytes(0);  // space returns
+    EXPECT_EQ(wait_state(blocker, {"canceled", "failed", "succeeded"})["state"], "canceled");
+    for (const std::string& id : accepted) EXPECT_EQ(wait_state(id, {"succeeded", "failed"})["state"], "succeeded") << id;
+    EXPECT_EQ(post_job(kSmallJob)->status, 202);
 }
 
 // A hundred clients submit and poll at once; every job is accounted for, and malformed

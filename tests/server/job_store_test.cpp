@@ -431,5 +431,69 @@ TEST_F(JobStoreTest, OpenErrorsThrowWithSqliteMessage) {
     }
 }
 
+// A real SQLITE_FULL (the size bound is SQLite's own max_page_count): the refusal says "full",
+// nothing accepted before is lost, and a larger bound lets writes through again.
+TEST_F(JobStoreTest, FullStoreRefusesAsFullAndRecovers) {
+    JobStore store(db_path(), 96 * 1024);
+    const std::string big(2000, 'x');
+    int stored = 0;
+    for (uint64_t n = 1; n < 1000; ++n) {
+        JobRecord r = make_job(n);
+        r.spec_json = big;
+        try {
+            store.insert(r);
+            ++stored;
+        } catch (const StoreError& e) {
+            EXPECT_TRUE(e.full) << e.what();
+            break;
+        }
+    }
+    ASSERT_GT(stored, 5);
+    ASSERT_LT(stored, 999) << "the bound never bit";
+    EXPECT_EQ(store.count(std::nullopt), size_t(stored));
+    JobRecord next = make_job(5000);
+    next.spec_json = big + big;
+    EXPECT_THROW(store.insert(next), StoreError);
+    store.set_max_bytes(0);
+    store.insert(next);
+    EXPECT_EQ(store.count(std::nullopt), size_t(stored) + 1);
+    EXPECT_TRUE(store.finish(hex_id(1), JobState::succeeded, 1.0, "", "{}"));
+}
+
+// The database file deleted under a running server (a clean-up script, an operator): the
+// next change writes the open database to the path again, so the jobs accepted before and
+// after are both there at the next start.
+TEST_F(JobStoreTest, DeletedFileIsWrittenAnew) {
+    {
+        JobStore store(db_path());
+        JobRecord a = make_job(1);
+        store.insert(a);
+        for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(db_path() + suffix);
+        ASSERT_FALSE(fs::exists(db_path()));
+        JobRecord b = make_job(2);
+        store.insert(b);
+        EXPECT_TRUE(fs::exists(db_path()));
+        EXPECT_TRUE(store.mark_running(hex_id(1), 2.0));
+    }
+    JobStore reopened(db_path());
+    ASSERT_TRUE(reopened.get(hex_id(1)));
+    EXPECT_EQ(reopened.get(hex_id(1))->state, JobState::running);
+    ASSERT_TRUE(reopened.get(hex_id(2)));
+    EXPECT_EQ(reopened.count(std::nullopt), 2u);
+}
+
+// A file that is not this store's database any more (replaced by another) counts as removed:
+// the store keeps its own records rather than write into someone else's file.
+TEST_F(JobStoreTest, ReplacedFileIsWrittenAnew) {
+    JobStore store(db_path());
+    JobRecord a = make_job(1);
+    store.insert(a);
+    for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(db_path() + suffix);
+    { std::ofstream(db_path()) << ""; }  // an empty file in its place
+    JobRecord b = make_job(2);
+    store.insert(b);
+    EXPECT_EQ(store.count(std::nullopt), 2u);
+}
+
 }  // namespace
 }  // namespace tessera::server

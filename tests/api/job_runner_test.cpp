@@ -1,0 +1,137 @@
+// The job runner: the one path from a typed job to its files, shared by the CLI and the server.
+#include "api/job_runner.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <unistd.h>
+
+#include "engine/io/scene_loader.h"
+
+namespace tessera::api {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+class Runner : public ::testing::Test {
+protected:
+    void SetUp() override {
+        dir_ = fs::temp_directory_path() / ("tessera_runner_" + std::to_string(::getpid()) + "_" +
+                                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+        fs::remove_all(dir_);
+        fs::create_directories(dir_);
+    }
+    void TearDown() override {
+        std::error_code ec;
+        fs::remove_all(dir_, ec);
+    }
+    static RenderJob small_job() {
+        return parse_render_job(json{{"scene", "builtin:cornell_box"}, {"width", 32}, {"height", 24}, {"spp", 4}, {"max_depth", 3}});
+    }
+    static RunOptions options_for(const RenderJob& job, int threads = 2) {
+        RunOptions o;
+        o.scene_source = job.scene;
+        o.threads = threads;
+        o.job_id = "0123456789abcdef";
+        return o;
+    }
+    fs::path dir_;
+};
+
+bool same_pixels(const Image& a, const Image& b) {
+    return a.width == b.width && a.height == b.height && a.rgb.size() == b.rgb.size() &&
+           std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)) == 0;
+}
+
+// The runner adds nothing to the image: it is the engine's render of the same settings, bit
+// for bit, and every result file and the report are there.
+TEST_F(Runner, WritesTheEnginesImageAndEveryResult) {
+    const RenderJob job = small_job();
+    const JobOutcome out = run_job(job, options_for(job), RunOutputs::in_directory(dir_.string()));
+    ASSERT_FALSE(out.stopped);
+    for (const char* f : {"image.png", "image.exr", "rate.png", "convergence.csv", "convergence.svg", "report.json"})
+        EXPECT_TRUE(fs::exists(dir_ / f)) << f;
+
+    RenderSettings settings = job.render;
+    settings.threads = 1;
+    settings.estimate_error = true;
+    const RenderResult direct = render(build_render_scene(load_scene(job.scene), job.scene_options), settings);
+    EXPECT_TRUE(same_pixels(read_image((dir_ / "image.exr").string()), direct.image));
+
+    std::ifstream in(dir_ / "report.json");
+    const json report = json::parse(in);
+    EXPECT_EQ(report["settings"], to_json(job));
+    EXPECT_EQ(report["stats"]["rays_camera"], direct.stats.camera_rays);
+    EXPECT_EQ(report["convergence"]["points"].size(), direct.curve.points.size());
+    EXPECT_EQ(out.summary["progress"]["fraction"], 1.0);
+    ASSERT_TRUE(out.render);
+    EXPECT_EQ(out.render->stats.samples, 4u * 32 * 24);
+}
+
+TEST_F(Runner, SameImageWhateverTheThreadCount) {
+    const RenderJob job = small_job();
+    RunOutputs one, two;
+    one.exr = (dir_ / "one.exr").string();
+    two.exr = (dir_ / "two.exr").string();
+    run_job(job, options_for(job, 1), one);
+    run_job(job, options_for(job, 2), two);
+    EXPECT_TRUE(same_pixels(read_image(one.exr), read_image(two.exr)));
+}
+
+TEST_F(Runner, AStopWritesNothing) {
+    const RenderJob job = small_job();
+    std::atomic<bool> stop{true};
+    RunCallbacks cb;
+    cb.stop = &stop;
+    const JobOutcome out = run_job(job, options_for(job), RunOutputs::in_directory(dir_.string()), cb);
+    EXPECT_TRUE(out.stopped);
+    EXPECT_TRUE(fs::is_empty(dir_));
+}
+
+// Real faults, not mocks: a folder that does not exist, a scene file that does not.
+TEST_F(Runner, AnUnwritableResultFailsNamingTheFile) {
+    const RenderJob job = small_job();
+    RunOutputs out;
+    out.png = (dir_ / "no_such_folder" / "image.png").string();
+    try {
+        run_job(job, options_for(job), out);
+        FAIL() << "the write did not fail";
+    } catch (const std::exception& e) {
+        EXPECT_NE(std::string(e.what()).find("no_such_folder/image.png"), std::string::npos) << e.what();
+    }
+    RunOutputs report_only;
+    report_only.report_json = (dir_ / "no_such_folder" / "report.json").string();
+    EXPECT_THROW(run_job(job, options_for(job), report_only), std::runtime_error);
+}
+
+TEST_F(Runner, AMissingSceneIsASceneError) {
+    RenderJob job = small_job();
+    RunOptions o = options_for(job);
+    o.scene_source = (dir_ / "gone.gltf").string();
+    EXPECT_THROW(run_job(job, o, RunOutputs::in_directory(dir_.string())), SceneError);
+    EXPECT_FALSE(fs::exists(dir_ / "image.png"));
+}
+
+TEST_F(Runner, ComparisonReportsEveryConfiguration) {
+    const ComparisonJob job = parse_comparison_job(json::parse(R"({"scene":"builtin:cornell_box","width":16,"height":12,
+        "seconds":0.05,"reps":1,"reference_spp":4,"max_depth":2,
+        "configs":[{"label":"light","light_rays":2},{"label":"MIS","direct":"mis","max_depth":2}]})"));
+    RunOptions o;
+    o.scene_source = job.scene;
+    o.threads = 2;
+    const JobOutcome out = run_job(job, o, RunOutputs::in_directory(dir_.string()));
+    ASSERT_FALSE(out.stopped);
+    const json rows = out.report["comparison"]["rows"];
+    ASSERT_EQ(rows.size(), 2u);
+    EXPECT_EQ(rows[0]["label"], "light");
+    EXPECT_EQ(rows[1]["label"], "MIS");
+    EXPECT_EQ(out.report["settings"], to_json(job));
+    EXPECT_TRUE(fs::exists(dir_ / "convergence.svg"));
+    EXPECT_TRUE(out.summary.contains("comparison"));
+}
+
+}  // namespace
+}  // namespace tessera::api

@@ -1,0 +1,153 @@
+#!/usr/bin/env bash
+# store_faults.sh TESSERA: the real server against real faults, on a tiny filesystem of its own
+# (tmpfs, in a private mount namespace, so nothing outside the test sees it):
+#   - results that cannot be written (the jobs folder replaced by a file): the job fails with
+#     that reason, the next one runs;
+#   - a full disk: new jobs and uploads get 507, the server keeps serving, and everything works
+#     again once space is freed;
+#   - a scene file that breaks between submission and run: the job fails with the loader's
+#     reason, the next job runs;
+#   - the database file deleted under the running server: jobs accepted afterwards survive a
+#     kill -9 and restart;
+#   - a read-only data directory: the server refuses to start with a clear message.
+# Exits 77 (skipped) where no mount namespace can be made, unless TESSERA_REQUIRE_MOUNT=1 (CI).
+set -u
+bin="$1"
+if [ -z "${TESSERA_FAULTS_IN_NS:-}" ]; then
+  export TESSERA_FAULTS_IN_NS=1
+  ns=(unshare -m --propagation private)
+  [ "$(id -u)" = 0 ] || ns=(unshare -rm)
+  if ! "${ns[@]}" true 2>/dev/null; then
+    echo "cannot make a mount namespace here (${ns[*]})"
+    [ "${TESSERA_REQUIRE_MOUNT:-0}" = 1 ] && exit 1
+    exit 77
+  fi
+  exec "${ns[@]}" "$0" "$@"
+fi
+
+root=$(mktemp -d)
+data="$root/data"
+scenes="$root/scenes"
+mkdir -p "$data" "$scenes"
+if ! mount -t tmpfs -o size=3m tmpfs "$data" 2>/dev/null; then
+  echo "cannot mount a tmpfs here (no mount namespace)"
+  rm -rf "$root"
+  [ "${TESSERA_REQUIRE_MOUNT:-0}" = 1 ] && exit 1
+  exit 77
+fi
+log="$root/server.log"
+pid=""
+cleanup() {
+  [ -n "$pid" ] && kill -9 "$pid" 2>/dev/null
+  umount "$data" 2>/dev/null
+  rm -rf "$root"
+}
+trap cleanup EXIT
+fail() { echo "FAIL: $*"; echo "--- server log"; tail -n 40 "$log"; exit 1; }
+
+start() {
+  : > "$log"
+  "$bin" serve --host 127.0.0.1 --port 0 --data-dir "$data" --threads 2 --scenes "$scenes" >> "$log" 2>&1 &
+  pid=$!
+  port=""
+  for _ in $(seq 1 100); do
+    port=$(grep -o 'listening on http://127.0.0.1:[0-9]*' "$log" | tail -n 1 | grep -o '[0-9]*$' || true)
+    [ -n "$port" ] && return 0
+    sleep 0.1
+  done
+  fail "server did not start"
+}
+api() { curl -s --noproxy '*' "$@"; }
+field() { sed -n "s/.*\"$1\":\"\{0,1\}\([^,\"}]*\).*/\1/p" | head -n 1; }
+state_of() { api "http://127.0.0.1:$port/v1/jobs/$1" | field state; }
+post() {  # body → "STATUS BODY"
+  api -o "$root/answer" -w '%{http_code}' -X POST -H 'Content-Type: application/json' -d "$1" "http://127.0.0.1:$port/v1/jobs"
+}
+wait_state() {  # id state...
+  local id=$1; shift
+  for _ in $(seq 1 600); do
+    s=$(state_of "$id")
+    for want in "$@"; do [ "$s" = "$want" ] && return 0; done
+    sleep 0.1
+  done
+  fail "job $id stuck in '$s' (wanted $*)"
+}
+healthy() { [ "$(api -o /dev/null -w '%{http_code}' "http://127.0.0.1:$port/healthz")" = 200 ] || fail "healthz failed: $1"; }
+
+small='{"scene":"builtin:cornell_box","width":32,"height":24,"spp":2}'
+long='{"scene":"builtin:cornell_spheres","width":320,"height":240,"spp":4096,"max_depth":5}'
+
+cp "$(dirname "$0")/../../scenes/cornell_box.gltf" "$scenes/vanishing.gltf"
+start
+[ "$(post "$small")" = 202 ] || fail "first job refused: $(cat "$root/answer")"
+first=$(field id < "$root/answer")
+wait_state "$first" succeeded
+
+# 1. A scene file that breaks after the job was accepted.
+[ "$(post "$long")" = 202 ] || fail "long job refused"
+blocker=$(field id < "$root/answer")
+wait_state "$blocker" running
+[ "$(post '{"scene":"vanishing","width":32,"height":24}')" = 202 ] || fail "job on vanishing refused: $(cat "$root/answer")"
+broken=$(field id < "$root/answer")
+printf 'not a glTF file' > "$scenes/vanishing.gltf"
+api -X DELETE "http://127.0.0.1:$port/v1/jobs/$blocker" > /dev/null
+wait_state "$broken" failed
+api "http://127.0.0.1:$port/v1/jobs/$broken" | grep -q '"error":"scene: .*vanishing.gltf' ||
+  fail "the failed job does not name the scene file: $(api "http://127.0.0.1:$port/v1/jobs/$broken")"
+echo "ok: a scene broken after submission fails its job with the loader's reason"
+
+# 2. Results that cannot be written: the jobs folder is a file.
+rm -rf "$data/jobs"
+: > "$data/jobs"
+[ "$(post "$small")" = 202 ] || fail "job refused: $(cat "$root/answer")"
+unwritable=$(field id < "$root/answer")
+wait_state "$unwritable" failed
+api "http://127.0.0.1:$port/v1/jobs/$unwritable" | grep -q '"error":"[^"]*jobs/'"$unwritable" ||
+  fail "the failed job does not name its results folder: $(api "http://127.0.0.1:$port/v1/jobs/$unwritable")"
+rm -f "$data/jobs"
+[ "$(post "$small")" = 202 ] || fail "job refused: $(cat "$root/answer")"
+wait_state "$(field id < "$root/answer")" succeeded
+echo "ok: results that cannot be written fail the job, naming where; the next job runs"
+
+# 3. A full disk.
+dd if=/dev/zero of="$data/filler" bs=16k 2>/dev/null
+code=$(post "$small")
+[ "$code" = 507 ] || fail "a full disk answered $code: $(cat "$root/answer")"
+grep -q '"type":"/problems/insufficient-storage"' "$root/answer" || fail "507 without its problem type: $(cat "$root/answer")"
+healthy "with the disk full"
+[ "$(api -o /dev/null -w '%{http_code}' "http://127.0.0.1:$port/v1/jobs/$first")" = 200 ] || fail "status of an old job"
+[ "$(api -o /dev/null -w '%{http_code}' "http://127.0.0.1:$port/v1/jobs?limit=3")" = 200 ] || fail "list with the disk full"
+up=$(api -o "$root/answer" -w '%{http_code}' -X POST --data-binary @"$(dirname "$0")/../../scenes/cornell_box.gltf" \
+  "http://127.0.0.1:$port/v1/scenes?name=box.gltf")
+[ "$up" = 507 ] || fail "an upload on a full disk answered $up: $(cat "$root/answer")"
+[ -z "$(ls -A "$data/uploads" 2>/dev/null)" ] || fail "a refused upload left files behind: $(ls -R "$data/uploads")"
+kill -0 "$pid" 2>/dev/null || fail "the server died on a full disk"
+echo "ok: a full disk refuses new jobs and uploads with 507 and keeps serving"
+rm -f "$data/filler"
+[ "$(post "$small")" = 202 ] || fail "no recovery after space returned: $(cat "$root/answer")"
+wait_state "$(field id < "$root/answer")" succeeded
+echo "ok: space freed, jobs accepted and rendered again without a restart"
+
+# 4. The database file deleted under the running server.
+rm -f "$data/tessera.db" "$data/tessera.db-wal" "$data/tessera.db-shm"
+[ "$(post "$small")" = 202 ] || fail "job refused after the database was deleted: $(cat "$root/answer")"
+survivor=$(field id < "$root/answer")
+wait_state "$survivor" succeeded
+kill -9 "$pid"; wait "$pid" 2>/dev/null; pid=""
+start
+[ "$(state_of "$survivor")" = succeeded ] || fail "the job accepted after the database was deleted was lost at restart"
+[ "$(state_of "$first")" = succeeded ] || fail "the job accepted before the database was deleted was lost at restart"
+echo "ok: a deleted database is written anew; jobs before and after survive kill -9"
+kill -TERM "$pid"; wait "$pid"; st=$?; pid=""
+[ $st -eq 0 ] || fail "SIGTERM exit status $st"
+grep -q "terminate called" "$log" && fail "an exception escaped"
+
+# 5. A read-only data directory at start.
+mount -o remount,ro "$data" || fail "cannot remount read-only"
+out=$("$bin" serve --host 127.0.0.1 --port 0 --data-dir "$data" 2>&1)
+st=$?
+[ $st -eq 1 ] || fail "a read-only data directory: exit $st: $out"
+printf '%s\n' "$out" | grep -q "tessera serve: data directory $data is not writable: Read-only file system" || fail "no clear reason: $out"
+echo "ok: a read-only data directory stops the start with: $(printf '%s\n' "$out" | tail -n 1)"
+mount -o remount,rw "$data"
+echo "all store faults handled"
