@@ -2,9 +2,22 @@
 
 #include "api/job_fields.h"
 
+#include <limits>
+
 namespace tessera::api {
 
 using nlohmann::json;
+
+JobLimits JobLimits::none() {
+    JobLimits l;
+    l.max_pixels = std::numeric_limits<int64_t>::max();
+    l.max_dimension = std::numeric_limits<int>::max();
+    l.max_spp = std::numeric_limits<int>::max();
+    l.max_depth = std::numeric_limits<int>::max();
+    l.max_light_rays = std::numeric_limits<int>::max();
+    l.max_time_limit_s = std::numeric_limits<double>::max();
+    return l;
+}
 
 RenderJob default_render_job() {
     RenderJob job;

@@ -1,6 +1,6 @@
 #pragma once
 // The one declaration of every job field: its JSON name, type, default, bounds, help text and
-// command-line names. Parsing and to_json (job.cpp), the CLI's flags and --help
+// command-line names. Parsing (field_parsing.cpp) and to_json (job.cpp), the CLI's flags and --help
 // (cli/job_flags.cpp) and the test that holds api/openapi.yaml to the same values
 // (tests/api/job_fields_test.cpp) are all derived from these tables.
 #include <cstdint>

@@ -244,6 +244,8 @@ std::string HttpApi::metrics_text() {
       << "tessera_render_seconds_total " << double(service_.metrics().render_micros.load()) * 1e-6 << "\n";
     m << "# HELP tessera_jobs_submitted_total Jobs accepted since start.\n# TYPE tessera_jobs_submitted_total counter\n"
       << "tessera_jobs_submitted_total " << service_.metrics().jobs_submitted.load() << "\n";
+    m << "# HELP tessera_store_errors_total Writes the job store refused (full or unavailable).\n"
+      << "# TYPE tessera_store_errors_total counter\ntessera_store_errors_total " << service_.metrics().store_errors.load() << "\n";
     m << "# HELP tessera_http_requests_total HTTP responses by status.\n# TYPE tessera_http_requests_total counter\n";
     std::lock_guard<std::mutex> lock(status_mutex_);
     for (const auto& [status, n] : responses_by_status_) m << "tessera_http_requests_total{status=\"" << status << "\"} " << n << "\n";

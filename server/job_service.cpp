@@ -80,6 +80,7 @@ void JobService::shutdown() {
         for (auto& [id, r] : running_) { r->shutdown = true; r->stop = true; }
     }
     cv_.notify_all();
+    pause_cv_.notify_all();
     for (auto& w : workers_) if (w.joinable()) w.join();
     workers_.clear();
 }
@@ -289,7 +290,7 @@ bool JobService::take_next(JobRecord& rec, std::shared_ptr<Running>& running) {
             ++metrics_.store_errors;
             spdlog::error("job {} cannot start: {}", key.id, e.what());
             queue_.insert(key);
-            cv_.wait_for(lock, std::chrono::seconds(1), [&] { return stopping_; });
+            pause_cv_.wait_for(lock, std::chrono::seconds(1), [&] { return stopping_; });
             continue;
         }
         running = std::make_shared<Running>();
@@ -327,7 +328,7 @@ bool JobService::until_stored(const std::string& id, const char* what, const std
         }
         std::unique_lock<std::mutex> lock(mutex_);
         const auto pause = std::chrono::milliseconds(std::min(5000, 100 << std::min(attempt, 6)));
-        if (cv_.wait_for(lock, pause, [&] { return stopping_; })) {
+        if (pause_cv_.wait_for(lock, pause, [&] { return stopping_; })) {
             spdlog::warn("job {}: '{}' not recorded before shutdown; the job runs again after a restart", id, what);
             return false;
         }

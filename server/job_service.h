@@ -105,7 +105,8 @@ private:
     SceneCatalog catalog_;
     ServiceMetrics metrics_;
     std::mutex mutex_;
-    std::condition_variable cv_;
+    std::condition_variable cv_;        // a job was queued, or the service stops
+    std::condition_variable pause_cv_;  // the service stops (ends a worker's pause before a retry)
     std::set<QueueKey> queue_;
     std::map<std::string, std::shared_ptr<Running>> running_;
     std::atomic<bool> accepting_{true};

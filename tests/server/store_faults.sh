@@ -38,7 +38,7 @@ fi
 log="$root/server.log"
 pid=""
 cleanup() {
-  [ -n "$pid" ] && kill -9 "$pid" 2>/dev/null
+  [ -n "$pid" ] && kill -9 "$pid" 2>/dev/null && wait "$pid" 2>/dev/null
   umount "$data" 2>/dev/null
   rm -rf "$root"
 }
@@ -127,6 +127,33 @@ rm -f "$data/filler"
 [ "$(post "$small")" = 202 ] || fail "no recovery after space returned: $(cat "$root/answer")"
 wait_state "$(field id < "$root/answer")" succeeded
 echo "ok: space freed, jobs accepted and rendered again without a restart"
+
+# 3b. The disk filled by the jobs' own results while they run (the failure that used to abort
+# the process): submissions end in 507, the server stays up, and once results are removed
+# every accepted job reaches a final state by itself.
+accepted=()
+code=202
+for _ in $(seq 1 600); do
+  code=$(post '{"scene":"builtin:cornell_box","width":64,"height":48,"spp":1}')
+  [ "$code" = 202 ] || break
+  accepted+=("$(field id < "$root/answer")")
+done
+[ "$code" = 507 ] || fail "600 jobs did not fill a 3 MB disk (last answer $code)"
+healthy "with results filling the disk"
+kill -0 "$pid" 2>/dev/null || fail "the server died while results filled the disk"
+rm -rf "$data/jobs/"*
+for id in "${accepted[@]}"; do wait_state "$id" succeeded failed; done
+failed=0
+for id in "${accepted[@]}"; do
+  st=$(api "http://127.0.0.1:$port/v1/jobs/$id")
+  if printf '%s' "$st" | grep -q '"state":"failed"'; then
+    failed=$((failed + 1))
+    printf '%s' "$st" | grep -q '"error":"[^"]*\(write\|space\)' || fail "job $id failed without saying why: $st"
+  fi
+done
+[ "$(post "$small")" = 202 ] || fail "no recovery after results were removed: $(cat "$root/answer")"
+wait_state "$(field id < "$root/answer")" succeeded
+echo "ok: ${#accepted[@]} jobs filled the disk with results; then 507, no crash; after clean-up all reached a final state ($failed failed for want of space, with that reason)"
 
 # 4. The database file deleted under the running server.
 rm -f "$data/tessera.db" "$data/tessera.db-wal" "$data/tessera.db-shm"
