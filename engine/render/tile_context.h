@@ -16,7 +16,11 @@ namespace tessera {
 
 inline float illuminance(const glm::vec3& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 
-class TileContext {
+// A cache line of its own: the statistics a worker bumps on every ray must not share a line
+// with another worker's context, whose references its integrator reads on every ray. Two
+// contexts allocated back to back did share one, and the render of CBbunny took 1.4× as long
+// whenever the heap happened to place them so (measured: 3.3 s against 2.2 s).
+class alignas(64) TileContext {
 public:
     TileContext(const RenderScene& scene, const RenderSettings& settings, const Camera& camera)
         : scene_(scene), settings_(settings), camera_(camera), integrator_(scene, settings, stats) {}
