@@ -242,6 +242,29 @@ TEST_F(Server, FullStoreAnswers507KeepsServingAndRecovers) {
     EXPECT_EQ(post_job(kSmallJob)->status, 202);
 }
 
+// The data directory removed under the running server (a real fault: the store cannot write
+// its database anew anywhere): new jobs get 503 and the server keeps serving; once the folder
+// is back, the store writes what it holds there and takes jobs again, old ones included.
+TEST_F(Server, StoreUnavailableAnswers503AndRecovers) {
+    start();
+    const std::string before = submit(kSmallJob);
+    wait_state(before, {"succeeded"});
+    fs::remove_all(dir_);
+    auto r = post_job(kSmallJob);
+    expect_problem(r, 503);
+    EXPECT_EQ(json::parse(r->body)["type"], "/problems/store-unavailable");
+    EXPECT_FALSE(r->get_header_value("Retry-After").empty());
+    EXPECT_EQ(client_->Get("/healthz")->status, 200);
+    fs::create_directories(dir_);
+    const std::string after = submit(kSmallJob);
+    EXPECT_EQ(wait_state(after, {"succeeded", "failed"})["state"], "succeeded");
+    EXPECT_EQ(status(before)["state"], "succeeded");
+    // And it is on disk: a second store opened on the path finds both.
+    JobStore reopened((dir_ / "tessera.db").string());
+    EXPECT_TRUE(reopened.get(before));
+    EXPECT_TRUE(reopened.get(after));
+}
+
 // A hundred clients submit and poll at once; every job is accounted for, and malformed
 // requests in between do not stop the server from serving good ones.
 TEST_F(Server, HundredConcurrentClients) {
