@@ -14,10 +14,12 @@
 #include "engine/render/renderer.h"
 #include "engine/scene/procedural.h"
 #include "cli/bench_common.h"
-#include "cli/cli_parse.h"
+#include "server/command_line.h"
 #include "cli/commands.h"
 
 namespace tessera::cli {
+
+using server::parse_args;
 namespace {
 
 struct BenchScene {

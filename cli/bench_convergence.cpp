@@ -16,10 +16,12 @@
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
 #include "cli/bench_common.h"
-#include "cli/cli_parse.h"
+#include "server/command_line.h"
 #include "api/comparison.h"
 
 namespace tessera::cli {
+
+using server::parse_args;
 
 int bench_convergence(int argc, char** argv) {
     std::string cs184 = default_cs184_dir(), scene_name = "sky/CBspheres_lambertian", out_svg;

@@ -14,9 +14,11 @@
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
 #include "cli/bench_common.h"
-#include "cli/cli_parse.h"
+#include "server/command_line.h"
 
 namespace tessera::cli {
+
+using server::parse_args;
 namespace {
 
 struct Figure {

@@ -8,9 +8,11 @@
 #include "engine/render/renderer.h"
 #include "engine/scene/procedural.h"
 #include "cli/bench_common.h"
-#include "cli/cli_parse.h"
+#include "server/command_line.h"
 
 namespace tessera::cli {
+
+using server::parse_args;
 
 int bench_leave_out(int argc, char** argv) {
     // No options, but a parser all the same: --help works and a stray argument is an error.

@@ -21,9 +21,11 @@
 #include "engine/sampling/warp.h"
 #include "engine/scene/procedural.h"
 #include "cli/bench_common.h"
-#include "cli/cli_parse.h"
+#include "server/command_line.h"
 
 namespace tessera::cli {
+
+using server::parse_args;
 namespace {
 
 using Clock = std::chrono::steady_clock;

@@ -19,10 +19,12 @@
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
 #include "cli/bench_common.h"
-#include "cli/cli_parse.h"
+#include "server/command_line.h"
 #include "server/http_api.h"
 
 namespace tessera::cli {
+
+using server::parse_args;
 namespace {
 
 using Clock = std::chrono::steady_clock;

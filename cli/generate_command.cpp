@@ -6,10 +6,12 @@
 
 #include "engine/io/gltf_writer.h"
 #include "engine/scene/procedural.h"
-#include "cli/cli_parse.h"
+#include "server/command_line.h"
 #include "cli/commands.h"
 
 namespace tessera::cli {
+
+using server::parse_args;
 
 int generate_command(int argc, char** argv) {
     if (argc == 0) {  // CLI11 would name only the first missing argument

@@ -12,11 +12,13 @@
 #include <nlohmann/json.hpp>
 
 #include "api/job_runner.h"
-#include "cli/cli_parse.h"
+#include "server/command_line.h"
 #include "cli/commands.h"
 #include "cli/job_flags.h"
 
 namespace tessera::cli {
+
+using server::parse_args;
 namespace {
 
 using nlohmann::json;

@@ -16,6 +16,8 @@
 #include <spdlog/spdlog.h>
 
 #include "server/serve_command.h"
+
+#include "server/command_line.h"
 #include "server/http_api.h"
 #include "server/job_service.h"
 
@@ -31,26 +33,6 @@ struct Options {
     ServiceConfig service;
     HttpLimits http;
 };
-
-// cli/cli_parse.h's parse_args, which this layer may not include: the exit status to end with
-// (0 after --help, 2 for a bad flag or value), or nothing when the server should start.
-std::optional<int> parse_args(CLI::App& app, int argc, char** argv) {
-    std::vector<std::string> args;
-    for (int i = argc - 1; i >= 0; --i) args.emplace_back(argv[i]);  // CLI11 takes them reversed
-    try {
-        app.parse(args);
-    } catch (const CLI::CallForHelp&) {
-        std::fputs(app.help().c_str(), stdout);
-        return 0;
-    } catch (const CLI::ExtrasError& e) {
-        std::fprintf(stderr, "tessera serve: unknown flag or extra argument: %s (see --help)\n", e.what());
-        return 2;
-    } catch (const CLI::ParseError& e) {
-        std::fprintf(stderr, "tessera serve: %s\n", e.what());
-        return 2;
-    }
-    return std::nullopt;
-}
 
 }  // namespace
 

@@ -6,36 +6,10 @@ set -u
 bin="$1"
 data=$(mktemp -d)
 log=$(mktemp)
-pid=""
 cleanup() { [ -n "$pid" ] && kill -9 "$pid" 2>/dev/null; rm -rf "$data" "$log"; }
 trap cleanup EXIT
-fail() { echo "FAIL: $*"; echo "--- server log"; tail -n 30 "$log"; exit 1; }
-
-start() {
-  : > "$log"
-  "$bin" serve --host 127.0.0.1 --port 0 --data-dir "$data" --threads 2 > "$log" 2>&1 &
-  pid=$!
-  port=""
-  for _ in $(seq 1 100); do
-    port=$(grep -o 'listening on http://127.0.0.1:[0-9]*' "$log" | grep -o '[0-9]*$' || true)
-    [ -n "$port" ] && return 0
-    sleep 0.1
-  done
-  fail "server did not start"
-}
-api() { curl -s --noproxy '*' "$@"; }
-field() { sed -n "s/.*\"$1\":\"\{0,1\}\([^,\"}]*\).*/\1/p" | head -n 1; }
-state_of() { api "http://127.0.0.1:$port/v1/jobs/$1" | field state; }
+. "$(dirname "$0")/server_lib.sh"
 submit() { api -X POST -H 'Content-Type: application/json' -d "$1" "http://127.0.0.1:$port/v1/jobs" | field id; }
-wait_state() {  # id state...
-  local id=$1; shift
-  for _ in $(seq 1 600); do
-    s=$(state_of "$id")
-    for want in "$@"; do [ "$s" = "$want" ] && return 0; done
-    sleep 0.1
-  done
-  fail "job $id stuck in '$s' (wanted $*)"
-}
 
 start
 done_id=$(submit '{"scene":"cornell_box","width":32,"height":24,"spp":2}')

@@ -36,41 +36,15 @@ if ! mount -t tmpfs -o size=3m tmpfs "$data" 2>/dev/null; then
   exit 77
 fi
 log="$root/server.log"
-pid=""
 cleanup() {
   [ -n "$pid" ] && kill -9 "$pid" 2>/dev/null && wait "$pid" 2>/dev/null
   umount "$data" 2>/dev/null
   rm -rf "$root"
 }
 trap cleanup EXIT
-fail() { echo "FAIL: $*"; echo "--- server log"; tail -n 40 "$log"; exit 1; }
-
-start() {
-  : > "$log"
-  "$bin" serve --host 127.0.0.1 --port 0 --data-dir "$data" --threads 2 --scenes "$scenes" >> "$log" 2>&1 &
-  pid=$!
-  port=""
-  for _ in $(seq 1 100); do
-    port=$(grep -o 'listening on http://127.0.0.1:[0-9]*' "$log" | tail -n 1 | grep -o '[0-9]*$' || true)
-    [ -n "$port" ] && return 0
-    sleep 0.1
-  done
-  fail "server did not start"
-}
-api() { curl -s --noproxy '*' "$@"; }
-field() { sed -n "s/.*\"$1\":\"\{0,1\}\([^,\"}]*\).*/\1/p" | head -n 1; }
-state_of() { api "http://127.0.0.1:$port/v1/jobs/$1" | field state; }
-post() {  # body → "STATUS BODY"
+. "$(dirname "$0")/server_lib.sh"
+post() {  # body: prints the HTTP status, leaves the answer in $root/answer
   api -o "$root/answer" -w '%{http_code}' -X POST -H 'Content-Type: application/json' -d "$1" "http://127.0.0.1:$port/v1/jobs"
-}
-wait_state() {  # id state...
-  local id=$1; shift
-  for _ in $(seq 1 600); do
-    s=$(state_of "$id")
-    for want in "$@"; do [ "$s" = "$want" ] && return 0; done
-    sleep 0.1
-  done
-  fail "job $id stuck in '$s' (wanted $*)"
 }
 healthy() { [ "$(api -o /dev/null -w '%{http_code}' "http://127.0.0.1:$port/healthz")" = 200 ] || fail "healthz failed: $1"; }
 
@@ -78,7 +52,7 @@ small='{"scene":"builtin:cornell_box","width":32,"height":24,"spp":2}'
 long='{"scene":"builtin:cornell_spheres","width":320,"height":240,"spp":4096,"max_depth":5}'
 
 cp "$(dirname "$0")/../../scenes/cornell_box.gltf" "$scenes/vanishing.gltf"
-start
+start --scenes "$scenes"
 [ "$(post "$small")" = 202 ] || fail "first job refused: $(cat "$root/answer")"
 first=$(field id < "$root/answer")
 wait_state "$first" succeeded
@@ -161,7 +135,7 @@ rm -f "$data/tessera.db" "$data/tessera.db-wal" "$data/tessera.db-shm"
 survivor=$(field id < "$root/answer")
 wait_state "$survivor" succeeded
 kill -9 "$pid"; wait "$pid" 2>/dev/null; pid=""
-start
+start --scenes "$scenes"
 [ "$(state_of "$survivor")" = succeeded ] || fail "the job accepted after the database was deleted was lost at restart"
 [ "$(state_of "$first")" = succeeded ] || fail "the job accepted before the database was deleted was lost at restart"
 echo "ok: a deleted database is written anew; jobs before and after survive kill -9"

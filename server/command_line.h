@@ -1,6 +1,7 @@
 #pragma once
 // Running a CLI11 parser over a subcommand's arguments, with Tessera's exit statuses: 0 after
-// --help, 2 for a bad flag or value (the message names the flag).
+// --help, 2 for a bad flag or value (the message names the flag). Here, in the lowest layer
+// with a command (serve), so that every command above shares it.
 #include <cstdio>
 #include <optional>
 #include <string>
@@ -8,7 +9,7 @@
 
 #include <CLI/CLI.hpp>
 
-namespace tessera::cli {
+namespace tessera::server {
 
 // argv holds the subcommand's own arguments (no program name). Returns the exit status to end
 // with, or nothing when parsing succeeded and the command should run.
@@ -33,4 +34,4 @@ inline std::optional<int> parse_args(CLI::App& app, int argc, char** argv) {
     return std::nullopt;
 }
 
-}  // namespace tessera::cli
+}  // namespace tessera::server
