@@ -19,7 +19,8 @@ void JobFlags::add_to(CLI::App& app, const std::string& group) {
         std::string help(f.help);
         help += " (job field " + std::string(f.name) + ", default " + std::string(f.default_json) + ")";
         Given& g = values_[std::string(f.name)];
-        g.option = app.add_option(std::string(f.cli), g.value, help)->group(group);
+        // The last of a repeated flag wins, as it always did.
+        g.option = app.add_option(std::string(f.cli), g.value, help)->group(group)->take_last();
         switch (f.kind) {
             case api::FieldKind::integer: g.option->type_name("N"); break;
             case api::FieldKind::number: g.option->type_name("X"); break;

@@ -78,13 +78,20 @@ int render_command(int argc, char** argv) {
     std::vector<std::string> resolution, adaptive;
     const std::string cs184 = "CS184 PathTracer flags";
     app.add_option("SCENE", scene, "The scene to render")->type_name("SCENE");
-    app.add_option("-t", threads, "Render threads (0: all cores)")->check(CLI::Range(0, 1024))->group(cs184);
+    app.add_option("-t", threads, "Render threads (0: all cores)")->check(CLI::Range(0, 1024))->group(cs184)->take_last();
     // -s, -l and -m are the table's job fields (below, with their long names).
     app.add_flag("-H", hemisphere, "Hemisphere sampling for direct lighting (direct = hemisphere)")->group(cs184);
     app.add_option("-f", output, "Output image, .png (sRGB) or .exr (linear float RGB + samples) (default out.png)")
+        ->take_last()
         ->type_name("FILE")
         ->group(cs184);
-    app.add_option("-r", resolution, "Resolution: width and height (default 800 600)")->expected(2)->type_name("W H")->group(cs184);
+    const api::RenderJob defaults = api::default_render_job();
+    app.add_option("-r", resolution,
+                   "Resolution: width and height (default " + std::to_string(defaults.render.width) + " " +
+                       std::to_string(defaults.render.height) + ")")
+        ->expected(2)
+        ->type_name("W H")
+        ->group(cs184);
     app.add_option("-a", adaptive, "Adaptive sampling: batch B, tolerance T (stop when 1.96·σ/√n ≤ T·μ); writes NAME_rate.png")
         ->expected(2)
         ->type_name("B T")

@@ -280,10 +280,17 @@ bool JobService::take_next(JobRecord& rec, std::shared_ptr<Running>& running) {
         const QueueKey key = *queue_.begin();
         queue_.erase(queue_.begin());
         try {
-            if (!store_.mark_running(key.id, now_s())) continue;  // canceled meanwhile
+            // Read, then mark: if the store refuses either, the job is still queued in it,
+            // and queued again here below. (Marked first, a failed read would leave it
+            // "running" with no worker until the next start.)
             std::optional<JobRecord> r = store_.get(key.id);
             if (!r) continue;
+            const double started = now_s();
+            if (!store_.mark_running(key.id, started)) continue;  // canceled meanwhile
             rec = std::move(*r);
+            rec.state = JobState::running;
+            rec.started_at = started;
+            ++rec.attempts;
         } catch (const std::exception& e) {
             // The store refused: the job is still queued there. Keep it queued here too and
             // try again after a pause, rather than spin on a full or read-only store.

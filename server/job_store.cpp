@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <limits>
 #include <mutex>
 #include <stdexcept>
@@ -234,15 +235,37 @@ struct JobStore::Impl {
         }
     }
 
-    // max_page_count is per connection; 0 restores SQLite's own (about 2^32 pages).
+    // The bound is kept where a job is accepted (insert, below); SQLite's own max_page_count
+    // sits a margin above it, so that the jobs accepted under the bound can always be recorded
+    // as they start and finish: a store that refused those would pin every worker. The margin
+    // is per connection; with no bound, SQLite's own maximum (about 2^32 pages) applies.
     void apply_max_bytes() {
         int64_t pages = 4294967294;
         if (max_bytes > 0) {
-            Stmt s = prepare("PRAGMA page_size", "read page size");
-            const int64_t page = s.step() ? sqlite3_column_int64(s.get(), 0) : 4096;
-            pages = std::max<int64_t>(1, max_bytes / std::max<int64_t>(1, page));
+            const int64_t margin = std::max<int64_t>(max_bytes / 8, int64_t{4} << 20);
+            pages = std::max<int64_t>(1, (max_bytes + margin) / page_size());
         }
         exec(db, ("PRAGMA max_page_count=" + std::to_string(pages)).c_str(), "set max_page_count");
+    }
+
+    int64_t page_size() {
+        Stmt s = prepare("PRAGMA page_size", "read page size");
+        return s.step() ? std::max<int64_t>(1, sqlite3_column_int64(s.get(), 0)) : 4096;
+    }
+
+    // Refuses a new job once the file has reached the bound.
+    void check_bound() {
+        if (max_bytes <= 0) return;
+        int64_t pages = 0;
+        {
+            Stmt s = prepare("PRAGMA page_count", "read page count");
+            if (s.step()) pages = sqlite3_column_int64(s.get(), 0);
+        }
+        const int64_t bytes = pages * page_size();
+        if (bytes >= max_bytes)
+            throw StoreError("job store: " + std::to_string(bytes >> 10) + " KiB, at its bound of " +
+                                 std::to_string(max_bytes >> 10) + " KiB (--max-store-mb)",
+                             true);
     }
 
     void remember_file() {
@@ -253,14 +276,26 @@ struct JobStore::Impl {
         }
     }
 
+    // A connection lost to a failed re-open (below) is opened again on the next call; the
+    // records are safe in the file, only the store is unusable until it opens.
+    void ensure_open() {
+        if (!db) open();
+    }
+
     // Before a change: if the file at `path` is no longer the one this connection writes (it
     // was deleted or replaced), every later commit would go to an unlinked file and vanish at
     // the next start. Copy the open database to `path` (SQLite's online backup) and continue
-    // there; if that fails, refuse the change.
+    // there; if that fails, refuse the change and keep the old connection.
     void ensure_file() {
+        ensure_open();
         if (path.empty() || path == ":memory:") return;
         struct stat st{};
-        if (::stat(path.c_str(), &st) == 0 && st.st_dev == dev && st.st_ino == ino) return;
+        if (::stat(path.c_str(), &st) == 0) {
+            if (st.st_dev == dev && st.st_ino == ino) return;
+        } else if (errno != ENOENT) {
+            return;  // cannot tell (permissions, I/O): the change itself reports what fails
+        }
+        // The old file's -wal and -shm, if left behind, would be read as the new file's.
         for (const char* suffix : {"-wal", "-shm"}) ::unlink((path + suffix).c_str());
         sqlite3* fresh = nullptr;
         int rc = sqlite3_open_v2(path.c_str(), &fresh, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
@@ -273,13 +308,17 @@ struct JobStore::Impl {
         }
         if (rc != SQLITE_OK) {
             const std::string why = fresh ? sqlite3_errmsg(fresh) : "out of memory";
-            const bool full = fresh && sqlite3_errcode(fresh) == SQLITE_FULL;
+            const bool full = rc == SQLITE_FULL || (fresh && sqlite3_errcode(fresh) == SQLITE_FULL);
             sqlite3_close_v2(fresh);
+            ::unlink(path.c_str());  // a partial copy must not pass for the store at the next start
             throw StoreError("job store: " + path + " was removed and could not be written anew: " + why, full);
         }
+        // Closed in this order on purpose: closing the last connection to a WAL database
+        // removes "<path>-wal" and "<path>-shm" by name, so both the copy's and the old
+        // connection's must be closed before the new connection creates its own.
         sqlite3_close_v2(fresh);
         close();
-        open();
+        open();  // on failure db stays null and ensure_open() tries again on the next call
     }
 
     void close() {
@@ -299,6 +338,7 @@ JobStore::JobStore(const std::string& path, int64_t max_bytes) : impl_(std::make
 void JobStore::set_max_bytes(int64_t max_bytes) {
     std::lock_guard lock(impl_->mu);
     impl_->max_bytes = max_bytes;
+    impl_->ensure_open();
     impl_->apply_max_bytes();
 }
 
@@ -307,6 +347,7 @@ JobStore::~JobStore() { impl_->close(); }
 void JobStore::insert(JobRecord& rec) {
     std::lock_guard lock(impl_->mu);
     impl_->ensure_file();
+    impl_->check_bound();
     Impl& m = *impl_;
     Transaction tx(m.db, "insert");
     int64_t seq = 1;
@@ -325,6 +366,7 @@ void JobStore::insert(JobRecord& rec) {
 
 std::optional<JobRecord> JobStore::get(const std::string& id) const {
     std::lock_guard lock(impl_->mu);
+    impl_->ensure_open();
     auto found = impl_->rows("get", "WHERE id = ?1", id);
     if (found.empty()) return std::nullopt;
     return std::move(found.front());
@@ -332,6 +374,7 @@ std::optional<JobRecord> JobStore::get(const std::string& id) const {
 
 std::vector<JobRecord> JobStore::list(std::optional<JobState> state, size_t offset, size_t limit) const {
     std::lock_guard lock(impl_->mu);
+    impl_->ensure_open();
     const int64_t lim = to_i64(std::min(limit, kMaxListLimit)), off = to_i64(offset);
     // Two fixed statements rather than "?1 IS NULL OR state = ?1", which would hide the indexes.
     if (state)
@@ -342,6 +385,7 @@ std::vector<JobRecord> JobStore::list(std::optional<JobState> state, size_t offs
 
 size_t JobStore::count(std::optional<JobState> state) const {
     std::lock_guard lock(impl_->mu);
+    impl_->ensure_open();
     Stmt s = state ? impl_->prepare("SELECT COUNT(*) FROM jobs WHERE state = ?1", "count")
                    : impl_->prepare("SELECT COUNT(*) FROM jobs", "count");
     if (state) s.bind(1, to_string(*state));
@@ -388,6 +432,7 @@ int JobStore::requeue_all_running() {
 
 std::vector<JobRecord> JobStore::queued_in_order() const {
     std::lock_guard lock(impl_->mu);
+    impl_->ensure_open();
     return impl_->rows("queued_in_order", "WHERE state = 'queued' ORDER BY priority DESC, seq ASC");
 }
 

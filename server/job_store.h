@@ -45,7 +45,8 @@ struct JobRecord {
 class JobStore {
 public:
     // Opens or creates the database; throws StoreError with SQLite's message. `max_bytes`
-    // (0: none) bounds the file's size (SQLite's max_page_count): past it, writes fail as full.
+    // (0: none) bounds the file's size: past it, insert() fails as full, while the jobs
+    // already accepted can still be recorded as they start and finish.
     explicit JobStore(const std::string& path, int64_t max_bytes = 0);
     ~JobStore();
     JobStore(const JobStore&) = delete;

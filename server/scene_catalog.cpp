@@ -1,6 +1,8 @@
 #include "server/scene_catalog.h"
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -121,17 +123,24 @@ CatalogEntry SceneCatalog::add_upload(const std::string& filename, const std::st
         // A full disk refuses the upload (507) and leaves nothing half-written behind.
         std::error_code ec;
         fs::create_directories(dir, ec);
+        int err = ec.value();
         std::ofstream out;
         if (!ec) {
+            errno = 0;
             out.open(file, std::ios::binary);
             out.write(bytes.data(), std::streamsize(bytes.size()));
             out.close();
+            err = errno;
         }
         if (ec || !out) {
             fs::remove_all(dir, ec);
-            throw Problem(507, "insufficient-storage", "The upload could not be stored",
-                          "writing the scene file failed (the disk may be full); retry when space is freed")
-                .with_retry_after(30);
+            if (err == ENOSPC || err == EDQUOT)
+                throw Problem(507, "insufficient-storage", "The upload could not be stored",
+                              "no space left for the scene file; retry when space is freed")
+                    .with_retry_after(30);
+            throw Problem(503, "storage-unavailable", "The upload could not be stored",
+                          std::string("writing the scene file failed: ") + std::strerror(err ? err : EIO))
+                .with_retry_after(10);
         }
     }
     try {

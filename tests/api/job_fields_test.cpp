@@ -92,6 +92,12 @@ void expect_schema_matches(const YAML::Node& schema, std::span<const Field<Job>>
                     EXPECT_EQ(p["maximum"].as<double>(), hi);
             }
             EXPECT_EQ(p["exclusiveMinimum"] && p["exclusiveMinimum"].as<bool>(), f.exclusive_min);
+            // A field whose maximum is a server limit shows that limit's default in the table
+            // too (its help and the CLI read it there), never a number of its own.
+            if (f.limit != Limit::none) {
+                EXPECT_EQ(f.kind == FieldKind::integer ? double(f.max_int) : f.max_num, hi)
+                    << "the table's maximum differs from the server limit's default";
+            }
         }
         if (f.kind == FieldKind::text) {
             ASSERT_TRUE(p["minLength"] && p["maxLength"]);

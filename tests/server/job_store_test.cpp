@@ -431,8 +431,10 @@ TEST_F(JobStoreTest, OpenErrorsThrowWithSqliteMessage) {
     }
 }
 
-// A real SQLITE_FULL (the size bound is SQLite's own max_page_count): the refusal says "full",
-// nothing accepted before is lost, and a larger bound lets writes through again.
+// The size bound: a new job is refused as "full", nothing accepted before is lost, the jobs
+// already accepted can still be recorded as they finish (or a store at its bound would pin
+// every worker), and a larger bound lets new jobs in again. (A real full disk, where SQLite
+// itself answers SQLITE_FULL: tests/server/store_faults.sh.)
 TEST_F(JobStoreTest, FullStoreRefusesAsFullAndRecovers) {
     JobStore store(db_path(), 96 * 1024);
     const std::string big(2000, 'x');
@@ -454,10 +456,14 @@ TEST_F(JobStoreTest, FullStoreRefusesAsFullAndRecovers) {
     JobRecord next = make_job(5000);
     next.spec_json = big + big;
     EXPECT_THROW(store.insert(next), StoreError);
+    for (int n = 1; n <= stored; ++n) {
+        ASSERT_TRUE(store.mark_running(hex_id(uint64_t(n)), 2.0));
+        ASSERT_TRUE(store.finish(hex_id(uint64_t(n)), JobState::succeeded, 3.0, "", std::string(1500, 'r')));
+    }
     store.set_max_bytes(0);
     store.insert(next);
     EXPECT_EQ(store.count(std::nullopt), size_t(stored) + 1);
-    EXPECT_TRUE(store.finish(hex_id(1), JobState::succeeded, 1.0, "", "{}"));
+    EXPECT_EQ(store.count(JobState::succeeded), size_t(stored));
 }
 
 // The database file deleted under a running server (a clean-up script, an operator): the
