@@ -17,7 +17,14 @@ void JobFlags::add_to(CLI::App& app, const std::string& group) {
     for (const api::Field<api::RenderJob>& f : api::render_job_fields()) {
         if (f.cli.empty()) continue;
         std::string help(f.help);
-        help += " (job field " + std::string(f.name) + ", default " + std::string(f.default_json) + ")";
+        help += " (job field " + std::string(f.name);
+        const api::JobLimits limits;  // the CLI's: the defaults
+        if (f.kind == api::FieldKind::integer)
+            help += ", " + std::to_string(f.min_int) + " to " +
+                    std::to_string(f.limit == api::Limit::none ? f.max_int : int64_t(api::field_max(f, limits)));
+        else if (f.kind == api::FieldKind::number)
+            help += ", " + CLI::detail::to_string(f.min_num) + " to " + CLI::detail::to_string(api::field_max(f, limits));
+        help += ", default " + std::string(f.default_json) + ")";
         Given& g = values_[std::string(f.name)];
         // The last of a repeated flag wins, as it always did.
         g.option = app.add_option(std::string(f.cli), g.value, help)->group(group)->take_last();
