@@ -151,6 +151,14 @@ TEST(JobFields, JobSettingsRequiresEveryField) {
     EXPECT_EQ(spec_names, table_names);
 }
 
+// A stored comparison: ComparisonSettings requires every comparison field and its kind.
+TEST(JobFields, ComparisonSettingsRequiresEveryField) {
+    std::set<std::string> spec_names, table_names{"kind"};
+    for (const auto& r : spec()["components"]["schemas"]["ComparisonSettings"]["required"]) spec_names.insert(r.as<std::string>());
+    for (const auto& f : comparison_job_fields()) table_names.insert(std::string(f.name));
+    EXPECT_EQ(spec_names, table_names);
+}
+
 // The defaults a job gets are the table's, and the engine's own defaults (what a program using
 // the engine directly gets) agree with them.
 TEST(JobFields, EngineDefaultsAgreeWithTheTable) {
