@@ -107,8 +107,6 @@ JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutp
     outcome.report = to_json(rep);
     write_text(out.report_json, outcome.report.dump(2));
     outcome.summary = status_summary(rep);
-    outcome.rays = st.rays();
-    outcome.render_seconds = st.render_seconds;
     outcome.render = std::move(rep);
     return outcome;
 }

@@ -46,8 +46,6 @@ struct JobOutcome {
     nlohmann::json report;           // report.json's content
     nlohmann::json summary;          // what the job's status shows (status_summary)
     std::optional<RenderReport> render;  // a render job's typed report
-    uint64_t rays = 0;
-    double render_seconds = 0;
 };
 
 // Throws SceneError for a scene that does not load, std::runtime_error (or a filesystem

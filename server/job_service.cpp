@@ -391,8 +391,10 @@ void JobService::run(const JobRecord& rec, Running& running) {
             spdlog::error("job {} failed: {}", rec.id, error);
         return;
     }
-    metrics_.rays += outcome.rays;
-    metrics_.render_micros += uint64_t(outcome.render_seconds * 1e6);
+    if (outcome.render) {
+        metrics_.rays += outcome.render->stats.rays();
+        metrics_.render_micros += uint64_t(outcome.render->stats.render_seconds * 1e6);
+    }
     const std::string summary = outcome.summary.dump();
     if (until_stored(rec.id, "succeeded", [&] { store_.finish(rec.id, JobState::succeeded, now_s(), "", summary); }))
         spdlog::info("job {} succeeded in {:.3f} s", rec.id,

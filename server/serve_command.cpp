@@ -42,7 +42,9 @@ int serve_command(int argc, char** argv) {
     auto& lim = o.service.job_limits;
     CLI::App app{"The HTTP render server. Each option can also be given as an environment variable TESSERA_<NAME> "
                  "(TESSERA_PORT, TESSERA_DATA_DIR, ...); a flag on the command line wins.", "serve"};
-    app.option_defaults()->always_capture_default();
+    // The last of a repeated option wins: a container's command line (compose `command:`)
+    // is appended to the image's entry point and must be able to override it.
+    app.option_defaults()->always_capture_default()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
     auto option = [&](const std::string& name, auto& value, const std::string& what) {
         std::string env = "TESSERA_";
         for (char c : name) env += c == '-' ? '_' : char(std::toupper(static_cast<unsigned char>(c)));
@@ -57,7 +59,8 @@ int serve_command(int argc, char** argv) {
     app.add_option("--scenes", scene_flags, "a folder of scenes for the catalog (repeatable; TESSERA_SCENES: "
                                             "':'-separated folders, added before these)")
         ->type_name("DIR")
-        ->default_str("");
+        ->default_str("")
+        ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
     option("threads", o.service.render_threads, "render threads per job (0: all cores)")->check(CLI::Range(0, 1024));
     option("max-jobs", o.service.concurrent_jobs, "jobs rendered at the same time")->check(CLI::Range(1, 64));
     option("max-queued", o.service.max_queued, "queued jobs before 429")->check(CLI::Range(1, 10'000'000));
