@@ -34,6 +34,7 @@ struct RunningStats {
 
 struct Film {
     int width = 0, height = 0;
+    int x0 = 0, y0 = 0;                // the image pixel at the film's corner (a tile's film)
     std::vector<glm::dvec3> sum;       // all samples
     std::vector<glm::dvec3> sum_odd;   // odd-numbered samples (error estimate only)
     std::vector<uint32_t> count;       // samples taken
@@ -44,6 +45,13 @@ struct Film {
         : width(w), height(h), sum(size_t(w) * h, glm::dvec3(0.0)), count(size_t(w) * h, 0) {
         if (half_buffer) sum_odd.assign(size_t(w) * h, glm::dvec3(0.0));
         if (adaptive) { stats.resize(size_t(w) * h); done.assign(size_t(w) * h, 0); }
+    }
+    // A film of one tile's pixels, for a render node that renders one tile at a time.
+    static Film tile(int x0, int y0, int w, int h, bool half_buffer, bool adaptive) {
+        Film f(w, h, half_buffer, adaptive);
+        f.x0 = x0;
+        f.y0 = y0;
+        return f;
     }
     void describe(std::vector<std::string>& built, std::vector<std::string>& left_out) const {
         built.push_back("film: sum and sample count per pixel");

@@ -25,9 +25,10 @@ public:
     TileContext(const RenderScene& scene, const RenderSettings& settings, const Camera& camera)
         : scene_(scene), settings_(settings), camera_(camera), integrator_(scene, settings, stats) {}
 
-    // Takes pixel (x, y) to `target` samples (uniform), or by one batch (adaptive).
-    void render_pixel(int x, int y, Film& film, int target) {
-        const size_t p = size_t(y) * size_t(settings_.width) + size_t(x);
+    // Takes pixel (x, y), entry `p` of `film`, to `target` samples (uniform), or by one batch
+    // (adaptive). Its random streams follow from its place in the image, not in the film.
+    void render_pixel(int x, int y, Film& film, size_t p, int target) {
+        const size_t pixel = size_t(y) * size_t(settings_.width) + size_t(x);
         const bool adaptive = settings_.adaptive.has_value();
         if (adaptive) {
             if (film.done[p]) return;
@@ -38,7 +39,7 @@ public:
         glm::dvec3 sum_odd = film.sum_odd.empty() ? glm::dvec3(0.0) : film.sum_odd[p];
         int s = int(film.count[p]);
         for (; s < target; ++s) {
-            Pcg32 rng = sample_rng(settings_.seed, p, uint64_t(s));
+            Pcg32 rng = sample_rng(settings_.seed, pixel, uint64_t(s));
             const float jx = rng.next_float(), jy = rng.next_float();
             Ray ray = generate_ray(camera_, (float(x) + jx) * inv_w, 1.f - (float(y) + jy) * inv_h);
             ++stats.camera_rays;

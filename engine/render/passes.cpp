@@ -1,0 +1,105 @@
+#include "engine/render/passes.h"
+
+#include <algorithm>
+
+#include "engine/render/tile_context.h"
+#include "engine/scene/render_scene.h"
+
+namespace tessera {
+
+std::vector<TileRect> make_tiles(int width, int height, int size) {
+    size = std::max(1, size);
+    std::vector<TileRect> tiles;
+    for (int y = 0; y < height; y += size)
+        for (int x = 0; x < width; x += size) tiles.push_back({x, y, std::min(x + size, width), std::min(y + size, height)});
+    return tiles;
+}
+
+PassPlan plan_passes(const RenderSettings& settings, bool has_reference, bool observed) {
+    PassPlan p;
+    p.adaptive = settings.adaptive.has_value();
+    p.measuring = settings.estimate_error || settings.target_error > 0 || observed || has_reference;
+    // Passes of doubling spp only when something is measured or a time limit may cut the
+    // render short; otherwise one pass (nothing to report in between).
+    p.progressive = p.measuring || settings.time_limit_s > 0;
+    p.half_buffer = settings.estimate_error || (settings.target_error > 0 && !has_reference);
+    p.max_passes = p.adaptive ? (settings.spp + std::max(1, settings.adaptive->batch) - 1) / std::max(1, settings.adaptive->batch) + 1
+                              : 64;
+    return p;
+}
+
+int pass_target(const RenderSettings& settings, const PassPlan& plan, int previous) {
+    // Uniform sampling doubles the samples per pixel (1, 2, 4, …, spp); adaptive sampling runs
+    // one batch per pass on the pixels that have not converged (the target is its ceiling).
+    if (plan.adaptive || !plan.progressive) return settings.spp;
+    return std::min(settings.spp, previous == 0 ? 1 : previous * 2);
+}
+
+std::optional<StopReason> stop_after_pass(const RenderSettings& settings, const PassPlan& plan, const Film& film,
+                                          int target, const ConvergencePoint& point, bool out_of_time, bool canceled) {
+    if (canceled) return StopReason::canceled;
+    if (out_of_time) return StopReason::time_limit;
+    const double err = point.rel_mse >= 0 ? point.rel_mse : point.est_rel_mse;
+    if (settings.target_error > 0 && err >= 0 && err <= settings.target_error) return StopReason::target_error;
+    const bool all_done = !plan.adaptive ? target >= settings.spp
+                                         : std::all_of(film.done.begin(), film.done.end(), [](uint8_t d) { return d != 0; });
+    if (all_done)
+        return plan.adaptive && std::any_of(film.count.begin(), film.count.end(), [&](uint32_t c) { return int(c) < settings.spp; })
+                   ? StopReason::converged : StopReason::spp;
+    return std::nullopt;
+}
+
+void describe_render(const RenderScene& scene, const RenderSettings& settings, const Film& film,
+                     std::vector<std::string>& built, std::vector<std::string>& left_out) {
+    film.describe(built, left_out);
+    if (settings.integrator == Integrator::path) {
+        (settings.max_depth > 1 ? built : left_out)
+            .push_back(settings.max_depth > 1 ? "indirect bounces up to depth " + std::to_string(settings.max_depth)
+                                              : std::string("indirect bounces (max_depth <= 1)"));
+        if (!scene.has_lights()) left_out.push_back("direct lighting: no lights or emitters, no shadow rays");
+        else if (settings.direct == DirectLighting::mis) built.push_back("MIS: light and BSDF samples");
+        if (settings.russian_roulette <= 0.f || settings.max_depth <= 1) left_out.push_back("Russian roulette");
+    } else {
+        left_out.push_back("light transport (normal shading)");
+    }
+}
+
+bool render_tile(TileContext& ctx, const TileRect& t, Film& film, int target, const std::function<bool()>& out_of_time) {
+    for (int y = t.y0; y < t.y1; ++y) {
+        if (out_of_time && out_of_time()) return false;
+        const size_t row = size_t(y - film.y0) * size_t(film.width);
+        for (int x = t.x0; x < t.x1; ++x) ctx.render_pixel(x, y, film, row + size_t(x - film.x0), target);
+    }
+    return true;
+}
+
+namespace {
+
+template <class Fn>
+void for_tile_pixels(const TileRect& t, const Film& a, const Film& b, Fn&& fn) {
+    for (int y = t.y0; y < t.y1; ++y)
+        for (int x = t.x0; x < t.x1; ++x)
+            fn(size_t(y - a.y0) * size_t(a.width) + size_t(x - a.x0), size_t(y - b.y0) * size_t(b.width) + size_t(x - b.x0));
+}
+
+void copy_entry(const Film& from, size_t i, Film& to, size_t j) {
+    to.sum[j] = from.sum[i];
+    to.count[j] = from.count[i];
+    if (!to.sum_odd.empty() && !from.sum_odd.empty()) to.sum_odd[j] = from.sum_odd[i];
+    if (!to.stats.empty() && !from.stats.empty()) {
+        to.stats[j] = from.stats[i];
+        to.done[j] = from.done[i];
+    }
+}
+
+}  // namespace
+
+void copy_tile_into(const Film& tile_film, const TileRect& tile, Film& image_film) {
+    for_tile_pixels(tile, tile_film, image_film, [&](size_t i, size_t j) { copy_entry(tile_film, i, image_film, j); });
+}
+
+void copy_tile_from(const Film& image_film, const TileRect& tile, Film& tile_film) {
+    for_tile_pixels(tile, image_film, tile_film, [&](size_t i, size_t j) { copy_entry(image_film, i, tile_film, j); });
+}
+
+}  // namespace tessera
