@@ -14,6 +14,7 @@
 #include "api/job_runner.h"
 #include "engine/scene/procedural.h"
 #include "server/problem.h"
+#include "server/sqlite_job_store.h"
 
 namespace tessera::server {
 namespace fs = std::filesystem;
@@ -60,11 +61,11 @@ std::string writable_data_dir(const std::string& dir) {
 
 JobService::JobService(ServiceConfig config)
     : config_(std::move(config)),
-      store_(writable_data_dir(config_.data_dir) + "/tessera.db", config_.max_store_bytes),
+      store_(std::make_unique<SqliteJobStore>(writable_data_dir(config_.data_dir) + "/tessera.db", config_.max_store_bytes)),
       catalog_(config_.project_scenes, config_.scene_dirs, (fs::path(config_.data_dir) / "uploads").string()) {
-    const int requeued = store_.requeue_all_running();
+    const int requeued = store_->requeue_all_running();
     if (requeued) spdlog::warn("{} job(s) were running when the server stopped; queued again", requeued);
-    for (const JobRecord& r : store_.queued_in_order()) queue_.insert({r.priority, r.seq, r.id});
+    for (const JobRecord& r : store_->queued_in_order()) queue_.insert({r.priority, r.seq, r.id});
     if (!queue_.empty()) spdlog::info("{} queued job(s) restored", queue_.size());
     for (int i = 0; i < std::max(1, config_.concurrent_jobs); ++i) workers_.emplace_back([this] { worker(); });
 }
@@ -113,7 +114,7 @@ json JobService::submit(const json& body) {
     if (!job.reference.empty()) {
         std::optional<JobRecord> ref;
         try {
-            ref = store_.get(job.reference);
+            ref = store_->get(job.reference);
         } catch (const StoreError& e) {
             throw store_problem(e);
         }
@@ -141,7 +142,7 @@ json JobService::enqueue(const api::Job& job) {
             throw Problem(429, "queue-full", "The queue is full",
                           "the queue holds " + std::to_string(queue_.size()) + " jobs, its limit").with_retry_after(10);
         try {
-            store_.insert(rec);  // durable before it is acknowledged
+            store_->insert(rec);  // durable before it is acknowledged
         } catch (const StoreError& e) {
             ++metrics_.store_errors;
             spdlog::error("job refused: {}", e.what());
@@ -170,7 +171,7 @@ json JobService::submit_comparison(const json& body) {
 
 json JobService::status(const std::string& id) {
     if (!valid_id(id)) throw Problem(404, "not-found", "No such job", "no job with id '" + id + "'");
-    auto rec = store_.get(id);
+    auto rec = store_->get(id);
     if (!rec) throw Problem(404, "not-found", "No such job", "no job with id '" + id + "'");
     return status_json(*rec);
 }
@@ -217,8 +218,8 @@ json JobService::list(const std::string& state, size_t offset, size_t limit) {
         filter = s;
     }
     json jobs = json::array();
-    for (const JobRecord& r : store_.list(filter, offset, limit)) jobs.push_back(status_json(r));
-    return {{"jobs", jobs}, {"total", store_.count(filter)}, {"offset", offset}, {"limit", limit}};
+    for (const JobRecord& r : store_->list(filter, offset, limit)) jobs.push_back(status_json(r));
+    return {{"jobs", jobs}, {"total", store_->count(filter)}, {"offset", offset}, {"limit", limit}};
 }
 
 json JobService::cancel(const std::string& id) {
@@ -228,7 +229,7 @@ json JobService::cancel(const std::string& id) {
         for (auto it = queue_.begin(); it != queue_.end(); ++it)
             if (it->id == id) {
                 // The store first: if it refuses (503), the job stays queued in both.
-                if (store_.finish(id, JobState::canceled, now_s(), "", "")) spdlog::info("job {} canceled while queued", id);
+                if (store_->finish(id, JobState::canceled, now_s(), "", "")) spdlog::info("job {} canceled while queued", id);
                 queue_.erase(it);
                 break;
             }
@@ -268,7 +269,7 @@ size_t JobService::queue_depth() {
 std::map<std::string, size_t> JobService::counts_by_state() {
     std::map<std::string, size_t> m;
     for (JobState s : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed, JobState::canceled})
-        m[to_string(s)] = store_.count(s);
+        m[to_string(s)] = store_->count(s);
     return m;
 }
 
@@ -283,10 +284,10 @@ bool JobService::take_next(JobRecord& rec, std::shared_ptr<Running>& running) {
             // Read, then mark: if the store refuses either, the job is still queued in it,
             // and queued again here below. (Marked first, a failed read would leave it
             // "running" with no worker until the next start.)
-            std::optional<JobRecord> r = store_.get(key.id);
+            std::optional<JobRecord> r = store_->get(key.id);
             if (!r) continue;
             const double started = now_s();
-            if (!store_.mark_running(key.id, started)) continue;  // canceled meanwhile
+            if (!store_->mark_running(key.id, started)) continue;  // canceled meanwhile
             rec = std::move(*r);
             rec.state = JobState::running;
             rec.started_at = started;
@@ -379,15 +380,15 @@ void JobService::run(const JobRecord& rec, Running& running) {
     }
     if (error.empty() && outcome.stopped) {
         if (running.shutdown) {
-            if (until_stored(rec.id, "queued again", [&] { store_.requeue(rec.id); }))
+            if (until_stored(rec.id, "queued again", [&] { store_->requeue(rec.id); }))
                 spdlog::warn("job {} interrupted by shutdown; queued again", rec.id);
-        } else if (until_stored(rec.id, "canceled", [&] { store_.finish(rec.id, JobState::canceled, now_s(), "", ""); })) {
+        } else if (until_stored(rec.id, "canceled", [&] { store_->finish(rec.id, JobState::canceled, now_s(), "", ""); })) {
             spdlog::info("job {} canceled while running", rec.id);
         }
         return;
     }
     if (!error.empty()) {
-        if (until_stored(rec.id, "failed", [&] { store_.finish(rec.id, JobState::failed, now_s(), error, ""); }))
+        if (until_stored(rec.id, "failed", [&] { store_->finish(rec.id, JobState::failed, now_s(), error, ""); }))
             spdlog::error("job {} failed: {}", rec.id, error);
         return;
     }
@@ -396,7 +397,7 @@ void JobService::run(const JobRecord& rec, Running& running) {
         metrics_.render_micros += uint64_t(outcome.render->stats.render_seconds * 1e6);
     }
     const std::string summary = outcome.summary.dump();
-    if (until_stored(rec.id, "succeeded", [&] { store_.finish(rec.id, JobState::succeeded, now_s(), "", summary); }))
+    if (until_stored(rec.id, "succeeded", [&] { store_->finish(rec.id, JobState::succeeded, now_s(), "", summary); }))
         spdlog::info("job {} succeeded in {:.3f} s", rec.id,
                      outcome.render ? outcome.render->timings.total_s : 0.0);
 }

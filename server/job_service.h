@@ -68,7 +68,7 @@ public:
     size_t queue_depth();
     std::map<std::string, size_t> counts_by_state();
     ServiceMetrics& metrics() { return metrics_; }
-    JobStore& store() { return store_; }
+    JobStore& store() { return *store_; }
     SceneCatalog& catalog() { return catalog_; }
     const ServiceConfig& config() const { return config_; }
 
@@ -101,7 +101,7 @@ private:
     std::string scene_source(const std::string& scene);
 
     ServiceConfig config_;
-    JobStore store_;
+    std::unique_ptr<JobStore> store_;
     SceneCatalog catalog_;
     ServiceMetrics metrics_;
     std::mutex mutex_;

@@ -1,11 +1,6 @@
 #pragma once
-// Durable job records: SQLite in WAL mode at <data-dir>/tessera.db. Every state change is a
-// committed transaction before it is acknowledged, so a restart (even after kill -9) finds
-// every accepted job. Thread-safe: one connection behind a mutex. Every failure is a
-// StoreError; a database file deleted under the running server is written anew from the open
-// connection before the next change, so what was accepted stays on disk.
+// The job store's contract: the record of a job and the interface both stores implement.
 #include <cstdint>
-#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -20,8 +15,8 @@ using api::is_final;
 using api::parse_job_state;
 using api::to_string;
 
-// SQLite refused: `full` when the disk or the database's size limit is full (space may come
-// back), otherwise the file is unusable for now (read-only, I/O error). Callers answer 507 or
+// The store refused: `full` when the disk, the database's size limit or Redis's memory is full
+// (space may come back), otherwise it is unusable for now (read-only file, Redis unreachable). Callers answer 507 or
 // 503 and keep serving; nothing here is fatal to the process.
 struct StoreError : std::runtime_error {
     bool full;
@@ -42,43 +37,36 @@ struct JobRecord {
     int attempts = 0;         // times the job was started (a restart re-queues running jobs)
 };
 
+// Every accepted job, durable before it is acknowledged, with its state, queue order and
+// outcome. Two implementations pass one contract suite (tests/server/job_store_contract_test.cpp):
+// SQLite for one process (sqlite_job_store.h) and Redis for many nodes (redis_job_store.h).
+// Every failure is a StoreError. Thread-safe.
 class JobStore {
 public:
-    // Opens or creates the database; throws StoreError with SQLite's message. `max_bytes`
-    // (0: none) bounds the file's size: past it, insert() fails as full, while the jobs
-    // already accepted can still be recorded as they start and finish.
-    explicit JobStore(const std::string& path, int64_t max_bytes = 0);
-    ~JobStore();
-    JobStore(const JobStore&) = delete;
-    JobStore& operator=(const JobStore&) = delete;
+    virtual ~JobStore() = default;
 
-    // Assigns rec.seq (monotonic across restarts) and stores the record.
-    void insert(JobRecord& rec);
-    std::optional<JobRecord> get(const std::string& id) const;
-    // Newest first (seq descending); optional state filter.
-    std::vector<JobRecord> list(std::optional<JobState> state, size_t offset, size_t limit) const;
-    size_t count(std::optional<JobState> state) const;
+    // Assigns rec.seq (monotonic across restarts) and stores the record as given (a queued one
+    // joins the queue).
+    virtual void insert(JobRecord& rec) = 0;
+    virtual std::optional<JobRecord> get(const std::string& id) const = 0;
+    // Newest first (seq descending); optional state filter; at most 1000.
+    virtual std::vector<JobRecord> list(std::optional<JobState> state, size_t offset, size_t limit) const = 0;
+    virtual size_t count(std::optional<JobState> state) const = 0;
     // queued → running (sets started_at, attempts += 1); false if the job was not queued.
-    bool mark_running(const std::string& id, double started_at);
+    virtual bool mark_running(const std::string& id, double started_at) = 0;
     // Any non-final state → final state with finished_at, error and report; false if already final.
-    bool finish(const std::string& id, JobState state, double finished_at, const std::string& error,
-                const std::string& report_json);
+    virtual bool finish(const std::string& id, JobState state, double finished_at, const std::string& error,
+                        const std::string& report_json) = 0;
     // running → queued (a job interrupted by shutdown); false if it was not running.
-    bool requeue(const std::string& id);
-    // At start-up: every running job goes back to queued (the process died mid-render);
-    // returns how many.
-    int requeue_all_running();
+    virtual bool requeue(const std::string& id) = 0;
+    // Every running job goes back to queued (a single process died mid-render); returns how many.
+    virtual int requeue_all_running() = 0;
     // Queued jobs in run order: priority descending, then seq ascending.
-    std::vector<JobRecord> queued_in_order() const;
+    virtual std::vector<JobRecord> queued_in_order() const = 0;
     // Deletes a record (only final ones); false if missing or not final.
-    bool remove_final(const std::string& id);
-
-    // Changes the size bound (0: none) of an open store.
-    void set_max_bytes(int64_t max_bytes);
-
-private:
-    struct Impl;
-    std::unique_ptr<Impl> impl_;
+    virtual bool remove_final(const std::string& id) = 0;
+    // Changes the size bound (0: none): past it, insert() fails as full.
+    virtual void set_max_bytes(int64_t max_bytes) = 0;
 };
 
 }  // namespace tessera::server

@@ -1,5 +1,6 @@
 // The HTTP API against a real server started in-process on an ephemeral port.
 #include "server/http_api.h"
+#include "server/sqlite_job_store.h"
 
 #include <gtest/gtest.h>
 #include <httplib.h>
@@ -260,7 +261,7 @@ TEST_F(Server, StoreUnavailableAnswers503AndRecovers) {
     EXPECT_EQ(wait_state(after, {"succeeded", "failed"})["state"], "succeeded");
     EXPECT_EQ(status(before)["state"], "succeeded");
     // And it is on disk: a second store opened on the path finds both.
-    JobStore reopened((dir_ / "tessera.db").string());
+    SqliteJobStore reopened((dir_ / "tessera.db").string());
     EXPECT_TRUE(reopened.get(before));
     EXPECT_TRUE(reopened.get(after));
 }

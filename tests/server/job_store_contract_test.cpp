@@ -1,20 +1,22 @@
-#include "server/job_store.h"
-
+// The contract every job store keeps, run against both: SQLite (one process) and Redis (a
+// render farm; a real redis-server started by the test on a random loopback port).
 #include <gtest/gtest.h>
-#include <signal.h>
-#include <sqlite3.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
+#include <functional>
+#include <memory>
 #include <set>
 #include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include "server/redis_job_store.h"
+#include "server/sqlite_job_store.h"
+#include "tests/server/redis_server.h"
 
 namespace tessera::server {
 namespace {
@@ -36,26 +38,54 @@ JobRecord make_job(uint64_t n, int priority = 0) {
     return r;
 }
 
-class JobStoreTest : public ::testing::Test {
+class JobStoreContract : public ::testing::TestWithParam<std::string> {
 protected:
+    static void SetUpTestSuite() {
+        redis_ = new testing::RedisServer();
+        if (redis_->available() && !redis_->start()) {
+            delete redis_;
+            redis_ = nullptr;
+        }
+    }
+    static void TearDownTestSuite() {
+        delete redis_;
+        redis_ = nullptr;
+    }
     void SetUp() override {
         const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        dir_ = fs::temp_directory_path() /
-               ("tessera_job_store_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+        std::string name = info->name();
+        for (char& c : name) if (c == '/') c = '_';
+        dir_ = fs::temp_directory_path() / ("tessera_store_contract_" + name + "_" + std::to_string(::getpid()));
         fs::remove_all(dir_);
         fs::create_directories(dir_);
+        if (GetParam() == "redis") {
+            if (!redis_) {
+                if (testing::redis_required()) FAIL() << "redis-server did not start (TESSERA_REQUIRE_REDIS=1)";
+                GTEST_SKIP() << "redis-server is not installed (apt-get install redis-server): the Redis store is not tested";
+            }
+            Redis r(redis_->url());
+            r.command({"FLUSHALL"});
+        }
     }
     void TearDown() override {
         std::error_code ec;
         fs::remove_all(dir_, ec);
     }
-    std::string db_path() const { return (dir_ / "tessera.db").string(); }
+    // A new store on the same data: SQLite's file, or the same Redis.
+    std::unique_ptr<JobStore> open() const {
+        if (GetParam() == "redis") return std::make_unique<RedisJobStore>(redis_->url());
+        return std::make_unique<SqliteJobStore>((dir_ / "tessera.db").string());
+    }
 
     fs::path dir_;
+    static testing::RedisServer* redis_;
 };
 
-TEST_F(JobStoreTest, InsertGetRoundTripsEveryField) {
-    JobStore store(db_path());
+testing::RedisServer* JobStoreContract::redis_ = nullptr;
+
+TEST_P(JobStoreContract, InsertGetRoundTripsEveryField) {
+    auto owned = open();
+    JobStore& store = *owned;
     JobRecord r;
     r.id = "0123456789abcdef";
     r.state = JobState::queued;
@@ -87,8 +117,9 @@ TEST_F(JobStoreTest, InsertGetRoundTripsEveryField) {
     EXPECT_FALSE(store.get("ffffffffffffffff").has_value());
 }
 
-TEST_F(JobStoreTest, DuplicateIdThrowsAndLeavesSeqUntouched) {
-    JobStore store(db_path());
+TEST_P(JobStoreContract, DuplicateIdThrowsAndLeavesSeqUntouched) {
+    auto owned = open();
+    JobStore& store = *owned;
     JobRecord a = make_job(1);
     store.insert(a);
     JobRecord b = make_job(1);
@@ -107,23 +138,25 @@ TEST_F(JobStoreTest, DuplicateIdThrowsAndLeavesSeqUntouched) {
     EXPECT_EQ(c.seq, 2);
 }
 
-TEST_F(JobStoreTest, SeqIsMonotonicAndContinuesAfterReopen) {
+TEST_P(JobStoreContract, SeqIsMonotonicAndContinuesAfterReopen) {
     {
-        JobStore store(db_path());
+        auto owned = open();
+    JobStore& store = *owned;
         for (uint64_t i = 1; i <= 5; ++i) {
             JobRecord r = make_job(i);
             store.insert(r);
             EXPECT_EQ(r.seq, static_cast<int64_t>(i));
         }
     }
-    JobStore store(db_path());
+    auto owned = open();
+    JobStore& store = *owned;
     JobRecord r = make_job(6);
     store.insert(r);
     EXPECT_EQ(r.seq, 6);
     EXPECT_EQ(store.count(std::nullopt), 6u);
 }
 
-TEST_F(JobStoreTest, StateNamesRoundTrip) {
+TEST_P(JobStoreContract, StateNamesRoundTrip) {
     for (JobState s : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed,
                        JobState::canceled}) {
         JobState back = JobState::queued;
@@ -137,8 +170,9 @@ TEST_F(JobStoreTest, StateNamesRoundTrip) {
     EXPECT_EQ(out, JobState::failed) << "untouched on failure";
 }
 
-TEST_F(JobStoreTest, MarkRunningOnlyFromQueued) {
-    JobStore store(db_path());
+TEST_P(JobStoreContract, MarkRunningOnlyFromQueued) {
+    auto owned = open();
+    JobStore& store = *owned;
     JobRecord r = make_job(1);
     store.insert(r);
     EXPECT_TRUE(store.mark_running(r.id, 100.0));
@@ -150,8 +184,9 @@ TEST_F(JobStoreTest, MarkRunningOnlyFromQueued) {
     EXPECT_FALSE(store.mark_running("0000000000000bad", 1.0)) << "missing job";
 }
 
-TEST_F(JobStoreTest, FinishOnlyFromNonFinal) {
-    JobStore store(db_path());
+TEST_P(JobStoreContract, FinishOnlyFromNonFinal) {
+    auto owned = open();
+    JobStore& store = *owned;
     JobRecord a = make_job(1), b = make_job(2);
     store.insert(a);
     store.insert(b);
@@ -171,8 +206,9 @@ TEST_F(JobStoreTest, FinishOnlyFromNonFinal) {
     EXPECT_THROW(store.finish(b.id, JobState::running, 1.0, "", ""), std::invalid_argument);
 }
 
-TEST_F(JobStoreTest, RequeueOnlyFromRunningKeepsAttempts) {
-    JobStore store(db_path());
+TEST_P(JobStoreContract, RequeueOnlyFromRunningKeepsAttempts) {
+    auto owned = open();
+    JobStore& store = *owned;
     JobRecord r = make_job(1);
     store.insert(r);
     EXPECT_FALSE(store.requeue(r.id)) << "queued, not running";
@@ -188,9 +224,10 @@ TEST_F(JobStoreTest, RequeueOnlyFromRunningKeepsAttempts) {
     EXPECT_FALSE(store.requeue(r.id)) << "final";
 }
 
-TEST_F(JobStoreTest, RequeueAllRunningAfterCrash) {
+TEST_P(JobStoreContract, RequeueAllRunningAfterCrash) {
     {
-        JobStore store(db_path());
+        auto owned = open();
+    JobStore& store = *owned;
         for (uint64_t i = 1; i <= 4; ++i) {
             JobRecord r = make_job(i);
             store.insert(r);
@@ -200,7 +237,8 @@ TEST_F(JobStoreTest, RequeueAllRunningAfterCrash) {
         ASSERT_TRUE(store.mark_running(hex_id(3), 5.0));
         ASSERT_TRUE(store.finish(hex_id(3), JobState::succeeded, 6.0, "", "{}"));
     }  // closed with two jobs still running, as if the process had died mid-render
-    JobStore store(db_path());
+    auto owned = open();
+    JobStore& store = *owned;
     EXPECT_EQ(store.count(JobState::running), 2u);
     EXPECT_EQ(store.requeue_all_running(), 2);
     EXPECT_EQ(store.requeue_all_running(), 0);
@@ -209,8 +247,9 @@ TEST_F(JobStoreTest, RequeueAllRunningAfterCrash) {
     EXPECT_EQ(store.get(hex_id(3))->state, JobState::succeeded);
 }
 
-TEST_F(JobStoreTest, RemoveFinalOnlyForFinal) {
-    JobStore store(db_path());
+TEST_P(JobStoreContract, RemoveFinalOnlyForFinal) {
+    auto owned = open();
+    JobStore& store = *owned;
     for (uint64_t i = 1; i <= 3; ++i) {
         JobRecord r = make_job(i);
         store.insert(r);
@@ -225,8 +264,9 @@ TEST_F(JobStoreTest, RemoveFinalOnlyForFinal) {
     EXPECT_EQ(store.count(std::nullopt), 2u);
 }
 
-TEST_F(JobStoreTest, QueuedInOrderByPriorityThenSeq) {
-    JobStore store(db_path());
+TEST_P(JobStoreContract, QueuedInOrderByPriorityThenSeq) {
+    auto owned = open();
+    JobStore& store = *owned;
     const int priorities[] = {0, 5, 0, 10, 5, -1, 10};
     for (uint64_t i = 0; i < 7; ++i) {
         JobRecord r = make_job(i + 1, priorities[i]);
@@ -238,8 +278,9 @@ TEST_F(JobStoreTest, QueuedInOrderByPriorityThenSeq) {
     EXPECT_EQ(ids, (std::vector<std::string>{hex_id(7), hex_id(2), hex_id(5), hex_id(1), hex_id(3), hex_id(6)}));
 }
 
-TEST_F(JobStoreTest, ListFiltersPagesAndCounts) {
-    JobStore store(db_path());
+TEST_P(JobStoreContract, ListFiltersPagesAndCounts) {
+    auto owned = open();
+    JobStore& store = *owned;
     for (uint64_t i = 1; i <= 10; ++i) {
         JobRecord r = make_job(i);
         store.insert(r);
@@ -272,8 +313,9 @@ TEST_F(JobStoreTest, ListFiltersPagesAndCounts) {
     EXPECT_EQ(store.count(JobState::running), 0u);
 }
 
-TEST_F(JobStoreTest, ListClampsLimitTo1000) {
-    JobStore store(db_path());
+TEST_P(JobStoreContract, ListClampsLimitTo1000) {
+    auto owned = open();
+    JobStore& store = *owned;
     for (uint64_t i = 1; i <= 1005; ++i) {
         JobRecord r = make_job(i);
         store.insert(r);
@@ -282,9 +324,10 @@ TEST_F(JobStoreTest, ListClampsLimitTo1000) {
     EXPECT_EQ(store.list(std::nullopt, 1000, 5000).size(), 5u);
 }
 
-TEST_F(JobStoreTest, ConcurrentInsertsAndTransitionsAreAllAccountedFor) {
+TEST_P(JobStoreContract, ConcurrentInsertsAndTransitionsAreAllAccountedFor) {
     constexpr int kThreads = 8, kPerThread = 200;
-    JobStore store(db_path());
+    auto owned = open();
+    JobStore& store = *owned;
     std::atomic<bool> stop{false};
     std::atomic<int> errors{0};
     std::thread reader([&] {
@@ -345,161 +388,8 @@ TEST_F(JobStoreTest, ConcurrentInsertsAndTransitionsAreAllAccountedFor) {
     EXPECT_EQ(*seqs.rbegin(), static_cast<int64_t>(kTotal));
 }
 
-TEST_F(JobStoreTest, SurvivesKill9) {
-    const std::string path = db_path();
-    const pid_t pid = ::fork();
-    ASSERT_NE(pid, -1);
-    if (pid == 0) {
-        // The child must never return into gtest; any failure is reported through the exit code.
-        try {
-            JobStore store(path);
-            for (uint64_t i = 1; i <= 100; ++i) {
-                JobRecord r = make_job(i);
-                store.insert(r);
-                if (i % 10 == 0 && !store.mark_running(r.id, 1.0)) ::_exit(3);
-            }
-            ::raise(SIGKILL);  // no destructor, no close, no checkpoint
-        } catch (...) {
-            ::_exit(2);
-        }
-        ::_exit(4);
-    }
-    int status = 0;
-    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
-    ASSERT_TRUE(WIFSIGNALED(status)) << "child exited with " << (WIFEXITED(status) ? WEXITSTATUS(status) : -1);
-    ASSERT_EQ(WTERMSIG(status), SIGKILL);
-
-    JobStore store(path);
-    EXPECT_EQ(store.count(std::nullopt), 100u);
-    EXPECT_EQ(store.requeue_all_running(), 10);
-    EXPECT_EQ(store.count(JobState::queued), 100u);
-    for (uint64_t i = 1; i <= 100; ++i) ASSERT_TRUE(store.get(hex_id(i)).has_value()) << i;
-    JobRecord next = make_job(101);
-    store.insert(next);
-    EXPECT_EQ(next.seq, 101);
-}
-
-TEST_F(JobStoreTest, RefusesNewerSchemaVersion) {
-    const std::string path = db_path();
-    sqlite3* db = nullptr;
-    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-    ASSERT_EQ(sqlite3_exec(db, "CREATE TABLE future(x); PRAGMA user_version=2;", nullptr, nullptr, nullptr), SQLITE_OK);
-    sqlite3_close(db);
-    try {
-        JobStore store(path);
-        FAIL() << "a newer schema was opened";
-    } catch (const std::runtime_error& e) {
-        const std::string msg = e.what();
-        EXPECT_NE(msg.find("schema version 2"), std::string::npos) << msg;
-        EXPECT_NE(msg.find("newer"), std::string::npos) << msg;
-    }
-    // Left as found: still version 2 and not switched to WAL by the refused open.
-    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-    sqlite3_stmt* st = nullptr;
-    ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA journal_mode", -1, &st, nullptr), SQLITE_OK);
-    ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
-    EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(st, 0)), "delete");
-    sqlite3_finalize(st);
-    sqlite3_close(db);
-}
-
-TEST_F(JobStoreTest, SetsSchemaVersionAndWal) {
-    { JobStore store(db_path()); }
-    sqlite3* db = nullptr;
-    ASSERT_EQ(sqlite3_open(db_path().c_str(), &db), SQLITE_OK);
-    for (const auto& [sql, want] : {std::pair<const char*, const char*>{"PRAGMA user_version", "1"},
-                                    {"PRAGMA journal_mode", "wal"}}) {
-        sqlite3_stmt* st = nullptr;
-        ASSERT_EQ(sqlite3_prepare_v2(db, sql, -1, &st, nullptr), SQLITE_OK);
-        ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
-        EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(st, 0)), want) << sql;
-        sqlite3_finalize(st);
-    }
-    sqlite3_close(db);
-}
-
-TEST_F(JobStoreTest, OpenErrorsThrowWithSqliteMessage) {
-    EXPECT_THROW(JobStore((dir_ / "no_such_dir" / "tessera.db").string()), std::runtime_error);
-    {
-        std::ofstream(dir_ / "garbage.db") << std::string(4096, 'x');
-    }
-    try {
-        JobStore store((dir_ / "garbage.db").string());
-        FAIL() << "garbage opened";
-    } catch (const std::runtime_error& e) {
-        EXPECT_NE(std::string(e.what()).find("not a database"), std::string::npos) << e.what();
-    }
-}
-
-// The size bound: a new job is refused as "full", nothing accepted before is lost, the jobs
-// already accepted can still be recorded as they finish (or a store at its bound would pin
-// every worker), and a larger bound lets new jobs in again. (A real full disk, where SQLite
-// itself answers SQLITE_FULL: tests/server/store_faults.sh.)
-TEST_F(JobStoreTest, FullStoreRefusesAsFullAndRecovers) {
-    JobStore store(db_path(), 96 * 1024);
-    const std::string big(2000, 'x');
-    int stored = 0;
-    for (uint64_t n = 1; n < 1000; ++n) {
-        JobRecord r = make_job(n);
-        r.spec_json = big;
-        try {
-            store.insert(r);
-            ++stored;
-        } catch (const StoreError& e) {
-            EXPECT_TRUE(e.full) << e.what();
-            break;
-        }
-    }
-    ASSERT_GT(stored, 5);
-    ASSERT_LT(stored, 999) << "the bound never bit";
-    EXPECT_EQ(store.count(std::nullopt), size_t(stored));
-    JobRecord next = make_job(5000);
-    next.spec_json = big + big;
-    EXPECT_THROW(store.insert(next), StoreError);
-    for (int n = 1; n <= stored; ++n) {
-        ASSERT_TRUE(store.mark_running(hex_id(uint64_t(n)), 2.0));
-        ASSERT_TRUE(store.finish(hex_id(uint64_t(n)), JobState::succeeded, 3.0, "", std::string(1500, 'r')));
-    }
-    store.set_max_bytes(0);
-    store.insert(next);
-    EXPECT_EQ(store.count(std::nullopt), size_t(stored) + 1);
-    EXPECT_EQ(store.count(JobState::succeeded), size_t(stored));
-}
-
-// The database file deleted under a running server (a clean-up script, an operator): the
-// next change writes the open database to the path again, so the jobs accepted before and
-// after are both there at the next start.
-TEST_F(JobStoreTest, DeletedFileIsWrittenAnew) {
-    {
-        JobStore store(db_path());
-        JobRecord a = make_job(1);
-        store.insert(a);
-        for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(db_path() + suffix);
-        ASSERT_FALSE(fs::exists(db_path()));
-        JobRecord b = make_job(2);
-        store.insert(b);
-        EXPECT_TRUE(fs::exists(db_path()));
-        EXPECT_TRUE(store.mark_running(hex_id(1), 2.0));
-    }
-    JobStore reopened(db_path());
-    ASSERT_TRUE(reopened.get(hex_id(1)));
-    EXPECT_EQ(reopened.get(hex_id(1))->state, JobState::running);
-    ASSERT_TRUE(reopened.get(hex_id(2)));
-    EXPECT_EQ(reopened.count(std::nullopt), 2u);
-}
-
-// A file that is not this store's database any more (replaced by another) counts as removed:
-// the store keeps its own records rather than write into someone else's file.
-TEST_F(JobStoreTest, ReplacedFileIsWrittenAnew) {
-    JobStore store(db_path());
-    JobRecord a = make_job(1);
-    store.insert(a);
-    for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(db_path() + suffix);
-    { std::ofstream(db_path()) << ""; }  // an empty file in its place
-    JobRecord b = make_job(2);
-    store.insert(b);
-    EXPECT_EQ(store.count(std::nullopt), 2u);
-}
+INSTANTIATE_TEST_SUITE_P(Stores, JobStoreContract, ::testing::Values("sqlite", "redis"),
+                         [](const ::testing::TestParamInfo<std::string>& p) { return p.param; });
 
 }  // namespace
 }  // namespace tessera::server

@@ -1,4 +1,4 @@
-#include "server/job_store.h"
+#include "server/sqlite_job_store.h"
 
 #include <sqlite3.h>
 #include <sys/stat.h>
@@ -149,7 +149,7 @@ int64_t to_i64(size_t v) {
 
 }  // namespace
 
-struct JobStore::Impl {
+struct SqliteJobStore::Impl {
     sqlite3* db = nullptr;
     std::string path;
     int64_t max_bytes = 0;
@@ -329,22 +329,22 @@ struct JobStore::Impl {
     }
 };
 
-JobStore::JobStore(const std::string& path, int64_t max_bytes) : impl_(std::make_unique<Impl>()) {
+SqliteJobStore::SqliteJobStore(const std::string& path, int64_t max_bytes) : impl_(std::make_unique<Impl>()) {
     impl_->path = path;
     impl_->max_bytes = max_bytes;
     impl_->open();
 }
 
-void JobStore::set_max_bytes(int64_t max_bytes) {
+void SqliteJobStore::set_max_bytes(int64_t max_bytes) {
     std::lock_guard lock(impl_->mu);
     impl_->max_bytes = max_bytes;
     impl_->ensure_open();
     impl_->apply_max_bytes();
 }
 
-JobStore::~JobStore() { impl_->close(); }
+SqliteJobStore::~SqliteJobStore() { impl_->close(); }
 
-void JobStore::insert(JobRecord& rec) {
+void SqliteJobStore::insert(JobRecord& rec) {
     std::lock_guard lock(impl_->mu);
     impl_->ensure_file();
     impl_->check_bound();
@@ -364,7 +364,7 @@ void JobStore::insert(JobRecord& rec) {
     rec.seq = seq;  // only once committed, so a failed insert leaves the caller's record untouched
 }
 
-std::optional<JobRecord> JobStore::get(const std::string& id) const {
+std::optional<JobRecord> SqliteJobStore::get(const std::string& id) const {
     std::lock_guard lock(impl_->mu);
     impl_->ensure_open();
     auto found = impl_->rows("get", "WHERE id = ?1", id);
@@ -372,7 +372,7 @@ std::optional<JobRecord> JobStore::get(const std::string& id) const {
     return std::move(found.front());
 }
 
-std::vector<JobRecord> JobStore::list(std::optional<JobState> state, size_t offset, size_t limit) const {
+std::vector<JobRecord> SqliteJobStore::list(std::optional<JobState> state, size_t offset, size_t limit) const {
     std::lock_guard lock(impl_->mu);
     impl_->ensure_open();
     const int64_t lim = to_i64(std::min(limit, kMaxListLimit)), off = to_i64(offset);
@@ -383,7 +383,7 @@ std::vector<JobRecord> JobStore::list(std::optional<JobState> state, size_t offs
     return impl_->rows("list", "ORDER BY seq DESC LIMIT ?1 OFFSET ?2", lim, off);
 }
 
-size_t JobStore::count(std::optional<JobState> state) const {
+size_t SqliteJobStore::count(std::optional<JobState> state) const {
     std::lock_guard lock(impl_->mu);
     impl_->ensure_open();
     Stmt s = state ? impl_->prepare("SELECT COUNT(*) FROM jobs WHERE state = ?1", "count")
@@ -394,7 +394,7 @@ size_t JobStore::count(std::optional<JobState> state) const {
 
 // The transitions are conditional UPDATEs: the WHERE clause is the state machine, and the row
 // count says whether this call made the transition, with no read-then-write race.
-bool JobStore::mark_running(const std::string& id, double started_at) {
+bool SqliteJobStore::mark_running(const std::string& id, double started_at) {
     std::lock_guard lock(impl_->mu);
     impl_->ensure_file();
     return impl_->change("mark_running",
@@ -403,7 +403,7 @@ bool JobStore::mark_running(const std::string& id, double started_at) {
                          id, started_at) == 1;
 }
 
-bool JobStore::finish(const std::string& id, JobState state, double finished_at, const std::string& error,
+bool SqliteJobStore::finish(const std::string& id, JobState state, double finished_at, const std::string& error,
                       const std::string& report_json) {
     if (!is_final(state))
         throw std::invalid_argument(std::string("job store: finish needs a final state, got ") + to_string(state));
@@ -416,27 +416,27 @@ bool JobStore::finish(const std::string& id, JobState state, double finished_at,
 }
 
 // Both requeues keep attempts: it counts starts, and the interrupted run did start.
-bool JobStore::requeue(const std::string& id) {
+bool SqliteJobStore::requeue(const std::string& id) {
     std::lock_guard lock(impl_->mu);
     impl_->ensure_file();
     return impl_->change("requeue",
                          "UPDATE jobs SET state = 'queued', started_at = 0 WHERE id = ?1 AND state = 'running'", id) == 1;
 }
 
-int JobStore::requeue_all_running() {
+int SqliteJobStore::requeue_all_running() {
     std::lock_guard lock(impl_->mu);
     impl_->ensure_file();
     return impl_->change("requeue_all_running",
                          "UPDATE jobs SET state = 'queued', started_at = 0 WHERE state = 'running'");
 }
 
-std::vector<JobRecord> JobStore::queued_in_order() const {
+std::vector<JobRecord> SqliteJobStore::queued_in_order() const {
     std::lock_guard lock(impl_->mu);
     impl_->ensure_open();
     return impl_->rows("queued_in_order", "WHERE state = 'queued' ORDER BY priority DESC, seq ASC");
 }
 
-bool JobStore::remove_final(const std::string& id) {
+bool SqliteJobStore::remove_final(const std::string& id) {
     std::lock_guard lock(impl_->mu);
     impl_->ensure_file();
     return impl_->change("remove_final",

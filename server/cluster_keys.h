@@ -1,0 +1,35 @@
+#pragma once
+// The names of everything a render farm keeps in Redis, in one place: the job store, the task
+// streams and the render nodes agree on them here.
+#include <string>
+
+namespace tessera::server::keys {
+
+inline const std::string prefix = "tessera:";
+inline std::string job(const std::string& id) { return prefix + "job:" + id; }
+inline const std::string seq = prefix + "seq";
+inline const std::string all_jobs = prefix + "jobs";  // zset seq → id
+inline std::string jobs_in(const std::string& state) { return prefix + "jobs:" + state; }
+inline const std::string queue = prefix + "queue";  // zset run order → id (queued jobs)
+// Tasks: one stream per priority in use; `priorities` lists them (score = priority).
+inline const std::string priorities = prefix + "priorities";
+inline std::string tasks(long long priority) { return prefix + "tasks:" + std::to_string(priority); }
+inline const std::string group = "nodes";
+// A render job's film, tile by tile: field t<i> the tile's encoded film, p<i> its pass.
+inline std::string film(const std::string& id) { return prefix + "film:" + id; }
+// Deliveries of each task of a job (field: pass:tile), to fail a job whose task keeps dying.
+inline std::string deliveries(const std::string& id) { return prefix + "deliveries:" + id; }
+// Tiles and seconds per node for a job's report.
+inline std::string node_tiles(const std::string& id) { return prefix + "nodetiles:" + id; }
+inline std::string node_seconds(const std::string& id) { return prefix + "nodeseconds:" + id; }
+// A job's convergence curve: one JSON point per pass.
+inline std::string curve(const std::string& id) { return prefix + "curve:" + id; }
+// Scene files by content hash.
+inline std::string scene(const std::string& hash) { return prefix + "scene:" + hash; }
+// Live render nodes: hash name → JSON of its metrics, with a heartbeat time.
+inline const std::string nodes = prefix + "nodes";
+
+// Run order of queued jobs as one sorted-set score: priority descending, then seq ascending.
+inline double queue_score(int priority, long long seq) { return double(1000 - priority) * 1e12 + double(seq); }
+
+}  // namespace tessera::server::keys
