@@ -30,8 +30,6 @@ void write_text(const std::string& path, const std::string& text) {
 
 JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutputs& out, const RunCallbacks& cb) {
     const auto t0 = Clock::now();
-    RenderReport rep;
-    rep.job = job;
     const SceneDescription desc = load_scene(opt.scene_source, opt.load_limits);
     const auto t_loaded = Clock::now();
     const RenderScene scene = build_render_scene(desc, job.scene_options);
@@ -67,48 +65,13 @@ JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutp
         return outcome;
     }
 
-    const RenderStats& st = result.stats;
-    Metadata meta = {{"tessera:scene", job.scene}, {"tessera:settings", to_json(job).dump()},
-                     {"tessera:samples", std::to_string(st.samples)},
-                     {"tessera:render_seconds", std::to_string(st.render_seconds)}};
-    if (!opt.job_id.empty()) meta.insert(meta.begin(), {"tessera:job", opt.job_id});
-    if (!out.png.empty()) write_png(out.png, result.image, out.tone, meta);
-    if (!out.exr.empty()) write_exr(out.exr, result.image, meta);
-    if (!out.rate_png.empty()) write_rate_png(out.rate_png, result.image, settings.spp, meta);
-    write_text(out.convergence_csv, convergence_csv(result.curve));
-    if (!out.convergence_svg.empty()) {
-        const std::string who = opt.job_id.empty() ? std::string("Render") : "Job " + opt.job_id;
-        write_text(out.convergence_svg,
-                   convergence_svg({result.curve}, {job.reference.empty() ? "estimated (half buffers)" : "against job " + job.reference},
-                                   who + ": error against time (" + job.scene + ")"));
-    }
-    const auto t_written = Clock::now();
-
-    rep.stats = st;
-    rep.tiles_done = tiles_done;
-    rep.tiles_total = tiles_total;
-    rep.triangles = scene.triangle_count();
-    rep.spheres = scene.spheres.size();
-    rep.bvh = scene.tri_bvh_stats;
-    rep.accel_bytes = scene.triangle_accel_bytes();
-    rep.scene_build = scene.report;
-    rep.render_built = result.built;
-    rep.render_left_out = result.left_out;
-    rep.curve = result.curve;
-    float smin = INFINITY, smax = 0;
-    for (float c : result.image.sample_count) { smin = std::min(smin, c); smax = std::max(smax, c); }
-    rep.spp_min = smin;
-    rep.spp_max = smax;
-    double mean = 0;
-    for (float v : result.image.rgb) mean += v;
-    rep.mean_radiance = result.image.rgb.empty() ? 0.0 : mean / double(result.image.rgb.size());
-    rep.timings = {seconds_between(t0, t_loaded), seconds_between(t_loaded, t_built), st.render_seconds,
-                   seconds_between(t_rendered, t_written), seconds_between(t0, Clock::now())};
-    outcome.report = to_json(rep);
-    write_text(out.report_json, outcome.report.dump(2));
-    outcome.summary = status_summary(rep);
-    outcome.render = std::move(rep);
-    return outcome;
+    FinishedRender done{job, scene, settings, result};
+    done.load_s = seconds_between(t0, t_loaded);
+    done.build_s = seconds_between(t_loaded, t_built);
+    done.before_write_s = seconds_between(t0, t_rendered);
+    done.tiles_done = tiles_done;
+    done.tiles_total = tiles_total;
+    return write_render(done, opt, out);
 }
 
 JobOutcome run_comparison_job(const ComparisonJob& job, const RunOptions& opt, const RunOutputs& out, const RunCallbacks& cb) {
@@ -141,6 +104,58 @@ JobOutcome run_comparison_job(const ComparisonJob& job, const RunOptions& opt, c
 }
 
 }  // namespace
+
+JobOutcome write_render(const FinishedRender& done, const RunOptions& opt, const RunOutputs& out) {
+    const auto t_write = Clock::now();
+    const RenderJob& job = done.job;
+    const RenderResult& result = done.result;
+    const RenderStats& st = result.stats;
+    Metadata meta = {{"tessera:scene", job.scene}, {"tessera:settings", to_json(job).dump()},
+                     {"tessera:samples", std::to_string(st.samples)},
+                     {"tessera:render_seconds", std::to_string(st.render_seconds)}};
+    if (!opt.job_id.empty()) meta.insert(meta.begin(), {"tessera:job", opt.job_id});
+    if (!out.png.empty()) write_png(out.png, result.image, out.tone, meta);
+    if (!out.exr.empty()) write_exr(out.exr, result.image, meta);
+    if (!out.rate_png.empty()) write_rate_png(out.rate_png, result.image, done.settings.spp, meta);
+    write_text(out.convergence_csv, convergence_csv(result.curve));
+    if (!out.convergence_svg.empty()) {
+        const std::string who = opt.job_id.empty() ? std::string("Render") : "Job " + opt.job_id;
+        write_text(out.convergence_svg,
+                   convergence_svg({result.curve}, {job.reference.empty() ? "estimated (half buffers)" : "against job " + job.reference},
+                                   who + ": error against time (" + job.scene + ")"));
+    }
+    const double write_s = seconds_between(t_write, Clock::now());
+
+    RenderReport rep;
+    rep.job = job;
+    rep.stats = st;
+    rep.tiles_done = done.tiles_done;
+    rep.tiles_total = done.tiles_total;
+    rep.nodes = done.nodes;
+    const RenderScene& scene = done.scene;
+    rep.triangles = scene.triangle_count();
+    rep.spheres = scene.spheres.size();
+    rep.bvh = scene.tri_bvh_stats;
+    rep.accel_bytes = scene.triangle_accel_bytes();
+    rep.scene_build = scene.report;
+    rep.render_built = result.built;
+    rep.render_left_out = result.left_out;
+    rep.curve = result.curve;
+    float smin = INFINITY, smax = 0;
+    for (float c : result.image.sample_count) { smin = std::min(smin, c); smax = std::max(smax, c); }
+    rep.spp_min = smin;
+    rep.spp_max = smax;
+    double mean = 0;
+    for (float v : result.image.rgb) mean += v;
+    rep.mean_radiance = result.image.rgb.empty() ? 0.0 : mean / double(result.image.rgb.size());
+    rep.timings = {done.load_s, done.build_s, st.render_seconds, write_s, done.before_write_s + write_s};
+    JobOutcome outcome;
+    outcome.report = to_json(rep);
+    write_text(out.report_json, outcome.report.dump(2));
+    outcome.summary = status_summary(rep);
+    outcome.render = std::move(rep);
+    return outcome;
+}
 
 RunOutputs RunOutputs::in_directory(const std::string& dir) {
     const std::filesystem::path d(dir);

@@ -48,6 +48,22 @@ struct JobOutcome {
     std::optional<RenderReport> render;  // a render job's typed report
 };
 
+// What a finished render leaves: its result files and report, written from the render's result.
+// run_job ends with it, and so does a render farm's last pass with the film its nodes filled.
+struct FinishedRender {
+    FinishedRender(const RenderJob& j, const RenderScene& sc, const RenderSettings& st, const RenderResult& r)
+        : job(j), scene(sc), settings(st), result(r) {}
+    const RenderJob& job;
+    const RenderScene& scene;
+    const RenderSettings& settings;  // as rendered (threads, error estimate)
+    const RenderResult& result;
+    double load_s = 0, build_s = 0;  // preparing the scene
+    double before_write_s = 0;       // from the job's start to the end of rendering
+    size_t tiles_done = 0, tiles_total = 0;
+    std::vector<NodeShare> nodes;
+};
+JobOutcome write_render(const FinishedRender& done, const RunOptions& options, const RunOutputs& outputs);
+
 // Throws SceneError for a scene that does not load, std::runtime_error (or a filesystem
 // error) for a result that cannot be written; the caller decides what the job's state becomes.
 JobOutcome run_job(const Job& job, const RunOptions& options, const RunOutputs& outputs, const RunCallbacks& callbacks = {});

@@ -29,6 +29,16 @@ json progress_json(const RenderReport& r) {
     return {{"fraction", 1.0}, {"tiles_done", r.tiles_done}, {"tiles_total", r.tiles_total}, {"samples_done", r.stats.samples}};
 }
 
+json nodes_json(const RenderReport& r) {
+    json nodes = json::array();
+    size_t all = 0;
+    for (const NodeShare& n : r.nodes) all += n.tiles;
+    for (const NodeShare& n : r.nodes)
+        nodes.push_back({{"node", n.node}, {"tiles", n.tiles}, {"share", all ? double(n.tiles) / double(all) : 0.0},
+                         {"seconds", n.seconds}});
+    return nodes;
+}
+
 }  // namespace
 
 json to_json(const RenderReport& r) {
@@ -59,11 +69,14 @@ json to_json(const RenderReport& r) {
         {"points", points}};
     report["render"] = {{"built", r.render_built}, {"left_out", r.render_left_out}};
     report["progress"] = progress_json(r);
+    if (!r.nodes.empty()) report["nodes"] = nodes_json(r);
     return report;
 }
 
 json status_summary(const RenderReport& r) {
-    return {{"timings", timings_json(r.timings)}, {"stats", stats_json(r)}, {"progress", progress_json(r)}};
+    json s = {{"timings", timings_json(r.timings)}, {"stats", stats_json(r)}, {"progress", progress_json(r)}};
+    if (!r.nodes.empty()) s["nodes"] = nodes_json(r);
+    return s;
 }
 
 }  // namespace tessera::api

@@ -16,6 +16,13 @@ struct JobTimings {
     double load_s = 0, bvh_s = 0, render_s = 0, write_s = 0, total_s = 0;
 };
 
+// A render node's part in a job rendered by a farm: the tiles it committed and its seconds in them.
+struct NodeShare {
+    std::string node;
+    size_t tiles = 0;
+    double seconds = 0;
+};
+
 struct RenderReport {
     RenderJob job;
     JobTimings timings;
@@ -31,6 +38,7 @@ struct RenderReport {
     double spp_min = 0, spp_max = 0;
     double mean_radiance = 0;  // of the linear image, over pixels and channels
     size_t tiles_done = 0, tiles_total = 0;
+    std::vector<NodeShare> nodes;  // a farm's render nodes; empty for one process
 };
 
 // report.json: settings, timings, statistics, scene, convergence, render, progress.

@@ -24,6 +24,8 @@ inline std::string node_tiles(const std::string& id) { return prefix + "nodetile
 inline std::string node_seconds(const std::string& id) { return prefix + "nodeseconds:" + id; }
 // A job's convergence curve: one JSON point per pass.
 inline std::string curve(const std::string& id) { return prefix + "curve:" + id; }
+// What a job's scene is (SceneRef::encode), written by the API node before the job is queued.
+inline std::string job_scene(const std::string& id) { return prefix + "jobscene:" + id; }
 // Scene files by content hash.
 inline std::string scene(const std::string& hash) { return prefix + "scene:" + hash; }
 // Live render nodes: hash name → JSON of its metrics, with a heartbeat time.

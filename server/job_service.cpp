@@ -15,6 +15,7 @@
 #include "engine/scene/procedural.h"
 #include "server/problem.h"
 #include "server/sqlite_job_store.h"
+#include "server/film_codec.h"
 
 namespace tessera::server {
 namespace fs = std::filesystem;
@@ -61,8 +62,25 @@ std::string writable_data_dir(const std::string& dir) {
 
 JobService::JobService(ServiceConfig config)
     : config_(std::move(config)),
-      store_(std::make_unique<SqliteJobStore>(writable_data_dir(config_.data_dir) + "/tessera.db", config_.max_store_bytes)),
-      catalog_(config_.project_scenes, config_.scene_dirs, (fs::path(config_.data_dir) / "uploads").string()) {
+      catalog_(config_.project_scenes, config_.scene_dirs, (fs::path(writable_data_dir(config_.data_dir)) / "uploads").string()) {
+    if (!config_.redis_url.empty()) {
+        // A farm: no queue in this process; render nodes (maybe one here) take the tiles.
+        const RedisUrl url = RedisUrl::parse(config_.redis_url);
+        auto rs = std::make_unique<RedisJobStore>(url, config_.max_store_bytes);
+        redis_store_ = rs.get();
+        store_ = std::move(rs);
+        if (config_.render_locally) {
+            NodeConfig nc = config_.node;
+            nc.redis = url;
+            nc.data_dir = config_.data_dir;
+            nc.threads = config_.render_threads > 0 ? config_.render_threads : int(std::max(1u, std::thread::hardware_concurrency()));
+            nc.load_limits = config_.load_limits;
+            node_ = std::make_unique<RenderNode>(nc);
+            node_->start();
+        }
+        return;
+    }
+    store_ = std::make_unique<SqliteJobStore>(config_.data_dir + "/tessera.db", config_.max_store_bytes);
     const int requeued = store_->requeue_all_running();
     if (requeued) spdlog::warn("{} job(s) were running when the server stopped; queued again", requeued);
     for (const JobRecord& r : store_->queued_in_order()) queue_.insert({r.priority, r.seq, r.id});
@@ -76,7 +94,7 @@ void JobService::shutdown() {
     {
         std::lock_guard<std::mutex> lock(mutex_);
         accepting_ = false;
-        if (stopping_ && workers_.empty()) return;
+        if (stopping_ && workers_.empty() && !node_) return;
         stopping_ = true;
         for (auto& [id, r] : running_) { r->shutdown = true; r->stop = true; }
     }
@@ -84,6 +102,33 @@ void JobService::shutdown() {
     pause_cv_.notify_all();
     for (auto& w : workers_) if (w.joinable()) w.join();
     workers_.clear();
+    // A farm's node hands its tasks in hand back to the others.
+    if (node_) node_->stop();
+    node_.reset();
+}
+
+std::vector<std::pair<std::string, std::string>> JobService::render_nodes() {
+    if (!redis_store_) return {};
+    return redis_store_->nodes();
+}
+
+void JobService::publish_scene(const std::string& id, const std::string& scene) {
+    auto entry = catalog_.find(scene.substr(0, scene.find('?')));
+    if (!entry) throw Problem(404, "unknown-scene", "Unknown scene", "no scene named '" + scene + "'").with_field("/scene");
+    SceneRef ref;
+    if (entry->source == "builtin") {
+        ref.source = scene;
+        redis_store_->put_scene(id, ref, nullptr);
+        return;
+    }
+    std::ifstream in(entry->path, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (!in.good() && !in.eof()) throw Problem(503, "scene-unreadable", "Scene unreadable", "cannot read scene '" + scene + "'");
+    ref.source = entry->path;
+    ref.hash = content_hash(bytes);
+    ref.ext = fs::path(entry->path).extension().string();
+    for (char& c : ref.ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    redis_store_->put_scene(id, ref, &bytes);
 }
 
 std::string JobService::job_dir(const std::string& id) const { return (fs::path(config_.data_dir) / "jobs" / id).string(); }
@@ -136,7 +181,20 @@ json JobService::enqueue(const api::Job& job) {
     rec.spec_json = api::to_json(job).dump();  // the typed job, serialized once
     rec.priority = api::priority_of(job);
     rec.created_at = now_s();
-    {
+    if (redis_store_) {
+        try {
+            const size_t queued = store_->count(JobState::queued);
+            if (queued >= config_.max_queued)
+                throw Problem(429, "queue-full", "The queue is full",
+                              "the queue holds " + std::to_string(queued) + " jobs, its limit").with_retry_after(10);
+            publish_scene(rec.id, api::scene_of(job));
+            store_->insert(rec);  // durable in Redis, and its first task queued, before it is acknowledged
+        } catch (const StoreError& e) {
+            ++metrics_.store_errors;
+            spdlog::error("job refused: {}", e.what());
+            throw store_problem(e);
+        }
+    } else {
         std::lock_guard<std::mutex> lock(mutex_);
         if (queue_.size() >= config_.max_queued)
             throw Problem(429, "queue-full", "The queue is full",
@@ -187,7 +245,23 @@ json JobService::status_json(const JobRecord& rec) {
     st.finished_at = rec.finished_at;
     st.attempts = rec.attempts;
     st.error = rec.error;
-    {
+    if (redis_store_) {
+        try {
+            if (rec.state == JobState::queued) {
+                const long long pos = redis_store_->queue_position(rec.id);
+                if (pos >= 0) st.queue_position = size_t(pos);
+            } else if (rec.state == JobState::running) {
+                if (const auto p = redis_store_->live_progress(rec.id)) {
+                    const json& cfg = st.settings;
+                    const double budget = cfg.is_object() ? cfg.value("spp", 0.0) * cfg.value("width", 0.0) * cfg.value("height", 0.0) : 0.0;
+                    st.live_progress = api::JobProgress{budget > 0 ? std::min(1.0, double(p->samples) / budget) : 0.0, p->tiles_done,
+                                                        p->tiles_total, p->samples};
+                }
+            }
+        } catch (const StoreError&) {
+            // Progress is a courtesy: the record itself was read.
+        }
+    } else {
         std::lock_guard<std::mutex> lock(mutex_);
         if (rec.state == JobState::queued) {
             size_t pos = 0;
@@ -224,6 +298,15 @@ json JobService::list(const std::string& state, size_t offset, size_t limit) {
 
 json JobService::cancel(const std::string& id) {
     status(id);  // 404 for unknown ids
+    if (redis_store_) {
+        // Queued or running alike: nodes drop its tasks, and stop a tile in hand within a row.
+        try {
+            if (store_->finish(id, JobState::canceled, now_s(), "", "")) spdlog::info("job {} canceled", id);
+        } catch (const StoreError& e) {
+            throw store_problem(e);
+        }
+        return status(id);
+    }
     {
         std::lock_guard<std::mutex> lock(mutex_);
         for (auto it = queue_.begin(); it != queue_.end(); ++it)
@@ -262,6 +345,7 @@ std::string JobService::result_path(const std::string& id, const std::string& fi
 }
 
 size_t JobService::queue_depth() {
+    if (redis_store_) return store_->count(JobState::queued);
     std::lock_guard<std::mutex> lock(mutex_);
     return queue_.size();
 }

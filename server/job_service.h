@@ -21,6 +21,8 @@
 #include "api/job.h"
 #include "api/job_status.h"
 #include "server/job_store.h"
+#include "server/redis_job_store.h"
+#include "server/render_node.h"
 #include "server/scene_catalog.h"
 
 namespace tessera::server {
@@ -35,6 +37,12 @@ struct ServiceConfig {
     size_t max_queued = 1000;
     api::JobLimits job_limits;
     LoadLimits load_limits;
+    // A render farm: records, queue and tiles in Redis at this address (redis://…); "" is one
+    // process with SQLite. With Redis, `render_locally` also runs a render node in this process
+    // (`serve --render`), configured by `node`.
+    std::string redis_url;
+    bool render_locally = false;
+    NodeConfig node;
 };
 
 struct ServiceMetrics {
@@ -69,6 +77,9 @@ public:
     std::map<std::string, size_t> counts_by_state();
     ServiceMetrics& metrics() { return metrics_; }
     JobStore& store() { return *store_; }
+    bool farm() const { return redis_store_ != nullptr; }
+    // A farm's render nodes and their last heartbeat's metrics (JSON text); empty for one process.
+    std::vector<std::pair<std::string, std::string>> render_nodes();
     SceneCatalog& catalog() { return catalog_; }
     const ServiceConfig& config() const { return config_; }
 
@@ -99,9 +110,12 @@ private:
     nlohmann::json status_json(const JobRecord& rec);
     std::string job_dir(const std::string& id) const;
     std::string scene_source(const std::string& scene);
+    void publish_scene(const std::string& id, const std::string& scene);
 
     ServiceConfig config_;
     std::unique_ptr<JobStore> store_;
+    RedisJobStore* redis_store_ = nullptr;  // store_, when it is Redis
+    std::unique_ptr<RenderNode> node_;      // serve --redis … --render
     SceneCatalog catalog_;
     ServiceMetrics metrics_;
     std::mutex mutex_;

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "server/cluster_keys.h"
+#include "server/cluster_lua.h"
 
 namespace tessera::server {
 
@@ -31,30 +32,9 @@ end
 return seq
 )lua"};
 
-const RedisScript kTransition{R"lua(
--- ARGV: prefix, id, new state, allowed old states (comma-separated), time, error, report
-local k = ARGV[1] .. 'job:' .. ARGV[2]
-local st = redis.call('HGET', k, 'state')
-if not st then return 0 end
-if not string.find(',' .. ARGV[4] .. ',', ',' .. st .. ',', 1, true) then return 0 end
-local seq = redis.call('HGET', k, 'seq')
-redis.call('ZREM', ARGV[1] .. 'jobs:' .. st, ARGV[2])
-redis.call('ZADD', ARGV[1] .. 'jobs:' .. ARGV[3], seq, ARGV[2])
-redis.call('HSET', k, 'state', ARGV[3])
-if ARGV[3] == 'queued' then
-  redis.call('HSET', k, 'started_at', '0')
-  local pr = tonumber(redis.call('HGET', k, 'priority'))
-  redis.call('ZADD', ARGV[1] .. 'queue', string.format('%.0f', (1000 - pr) * 1e12 + tonumber(seq)), ARGV[2])
-else
-  redis.call('ZREM', ARGV[1] .. 'queue', ARGV[2])
-end
-if ARGV[3] == 'running' then
-  redis.call('HSET', k, 'started_at', ARGV[5])
-  redis.call('HINCRBY', k, 'attempts', 1)
-elseif ARGV[3] ~= 'queued' then
-  redis.call('HSET', k, 'finished_at', ARGV[5], 'error', ARGV[6], 'report', ARGV[7])
-end
-return 1
+const RedisScript kTransition{lua::transition + R"lua(
+-- ARGV: prefix, id, new state, allowed old states, time, error, report
+return transition(ARGV[1], ARGV[2], ARGV[3], ARGV[4], ARGV[5], ARGV[6], ARGV[7])
 )lua"};
 
 const RedisScript kRemoveFinal{R"lua(
@@ -224,9 +204,46 @@ long long RedisJobStore::queue_position(const std::string& id) const {
 bool RedisJobStore::remove_final(const std::string& id) {
     return locked("remove", [&] {
         return redis_.eval(kRemoveFinal,
-                           {keys::film(id), keys::deliveries(id), keys::node_tiles(id), keys::node_seconds(id), keys::curve(id)},
+                           {keys::film(id), keys::deliveries(id), keys::node_tiles(id), keys::node_seconds(id), keys::curve(id),
+                            keys::job_scene(id)},
                            {keys::prefix, id})
                    .as_int() == 1;
+    });
+}
+
+}  // namespace tessera::server
+
+namespace tessera::server {
+
+void RedisJobStore::put_scene(const std::string& job_id, const SceneRef& ref, const std::string* bytes) {
+    locked("publish scene", [&] {
+        std::vector<std::vector<std::string>> cmds;
+        if (bytes) cmds.push_back({"SET", keys::scene(ref.hash), *bytes, "NX"});
+        cmds.push_back({"SET", keys::job_scene(job_id), ref.encode()});
+        redis_.pipeline(cmds);
+        return 0;
+    });
+}
+
+std::optional<RedisJobStore::LiveProgress> RedisJobStore::live_progress(const std::string& id) const {
+    return locked("progress", [&]() -> std::optional<LiveProgress> {
+        const RedisValue v = redis_.command({"HMGET", keys::job(id), "tiles_done", "tiles_total", "samples", "pass"});
+        if (v.items.size() < 4 || v.items[1].is_nil()) return std::nullopt;
+        LiveProgress p;
+        p.tiles_done = size_t(v.items[0].as_int());
+        p.tiles_total = size_t(v.items[1].as_int());
+        p.samples = uint64_t(v.items[2].as_int());
+        p.pass = int(v.items[3].as_int());
+        return p;
+    });
+}
+
+std::vector<std::pair<std::string, std::string>> RedisJobStore::nodes() const {
+    return locked("nodes", [&] {
+        std::vector<std::pair<std::string, std::string>> out;
+        const RedisValue v = redis_.command({"HGETALL", keys::nodes});
+        for (size_t i = 0; i + 1 < v.items.size(); i += 2) out.emplace_back(v.items[i].text, v.items[i + 1].text);
+        return out;
     });
 }
 

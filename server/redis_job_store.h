@@ -10,6 +10,7 @@
 
 #include "server/job_store.h"
 #include "server/redis_client.h"
+#include "server/scene_cache.h"
 
 namespace tessera::server {
 
@@ -34,6 +35,19 @@ public:
 
     // The position of a queued job in run order (0: next), or -1.
     long long queue_position(const std::string& id) const;
+
+    // Farm side. Publishes what a job's scene is (and the file's bytes, once per content) before
+    // the job is queued, so render nodes load exactly the bytes the job named.
+    void put_scene(const std::string& job_id, const SceneRef& ref, const std::string* bytes);
+    struct LiveProgress {
+        size_t tiles_done = 0, tiles_total = 0;
+        uint64_t samples = 0;
+        int pass = 0;
+    };
+    // A running job's progress across all nodes (tiles of the current pass, samples overall).
+    std::optional<LiveProgress> live_progress(const std::string& id) const;
+    // The render nodes' last heartbeats: name → their metrics (JSON text).
+    std::vector<std::pair<std::string, std::string>> nodes() const;
 
 private:
     template <class Fn>

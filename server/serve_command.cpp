@@ -20,6 +20,7 @@
 #include "server/command_line.h"
 #include "server/http_api.h"
 #include "server/job_service.h"
+#include "server/node_options.h"
 
 extern const char* const kTesseraOpenApiYaml;
 
@@ -76,7 +77,26 @@ int serve_command(int argc, char** argv) {
     option("max-store-mb", store_mb, "size bound of the job store in MiB (0: none); past it new jobs get 507")
         ->check(CLI::Range(int64_t{0}, int64_t{1} << 30));
     option("log-level", o.log_level, "log level: trace|debug|info|warn|error")->type_name("LEVEL");
+    option("redis", o.service.redis_url,
+           "a render farm: job records, queue and tiles in Redis (redis://[user:password@]host:port/db); "
+           "every API node answers for every job. Unset: one process with SQLite")
+        ->type_name("URL");
+    app.add_flag("--render", o.service.render_locally, "with --redis: also render tiles in this process (a render node)")
+        ->envname("TESSERA_RENDER");
+    add_node_options(app, o.service.node);
     if (const auto status = parse_args(app, argc, argv)) return *status;
+    if (o.service.render_locally && o.service.redis_url.empty()) {
+        std::fprintf(stderr, "tessera serve: --render needs --redis (without Redis the server renders anyway)\n");
+        return 2;
+    }
+    if (!o.service.redis_url.empty()) {
+        try {
+            RedisUrl::parse(o.service.redis_url);
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "tessera serve: --redis: %s\n", e.what());
+            return 2;
+        }
+    }
     o.service.max_store_bytes = store_mb << 20;
     if (max_triangles->count() > 0) o.service.load_limits.max_vertices = o.service.load_limits.max_triangles * 3;
     if (const char* env = std::getenv("TESSERA_SCENES")) {
@@ -122,8 +142,11 @@ int serve_command(int argc, char** argv) {
         std::fprintf(stderr, "tessera serve: %s\n", e.what());
         return 1;
     }
-    spdlog::info("listening on http://{}:{} (data in {}, {} render threads)", o.host, port, o.service.data_dir,
-                 o.service.render_threads ? std::to_string(o.service.render_threads) : std::string("all"));
+    spdlog::info("listening on http://{}:{} (data in {}, {} render threads{})", o.host, port, o.service.data_dir,
+                 o.service.render_threads ? std::to_string(o.service.render_threads) : std::string("all"),
+                 o.service.redis_url.empty() ? std::string()
+                                             : ", farm on " + RedisUrl::parse(o.service.redis_url).redacted() +
+                                                   (o.service.render_locally ? ", rendering here too" : ", API only"));
 
     std::thread signal_thread([&] {
         int sig = 0;

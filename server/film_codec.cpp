@@ -1,0 +1,88 @@
+#include "server/film_codec.h"
+
+#include <cstdint>
+#include <cstring>
+#include <stdexcept>
+#include <type_traits>
+
+namespace tessera::server {
+
+namespace {
+
+constexpr char kMagic[4] = {'T', 'F', 'L', '1'};
+
+struct Header {
+    char magic[4];
+    int32_t width, height, x0, y0;
+    uint8_t half_buffer, adaptive, pad[2];
+};
+
+static_assert(std::is_trivially_copyable_v<glm::dvec3> && sizeof(glm::dvec3) == 24);
+static_assert(std::is_trivially_copyable_v<RunningStats>);
+
+template <class T>
+void put(std::string& out, const std::vector<T>& v) {
+    out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+}
+
+template <class T>
+void get(const std::string& in, size_t& at, std::vector<T>& v) {
+    const size_t bytes = v.size() * sizeof(T);
+    if (in.size() - at < bytes) throw std::runtime_error("tile film: truncated");
+    std::memcpy(static_cast<void*>(v.data()), in.data() + at, bytes);
+    at += bytes;
+}
+
+}  // namespace
+
+std::string encode_film(const Film& f) {
+    Header h{};
+    std::memcpy(h.magic, kMagic, 4);
+    h.width = f.width;
+    h.height = f.height;
+    h.x0 = f.x0;
+    h.y0 = f.y0;
+    h.half_buffer = !f.sum_odd.empty();
+    h.adaptive = !f.stats.empty();
+    std::string out(reinterpret_cast<const char*>(&h), sizeof h);
+    put(out, f.sum);
+    put(out, f.count);
+    if (h.half_buffer) put(out, f.sum_odd);
+    if (h.adaptive) {
+        put(out, f.stats);
+        put(out, f.done);
+    }
+    return out;
+}
+
+Film decode_film(const std::string& bytes) {
+    Header h;
+    if (bytes.size() < sizeof h) throw std::runtime_error("tile film: truncated header");
+    std::memcpy(&h, bytes.data(), sizeof h);
+    if (std::memcmp(h.magic, kMagic, 4) != 0) throw std::runtime_error("tile film: not a film");
+    if (h.width <= 0 || h.height <= 0 || h.width > 65536 || h.height > 65536) throw std::runtime_error("tile film: bad size");
+    Film f = Film::tile(h.x0, h.y0, h.width, h.height, h.half_buffer != 0, h.adaptive != 0);
+    size_t at = sizeof h;
+    get(bytes, at, f.sum);
+    get(bytes, at, f.count);
+    if (h.half_buffer) get(bytes, at, f.sum_odd);
+    if (h.adaptive) {
+        get(bytes, at, f.stats);
+        get(bytes, at, f.done);
+    }
+    if (at != bytes.size()) throw std::runtime_error("tile film: trailing bytes");
+    return f;
+}
+
+std::string content_hash(const std::string& bytes) {
+    uint64_t h = 1469598103934665603ull;
+    for (unsigned char c : bytes) {
+        h ^= c;
+        h *= 1099511628211ull;
+    }
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "fnv1a64-%016llx-%zu", static_cast<unsigned long long>(h), bytes.size());
+    return buf;
+}
+
+}  // namespace tessera::server

@@ -1,0 +1,20 @@
+#pragma once
+// A tile's film as bytes, to travel through Redis between passes and to the node that assembles
+// the image: the sums are copied bit for bit (doubles stay doubles), so a farm's image equals one
+// process's. Little-endian x86-64 layout; a header names the tile and the buffers present.
+#include <string>
+
+#include "engine/render/film.h"
+
+namespace tessera::server {
+
+std::string encode_film(const Film& film);
+// Throws std::runtime_error for bytes that are not a film this build wrote.
+Film decode_film(const std::string& bytes);
+
+// A content hash for scene files: "fnv1a64-<16 hex>-<size>". It names a file's bytes so a
+// render node loads exactly what the job named; it is not a defence against forged files (the
+// files come from the catalog and from uploads that API nodes validated).
+std::string content_hash(const std::string& bytes);
+
+}  // namespace tessera::server

@@ -1,0 +1,617 @@
+#include "server/render_node.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <optional>
+
+#include <spdlog/spdlog.h>
+
+#include "api/job.h"
+#include "api/job_runner.h"
+#include "engine/camera/camera.h"
+#include "engine/core/scene_error.h"
+#include "engine/io/image_io.h"
+#include "engine/render/passes.h"
+#include "engine/render/tile_context.h"
+#include "server/cluster_keys.h"
+#include "server/cluster_lua.h"
+#include "server/film_codec.h"
+#include "server/scene_cache.h"
+
+namespace tessera::server {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double now_s() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
+long long now_ms() {
+    return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+std::string num(double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
+
+struct Task {
+    std::string stream, id, job, kind;
+    int pass = 0, tile = 0;
+    std::string key() const { return stream + " " + id; }
+};
+
+// An entry as XREADGROUP and XAUTOCLAIM return it: [id, [field, value, ...]].
+std::optional<Task> parse_entry(const std::string& stream, const RedisValue& e) {
+    if (e.items.size() < 2 || e.items[1].type != RedisValue::array) return std::nullopt;
+    Task t;
+    t.stream = stream;
+    t.id = e.items[0].text;
+    const auto& f = e.items[1].items;
+    for (size_t i = 0; i + 1 < f.size(); i += 2) {
+        const std::string& k = f[i].text;
+        const std::string& v = f[i + 1].text;
+        if (k == "job") t.job = v;
+        else if (k == "kind") t.kind = v;
+        else if (k == "pass") t.pass = std::atoi(v.c_str());
+        else if (k == "tile") t.tile = std::atoi(v.c_str());
+    }
+    return t;
+}
+
+const RedisScript kBegin{lua::transition + lua::add_tiles + R"lua(
+-- KEYS: job, stream; ARGV: prefix, id, now (s), now (ms), first target, tiles
+if redis.call('HGET', KEYS[1], 'state') ~= 'queued' then return 0 end
+transition(ARGV[1], ARGV[2], 'running', 'queued', ARGV[3], '', '')
+redis.call('HSET', KEYS[1], 'pass', 0, 'target', ARGV[5], 'tiles_total', ARGV[6], 'tiles_done', 0, 'started_ms', ARGV[4],
+           'samples', 0, 'rays_camera', 0, 'rays_shadow', 0, 'rays_bounce', 0, 'nodes_visited', 0, 'prim_tests', 0,
+           'nonfinite', 0, 'max_sample', '0', 'timed_out', 0)
+add_tiles(KEYS[2], ARGV[2], 0, tonumber(ARGV[6]))
+return 1
+)lua"};
+
+const RedisScript kCommitTile{R"lua(
+-- KEYS: job, film, node tiles, node seconds, stream
+-- ARGV: id, tile, pass, film, node, seconds, timed out, samples, camera, shadow, bounce, nodes visited,
+--       primitive tests, non-finite, max sample
+if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return -1 end
+if tonumber(redis.call('HGET', KEYS[1], 'pass')) ~= tonumber(ARGV[3]) then return -1 end
+local p = redis.call('HGET', KEYS[2], 'p' .. ARGV[2])
+if p and tonumber(p) >= tonumber(ARGV[3]) then return 0 end
+redis.call('HSET', KEYS[2], 't' .. ARGV[2], ARGV[4], 'p' .. ARGV[2], ARGV[3])
+redis.call('HINCRBY', KEYS[1], 'samples', ARGV[8])
+redis.call('HINCRBY', KEYS[1], 'rays_camera', ARGV[9])
+redis.call('HINCRBY', KEYS[1], 'rays_shadow', ARGV[10])
+redis.call('HINCRBY', KEYS[1], 'rays_bounce', ARGV[11])
+redis.call('HINCRBY', KEYS[1], 'nodes_visited', ARGV[12])
+redis.call('HINCRBY', KEYS[1], 'prim_tests', ARGV[13])
+redis.call('HINCRBY', KEYS[1], 'nonfinite', ARGV[14])
+if tonumber(ARGV[15]) > tonumber(redis.call('HGET', KEYS[1], 'max_sample') or '0') then
+  redis.call('HSET', KEYS[1], 'max_sample', ARGV[15])
+end
+if ARGV[7] == '1' then redis.call('HSET', KEYS[1], 'timed_out', 1) end
+redis.call('HINCRBY', KEYS[3], ARGV[5], 1)
+redis.call('HINCRBYFLOAT', KEYS[4], ARGV[5], ARGV[6])
+local done = redis.call('HINCRBY', KEYS[1], 'tiles_done', 1)
+if done == tonumber(redis.call('HGET', KEYS[1], 'tiles_total')) then
+  redis.call('XADD', KEYS[5], '*', 'job', ARGV[1], 'kind', 'assemble', 'pass', ARGV[3], 'tile', 0)
+end
+return 1
+)lua"};
+
+const RedisScript kAdvance{lua::add_tiles + R"lua(
+-- KEYS: job, curve, stream; ARGV: id, pass, next target, point, tiles
+if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return 0 end
+if tonumber(redis.call('HGET', KEYS[1], 'pass')) ~= tonumber(ARGV[2]) then return 0 end
+redis.call('RPUSH', KEYS[2], ARGV[4])
+local next = tonumber(ARGV[2]) + 1
+redis.call('HSET', KEYS[1], 'pass', next, 'target', ARGV[3], 'tiles_done', 0)
+add_tiles(KEYS[3], ARGV[1], next, tonumber(ARGV[5]))
+return 1
+)lua"};
+
+const RedisScript kComplete{lua::transition + R"lua(
+-- KEYS: job, curve; ARGV: prefix, id, pass, point, now, summary
+if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return 0 end
+if tonumber(redis.call('HGET', KEYS[1], 'pass')) ~= tonumber(ARGV[3]) then return 0 end
+redis.call('RPUSH', KEYS[2], ARGV[4])
+return transition(ARGV[1], ARGV[2], 'succeeded', 'running', ARGV[5], '', ARGV[6])
+)lua"};
+
+const RedisScript kTransition{lua::transition + R"lua(
+return transition(ARGV[1], ARGV[2], ARGV[3], ARGV[4], ARGV[5], ARGV[6], ARGV[7])
+)lua"};
+
+// Renews a claim only while it is still this consumer's: a node resumed after a long stop must
+// not take back a task another node has claimed meanwhile.
+const RedisScript kRenew{R"lua(
+-- KEYS: stream; ARGV: id, consumer
+local p = redis.call('XPENDING', KEYS[1], 'nodes', ARGV[1], ARGV[1], 1, ARGV[2])
+if #p == 0 then return 0 end
+redis.call('XCLAIM', KEYS[1], 'nodes', ARGV[2], 0, ARGV[1], 'JUSTID')
+return 1
+)lua"};
+
+json point_json(const ConvergencePoint& p) {
+    return {{"seconds", p.seconds}, {"spp_mean", p.spp_mean}, {"rel_mse", p.rel_mse}, {"mse", p.mse}, {"mae", p.mae},
+            {"est_rel_mse", p.est_rel_mse}};
+}
+
+ConvergencePoint point_from(const json& j) {
+    ConvergencePoint p;
+    p.seconds = j.value("seconds", 0.0);
+    p.spp_mean = j.value("spp_mean", 0.0);
+    p.rel_mse = j.value("rel_mse", -1.0);
+    p.mse = j.value("mse", -1.0);
+    p.mae = j.value("mae", -1.0);
+    p.est_rel_mse = j.value("est_rel_mse", -1.0);
+    return p;
+}
+
+// A job as a node runs it: parsed once per node (the stored job never changes).
+struct JobInfo {
+    api::Job job;
+    SceneRef ref;
+    RenderSettings settings;  // a render job's, as nodes render it
+    PassPlan plan;
+    std::optional<Image> reference;
+};
+
+TileRect tile_rect(const RenderSettings& s, int index) {
+    const int size = std::max(1, s.tile_size);
+    const int per_row = (s.width + size - 1) / size;
+    const int x = (index % per_row) * size, y = (index / per_row) * size;
+    return {x, y, std::min(x + size, s.width), std::min(y + size, s.height)};
+}
+
+int tile_count(const RenderSettings& s) {
+    const int size = std::max(1, s.tile_size);
+    return ((s.width + size - 1) / size) * ((s.height + size - 1) / size);
+}
+
+// A job the node cannot run (scene broken, reference gone): the job fails with this reason.
+struct JobFailure : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+}  // namespace
+
+struct RenderNode::Impl {
+    NodeConfig cfg;
+    std::string name;
+    NodeMetrics metrics;
+    SceneCache cache;
+    std::atomic<bool> stopping{false};
+    std::vector<std::thread> threads;
+    std::thread heartbeat;
+    std::mutex mu;  // held, jobs
+    std::condition_variable wake;
+    struct Held {
+        Task task;
+        std::string consumer;
+        std::shared_ptr<std::atomic<bool>> cancel;  // stop working on it (job canceled, taken over, node stops)
+        std::shared_ptr<std::atomic<bool>> lost;    // another node claimed it: not ours to acknowledge
+    };
+    std::map<std::string, Held> held;
+    std::map<std::string, std::shared_ptr<const JobInfo>> jobs;
+
+    explicit Impl(NodeConfig c)
+        : cfg(std::move(c)),
+          cache((fs::temp_directory_path() / ("tessera-node-" + std::to_string(::getpid()))).string(), cfg.scene_cache_mb << 20,
+                cfg.load_limits) {
+        name = cfg.name;
+        if (name.empty()) {
+            char host[256] = {0};
+            ::gethostname(host, sizeof host - 1);
+            name = std::string(host) + "-" + std::to_string(::getpid());
+        }
+    }
+
+    std::shared_ptr<const JobInfo> job_info(Redis& r, const std::string& id) {
+        {
+            std::lock_guard lock(mu);
+            auto it = jobs.find(id);
+            if (it != jobs.end()) return it->second;
+        }
+        const auto v = r.pipeline({{"HGET", keys::job(id), "spec"}, {"GET", keys::job_scene(id)}});
+        if (v[0].is_nil()) return nullptr;
+        auto info = std::make_shared<JobInfo>();
+        info->job = api::job_from_json(json::parse(v[0].text));
+        if (!v[1].is_nil()) info->ref = SceneRef::decode(v[1].text);
+        else info->ref.source = api::scene_of(info->job);  // built-in scenes need no file
+        if (const auto* rj = std::get_if<api::RenderJob>(&info->job)) {
+            info->settings = rj->render;
+            info->settings.threads = 1;
+            info->settings.estimate_error = true;  // as the server's runner: the error curve is reported
+            if (!rj->reference.empty()) {
+                const fs::path ref = fs::path(cfg.data_dir) / "jobs" / rj->reference / "image.exr";
+                if (!fs::exists(ref)) throw JobFailure("the reference job's image was deleted");
+                info->reference = read_image(ref.string());
+            }
+            info->plan = plan_passes(info->settings, info->reference.has_value(), false);
+        }
+        std::lock_guard lock(mu);
+        if (jobs.size() > 256) jobs.clear();
+        jobs[id] = info;
+        return info;
+    }
+
+    void ack(Redis& r, const Task& t) {
+        // Deleted once acknowledged: the streams hold only work not yet done.
+        r.pipeline({{"XACK", t.stream, keys::group, t.id}, {"XDEL", t.stream, t.id}});
+    }
+
+    void fail_job(Redis& r, const std::string& id, const std::string& why) {
+        if (r.eval(kTransition, {}, {keys::prefix, id, "failed", "queued,running", num(now_s()), why, ""}).as_int() == 1)
+            spdlog::error("node {}: job {} failed: {}", name, id, why);
+    }
+
+    // A task in hand goes back: idle as if its node had gone silent, so any node claims it now.
+    void hand_back(Redis& r, const Task& t, const std::string& consumer) {
+        try {
+            r.command({"XCLAIM", t.stream, keys::group, consumer, "0", t.id, "IDLE", std::to_string(cfg.visibility_ms + 1), "JUSTID"});
+        } catch (const RedisError&) {
+        }
+    }
+
+    std::vector<std::string> streams(Redis& r) {
+        std::vector<std::string> s;
+        for (const auto& p : r.command({"ZREVRANGEBYSCORE", keys::priorities, "+inf", "-inf"}).items) s.push_back(keys::tasks(std::stoll(p.text)));
+        return s;
+    }
+
+    std::optional<Task> next_task(Redis& r, const std::string& consumer, std::deque<Task>& local, Clock::time_point& last_reclaim) {
+        if (!local.empty()) {
+            Task t = local.front();
+            local.pop_front();
+            return t;
+        }
+        const std::vector<std::string> ss = streams(r);
+        if (ss.empty()) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(200));
+            return std::nullopt;
+        }
+        // Tasks of silent nodes first, highest priority first.
+        if (Clock::now() - last_reclaim > std::chrono::milliseconds(std::max(100, cfg.visibility_ms / 4))) {
+            last_reclaim = Clock::now();
+            for (const auto& s : ss) {
+                const RedisValue v = r.command({"XAUTOCLAIM", s, keys::group, consumer, std::to_string(cfg.visibility_ms), "0-0", "COUNT", "1"});
+                if (v.items.size() >= 2)
+                    for (const auto& e : v.items[1].items)
+                        if (auto t = parse_entry(s, e)) {
+                            ++metrics.reclaimed;
+                            spdlog::warn("node {}: took over {} task of job {} (pass {}, tile {}) from a silent node", name, t->kind, t->job, t->pass, t->tile);
+                            return t;
+                        }
+            }
+        }
+        for (const auto& s : ss) {
+            const RedisValue v = r.command({"XREADGROUP", "GROUP", keys::group, consumer, "COUNT", "1", "STREAMS", s, ">"});
+            for (const auto& st : v.items)
+                if (st.items.size() >= 2)
+                    for (const auto& e : st.items[1].items)
+                        if (auto t = parse_entry(s, e)) return t;
+        }
+        std::vector<std::string> cmd = {"XREADGROUP", "GROUP", keys::group, consumer, "COUNT", "1", "BLOCK", "500", "STREAMS"};
+        cmd.insert(cmd.end(), ss.begin(), ss.end());
+        for (size_t i = 0; i < ss.size(); ++i) cmd.push_back(">");
+        const RedisValue v = r.command(cmd);
+        // One entry per stream may come back: in stream (priority) order, kept here.
+        for (const auto& st : v.items)
+            if (st.items.size() >= 2)
+                for (const auto& e : st.items[1].items)
+                    if (auto t = parse_entry(st.items[0].text, e)) local.push_back(*t);
+        if (local.empty()) return std::nullopt;
+        Task t = local.front();
+        local.pop_front();
+        return t;
+    }
+
+    void worker(int index) {
+        const std::string consumer = name + "/" + std::to_string(index);
+        Redis r(cfg.redis);
+        std::deque<Task> local;
+        auto last_reclaim = Clock::now() - std::chrono::hours(1);
+        int backoff_ms = 100;
+        while (!stopping) {
+            std::optional<Task> t;
+            try {
+                t = next_task(r, consumer, local, last_reclaim);
+                backoff_ms = 100;
+            } catch (const RedisError& e) {
+                ++metrics.redis_errors;
+                spdlog::warn("node {}: {}; retrying in {} ms", name, e.what(), backoff_ms);
+                std::this_thread::sleep_for(std::chrono::milliseconds(backoff_ms));
+                backoff_ms = std::min(2000, backoff_ms * 2);
+                continue;
+            }
+            if (!t) continue;
+            auto cancel = std::make_shared<std::atomic<bool>>(false);
+            auto lost = std::make_shared<std::atomic<bool>>(false);
+            {
+                std::lock_guard lock(mu);
+                held[t->key()] = {*t, consumer, cancel, lost};
+            }
+            // The same task again after a Redis error (a restart): every step is idempotent.
+            for (int attempt = 0; !stopping; ++attempt) {
+                try {
+                    run_task(r, *t, *cancel, *lost);
+                    break;
+                } catch (const RedisError& e) {
+                    ++metrics.redis_errors;
+                    spdlog::warn("node {}: {} task of job {}: {}; retrying", name, t->kind, t->job, e.what());
+                    std::this_thread::sleep_for(std::chrono::milliseconds(std::min(2000, 100 << std::min(attempt, 5))));
+                }
+            }
+            if (stopping) hand_back(r, *t, consumer);
+            std::lock_guard lock(mu);
+            held.erase(t->key());
+        }
+        for (const Task& t : local) hand_back(r, t, consumer);
+    }
+
+    void run_task(Redis& r, const Task& t, std::atomic<bool>& cancel, const std::atomic<bool>& lost) {
+        try {
+            if (t.kind == "tile") tile(r, t, cancel);
+            else if (t.kind == "assemble") assemble(r, t);
+            else if (t.kind == "start") begin(r, t, cancel);
+            else spdlog::warn("node {}: unknown task kind '{}' dropped", name, t.kind);
+        } catch (const RedisError&) {
+            throw;
+        } catch (const SceneError& e) {
+            fail_job(r, t.job, std::string("scene: ") + e.what());
+        } catch (const std::exception& e) {
+            fail_job(r, t.job, e.what());
+        }
+        if (!stopping && !lost) ack(r, t);
+    }
+
+    void begin(Redis& r, const Task& t, std::atomic<bool>& cancel) {
+        const RedisValue st = r.command({"HGET", keys::job(t.job), "state"});
+        if (st.text != "queued") { ++metrics.duplicates; return; }
+        const auto info = job_info(r, t.job);
+        if (!info) return;
+        ++metrics.starts;
+        if (const auto* cj = std::get_if<api::ComparisonJob>(&info->job)) return compare(r, t, *cj, cancel);
+        const auto& rj = std::get<api::RenderJob>(info->job);
+        cache.get(r, info->ref, rj.scene_options);  // a scene that does not load fails the job here, once
+        const int n = tile_count(info->settings);
+        if (r.eval(kBegin, {keys::job(t.job), t.stream},
+                   {keys::prefix, t.job, num(now_s()), std::to_string(now_ms()), std::to_string(pass_target(info->settings, info->plan, 0)),
+                    std::to_string(n)}).as_int() == 1)
+            spdlog::info("node {}: job {} running: {} tiles per pass", name, t.job, n);
+    }
+
+    // A comparison runs whole here: its configurations race each other for equal time, which
+    // tiles spread over nodes would not keep equal.
+    void compare(Redis& r, const Task& t, const api::ComparisonJob& job, std::atomic<bool>& cancel) {
+        if (r.eval(kTransition, {}, {keys::prefix, t.job, "running", "queued", num(now_s()), "", ""}).as_int() != 1) return;
+        api::RunOptions opt;
+        std::string source = job.scene;
+        const auto info = job_info(r, t.job);
+        {
+            // Materialize the scene file as a render job would.
+            api::RenderJob probe = api::default_render_job();
+            cache.get(r, info->ref, probe.scene_options);
+        }
+        opt.scene_source = info->ref.hash.empty() ? info->ref.source
+                                                  : (fs::temp_directory_path() / ("tessera-node-" + std::to_string(::getpid())) /
+                                                     (info->ref.hash + info->ref.ext)).string();
+        opt.load_limits = cfg.load_limits;
+        opt.threads = 1;
+        opt.job_id = t.job;
+        const fs::path dir = fs::path(cfg.data_dir) / "jobs" / t.job;
+        fs::create_directories(dir);
+        api::RunCallbacks cb;
+        cb.stop = &cancel;
+        const api::JobOutcome out = api::run_job(job, opt, api::RunOutputs::in_directory(dir.string()), cb);
+        if (out.stopped) return;
+        r.eval(kTransition, {}, {keys::prefix, t.job, "succeeded", "running", num(now_s()), "", out.summary.dump()});
+    }
+
+    void tile(Redis& r, const Task& t, std::atomic<bool>& cancel) {
+        const RedisValue v = r.command({"HMGET", keys::job(t.job), "state", "pass", "target", "started_ms"});
+        if (v.items[0].text != "running" || v.items[1].is_nil() || v.items[1].as_int() != t.pass) { ++metrics.duplicates; return; }
+        const long long delivered = r.command({"HINCRBY", keys::deliveries(t.job), std::to_string(t.pass) + ":" + std::to_string(t.tile), "1"}).as_int();
+        if (delivered > cfg.max_deliveries)
+            throw JobFailure("tile " + std::to_string(t.tile) + " of pass " + std::to_string(t.pass) + " was delivered " +
+                             std::to_string(delivered) + " times: the nodes that took it stopped answering (crashed, killed, out of memory?)");
+        const int target = int(v.items[2].as_int());
+        const long long started_ms = v.items[3].as_int();
+        const auto info = job_info(r, t.job);
+        if (!info) return;
+        const auto& rj = std::get<api::RenderJob>(info->job);
+        const auto prepared = cache.get(r, info->ref, rj.scene_options);
+        const RenderSettings& s = info->settings;
+        const TileRect rect = tile_rect(s, t.tile);
+        Film film = Film::tile(rect.x0, rect.y0, rect.width(), rect.height(), info->plan.half_buffer, info->plan.adaptive);
+        if (t.pass > 0) {
+            const RedisValue f = r.command({"HGET", keys::film(t.job), "t" + std::to_string(t.tile)});
+            if (f.is_nil()) throw JobFailure("the film of tile " + std::to_string(t.tile) + " is missing from Redis");
+            film = decode_film(f.text);
+        }
+        const long long deadline = s.time_limit_s > 0 ? started_ms + (long long)(s.time_limit_s * 1000.0) : 0;
+        auto late = [&] { return deadline && now_ms() > deadline; };
+        auto interrupted = [&] { return cancel.load() || stopping.load(); };
+        const auto t0 = Clock::now();
+        const Camera camera = make_camera(prepared->scene.camera, s.width, s.height);  // the context keeps a reference
+        TileContext ctx(prepared->scene, s, camera);
+        bool timed_out = late();
+        if (!timed_out && !interrupted()) timed_out = !render_tile(ctx, rect, film, target, [&] { return late() || interrupted(); }) && !interrupted();
+        if (interrupted()) return;  // canceled, taken over, or the node stops: nothing stored
+        const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+        const RenderStats& st = ctx.stats;
+        const long long rc = r.eval(kCommitTile,
+                                    {keys::job(t.job), keys::film(t.job), keys::node_tiles(t.job), keys::node_seconds(t.job), t.stream},
+                                    {t.job, std::to_string(t.tile), std::to_string(t.pass), encode_film(film), name, num(seconds),
+                                     timed_out ? "1" : "0", std::to_string(st.samples), std::to_string(st.camera_rays),
+                                     std::to_string(st.shadow_rays), std::to_string(st.bounce_rays),
+                                     std::to_string(st.traversal.nodes_visited), std::to_string(st.traversal.prim_tests),
+                                     std::to_string(st.nonfinite_samples), num(st.max_sample)})
+                                .as_int();
+        if (rc == 1) {
+            ++metrics.tiles;
+            metrics.rays += st.rays();
+            metrics.render_micros += uint64_t(seconds * 1e6);
+        } else {
+            ++metrics.duplicates;  // another node stored it first: the same film, dropped
+        }
+    }
+
+    void assemble(Redis& r, const Task& t) {
+        const RedisValue v = r.command({"HMGET", keys::job(t.job), "state", "pass", "target", "tiles_total", "started_ms", "timed_out",
+                                        "samples", "rays_camera", "rays_shadow", "rays_bounce", "nodes_visited", "prim_tests",
+                                        "nonfinite", "max_sample"});
+        if (v.items[0].text != "running" || v.items[1].is_nil() || v.items[1].as_int() != t.pass) { ++metrics.duplicates; return; }
+        const auto info = job_info(r, t.job);
+        if (!info) return;
+        const auto& rj = std::get<api::RenderJob>(info->job);
+        const RenderSettings& s = info->settings;
+        const PassPlan& plan = info->plan;
+        const int target = int(v.items[2].as_int());
+        const int n = int(v.items[3].as_int());
+        Film film(s.width, s.height, plan.half_buffer, plan.adaptive);
+        const RedisValue tiles = r.command({"HGETALL", keys::film(t.job)});
+        int found = 0;
+        for (size_t i = 0; i + 1 < tiles.items.size(); i += 2) {
+            const std::string& field = tiles.items[i].text;
+            if (field.empty() || field[0] != 't') continue;
+            const Film tf = decode_film(tiles.items[i + 1].text);
+            copy_tile_into(tf, {tf.x0, tf.y0, tf.x0 + tf.width, tf.y0 + tf.height}, film);
+            ++found;
+        }
+        if (found != n) throw JobFailure("pass " + std::to_string(t.pass) + " has " + std::to_string(found) + " of " + std::to_string(n) + " tiles in Redis");
+        const double seconds = double(now_ms() - v.items[4].as_int()) / 1000.0;
+        ConvergencePoint pt;
+        if (plan.measuring) pt = measure_error(film, info->reference ? &*info->reference : nullptr);
+        else pt.spp_mean = double(v.items[6].as_int()) / (double(s.width) * s.height);
+        pt.seconds = seconds;
+        std::optional<StopReason> stop = stop_after_pass(s, plan, film, target, pt, v.items[5].as_int() == 1, false);
+        if (!stop && t.pass + 1 >= plan.max_passes) stop = StopReason::spp;
+        ++metrics.assemblies;
+        if (!stop) {
+            r.eval(kAdvance, {keys::job(t.job), keys::curve(t.job), t.stream},
+                   {t.job, std::to_string(t.pass), std::to_string(pass_target(s, plan, target)), point_json(pt).dump(), std::to_string(n)});
+            return;
+        }
+        // The last pass: the results, then the job's state (a node that dies in between leaves
+        // the task to another, which writes the same files again).
+        RenderResult result;
+        for (const auto& p : r.command({"LRANGE", keys::curve(t.job), "0", "-1"}).items) result.curve.points.push_back(point_from(json::parse(p.text)));
+        result.curve.points.push_back(pt);
+        result.curve.stop = *stop;
+        result.image = film.resolve();
+        RenderStats& st = result.stats;
+        st.samples = uint64_t(v.items[6].as_int());
+        st.camera_rays = uint64_t(v.items[7].as_int());
+        st.shadow_rays = uint64_t(v.items[8].as_int());
+        st.bounce_rays = uint64_t(v.items[9].as_int());
+        st.traversal.nodes_visited = uint64_t(v.items[10].as_int());
+        st.traversal.prim_tests = uint64_t(v.items[11].as_int());
+        st.nonfinite_samples = uint64_t(v.items[12].as_int());
+        st.max_sample = std::stof(v.items[13].text);
+        st.render_seconds = seconds;
+        const auto prepared = cache.get(r, info->ref, rj.scene_options);
+        describe_render(prepared->scene, s, film, result.built, result.left_out);
+        const auto shares = r.pipeline({{"HGETALL", keys::node_tiles(t.job)}, {"HGETALL", keys::node_seconds(t.job)}});
+        std::map<std::string, api::NodeShare> by_node;
+        for (size_t i = 0; i + 1 < shares[0].items.size(); i += 2) {
+            auto& ns = by_node[shares[0].items[i].text];
+            ns.node = shares[0].items[i].text;
+            ns.tiles = size_t(shares[0].items[i + 1].as_int());
+        }
+        for (size_t i = 0; i + 1 < shares[1].items.size(); i += 2) by_node[shares[1].items[i].text].seconds = std::stod(shares[1].items[i + 1].text);
+        st.threads = int(by_node.size());
+        api::FinishedRender done{rj, prepared->scene, s, result};
+        done.load_s = prepared->load_s;
+        done.build_s = prepared->build_s;
+        done.before_write_s = seconds;
+        done.tiles_done = done.tiles_total = size_t(n);
+        for (auto& [node, share] : by_node) done.nodes.push_back(share);
+        // Written beside the final place and renamed into it: API nodes never serve half a file.
+        const fs::path dir = fs::path(cfg.data_dir) / "jobs" / t.job;
+        const fs::path part = dir / (".part-" + name + "-" + std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()) % 100000));
+        fs::create_directories(part);
+        api::RunOptions opt;
+        opt.job_id = t.job;
+        const api::JobOutcome out = api::write_render(done, opt, api::RunOutputs::in_directory(part.string()));
+        for (const auto& e : fs::directory_iterator(part)) fs::rename(e.path(), dir / e.path().filename());
+        fs::remove_all(part);
+        if (r.eval(kComplete, {keys::job(t.job), keys::curve(t.job)},
+                   {keys::prefix, t.job, std::to_string(t.pass), point_json(pt).dump(), num(now_s()), out.summary.dump()}).as_int() == 1)
+            spdlog::info("node {}: job {} succeeded ({} passes, {:.3f} s)", name, t.job, t.pass + 1, seconds);
+    }
+
+    void beat() {
+        Redis r(cfg.redis);
+        const auto period = std::chrono::milliseconds(std::max(50, cfg.visibility_ms / 4));
+        while (!stopping) {
+            try {
+                std::vector<Held> now;
+                {
+                    std::lock_guard lock(mu);
+                    for (const auto& [k, h] : held) now.push_back(h);
+                }
+                for (const Held& h : now) {
+                    if (r.eval(kRenew, {h.task.stream}, {h.task.id, h.consumer}).as_int() == 0) {
+                        spdlog::warn("node {}: task of job {} was taken over by another node; dropping it", name, h.task.job);
+                        *h.lost = true;
+                        *h.cancel = true;
+                        continue;
+                    }
+                    const std::string st = r.command({"HGET", keys::job(h.task.job), "state"}).text;
+                    if (st != "running" && st != "queued") *h.cancel = true;  // canceled (or gone): stop within a row
+                }
+                const json m = {{"tiles", metrics.tiles.load()}, {"assemblies", metrics.assemblies.load()},
+                                {"starts", metrics.starts.load()}, {"duplicates", metrics.duplicates.load()},
+                                {"reclaimed", metrics.reclaimed.load()}, {"redis_errors", metrics.redis_errors.load()},
+                                {"rays", metrics.rays.load()}, {"render_seconds", double(metrics.render_micros.load()) * 1e-6},
+                                {"threads", cfg.threads}, {"scene_cache_hits", cache.hits()}, {"scene_cache_misses", cache.misses()},
+                                {"last_seen", now_s()}};
+                r.command({"HSET", keys::nodes, name, m.dump()});
+            } catch (const RedisError& e) {
+                ++metrics.redis_errors;
+            }
+            std::unique_lock lock(mu);
+            wake.wait_for(lock, period, [&] { return stopping.load(); });
+        }
+    }
+};
+
+RenderNode::RenderNode(NodeConfig config) : impl_(std::make_unique<Impl>(std::move(config))) {}
+
+RenderNode::~RenderNode() { stop(); }
+
+void RenderNode::start() {
+    Impl& m = *impl_;
+    for (int i = 0; i < std::max(1, m.cfg.threads); ++i) m.threads.emplace_back([&m, i] { m.worker(i); });
+    m.heartbeat = std::thread([&m] { m.beat(); });
+    spdlog::info("render node {} on {} ({} threads, visibility {} ms)", m.name, m.cfg.redis.redacted(), m.cfg.threads, m.cfg.visibility_ms);
+}
+
+void RenderNode::stop() {
+    Impl& m = *impl_;
+    {
+        std::lock_guard lock(m.mu);
+        m.stopping = true;
+        for (auto& [k, h] : m.held) *h.cancel = true;
+    }
+    m.wake.notify_all();
+    for (auto& t : m.threads) if (t.joinable()) t.join();
+    m.threads.clear();
+    if (m.heartbeat.joinable()) m.heartbeat.join();
+}
+
+const std::string& RenderNode::name() const { return impl_->name; }
+NodeMetrics& RenderNode::metrics() { return impl_->metrics; }
+
+}  // namespace tessera::server
