@@ -14,8 +14,9 @@ packages=(
   # the command line (subcommands, help, environment variables) is CLI11, fed from api/'s job
   # field table; yaml-cpp reads api/openapi.yaml in the test that holds it to that table
   libcli11-dev libyaml-cpp-dev
-  # the server's durable job records
-  libsqlite3-dev
+  # the server's durable job records (one process), and a render farm's queue: Redis 7 and
+  # its C client hiredis; the farm tests start a real redis-server
+  libsqlite3-dev redis-server libhiredis-dev
   # Intel Embree 3, the reference our BVH is measured against (bvh "embree")
   libembree-dev
   # libFuzzer comes with clang's runtime

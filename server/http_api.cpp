@@ -246,6 +246,33 @@ std::string HttpApi::metrics_text() {
       << "tessera_jobs_submitted_total " << service_.metrics().jobs_submitted.load() << "\n";
     m << "# HELP tessera_store_errors_total Writes the job store refused (full or unavailable).\n"
       << "# TYPE tessera_store_errors_total counter\ntessera_store_errors_total " << service_.metrics().store_errors.load() << "\n";
+    // A farm's render nodes, from their last heartbeat in Redis (any API node shows them all).
+    try {
+        auto nodes = service_.render_nodes();
+        for (auto& [name, text] : nodes)  // a label value: no quote, backslash or newline from a node's name
+            for (char& c : name) if (c == '"' || c == '\\' || c == '\n') c = '_';
+        if (!nodes.empty()) {
+            const std::pair<const char*, const char*> series[] = {
+                {"tiles", "Tiles a render node stored."}, {"duplicates", "Tasks a render node found done or taken (late duplicates)."},
+                {"reclaimed", "Tasks a render node took over from silent nodes."}, {"rays", "Rays a render node traced."},
+                {"render_seconds", "Seconds a render node spent in tiles."}, {"redis_errors", "Redis errors a render node retried."}};
+            for (const auto& [key, help] : series) {
+                m << "# HELP tessera_node_" << key << "_total " << help << "\n# TYPE tessera_node_" << key << "_total counter\n";
+                for (const auto& [name, text] : nodes) {
+                    const json j = json::parse(text, nullptr, false);
+                    if (j.is_object() && j.contains(key)) m << "tessera_node_" << key << "_total{node=\"" << name << "\"} " << j[key].dump() << "\n";
+                }
+            }
+            m << "# HELP tessera_node_last_seen_seconds Unix time of a render node's last heartbeat.\n"
+              << "# TYPE tessera_node_last_seen_seconds gauge\n";
+            for (const auto& [name, text] : nodes) {
+                const json j = json::parse(text, nullptr, false);
+                if (j.is_object() && j.contains("last_seen")) m << "tessera_node_last_seen_seconds{node=\"" << name << "\"} " << j["last_seen"].dump() << "\n";
+            }
+        }
+    } catch (const std::exception&) {
+        // Redis unreachable: the rest of the metrics still answer.
+    }
     m << "# HELP tessera_http_requests_total HTTP responses by status.\n# TYPE tessera_http_requests_total counter\n";
     std::lock_guard<std::mutex> lock(status_mutex_);
     for (const auto& [status, n] : responses_by_status_) m << "tessera_http_requests_total{status=\"" << status << "\"} " << n << "\n";

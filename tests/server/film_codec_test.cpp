@@ -1,0 +1,68 @@
+#include "server/film_codec.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <stdexcept>
+
+namespace tessera::server {
+namespace {
+
+Film sample_film(bool half, bool adaptive) {
+    Film f = Film::tile(32, 16, 5, 3, half, adaptive);
+    for (size_t i = 0; i < f.sum.size(); ++i) {
+        f.sum[i] = glm::dvec3(0.1 * double(i), 1.0 / 3.0, -0.0);
+        f.count[i] = uint32_t(i * 7);
+        if (half) f.sum_odd[i] = glm::dvec3(1e-300, 1e300, double(i));
+        if (adaptive) {
+            f.stats[i].add(double(i));
+            f.stats[i].add(0.5);
+            f.done[i] = uint8_t(i & 1);
+        }
+    }
+    return f;
+}
+
+TEST(FilmCodec, RoundTripsBitForBit) {
+    for (bool half : {false, true})
+        for (bool adaptive : {false, true}) {
+            const Film f = sample_film(half, adaptive);
+            const Film g = decode_film(encode_film(f));
+            EXPECT_EQ(g.x0, 32);
+            EXPECT_EQ(g.y0, 16);
+            EXPECT_EQ(g.width, 5);
+            EXPECT_EQ(g.height, 3);
+            EXPECT_EQ(0, std::memcmp(f.sum.data(), g.sum.data(), f.sum.size() * sizeof(f.sum[0])));
+            EXPECT_EQ(f.sum_odd.size(), g.sum_odd.size());
+            EXPECT_EQ(0, std::memcmp(f.sum_odd.data(), g.sum_odd.data(), f.sum_odd.size() * sizeof(glm::dvec3)));
+            EXPECT_EQ(f.count, g.count);
+            EXPECT_EQ(f.done, g.done);
+            ASSERT_EQ(f.stats.size(), g.stats.size());
+            for (size_t i = 0; i < f.stats.size(); ++i) EXPECT_EQ(f.stats[i].m2, g.stats[i].m2);
+            EXPECT_EQ(encode_film(g), encode_film(f));
+        }
+}
+
+TEST(FilmCodec, RefusesWhatItDidNotWrite) {
+    const std::string good = encode_film(sample_film(true, true));
+    EXPECT_THROW(decode_film(""), std::runtime_error);
+    EXPECT_THROW(decode_film(good.substr(0, good.size() - 1)), std::runtime_error);
+    EXPECT_THROW(decode_film(good + "x"), std::runtime_error);
+    std::string bad = good;
+    bad[0] = 'X';
+    EXPECT_THROW(decode_film(bad), std::runtime_error);
+    std::string huge = good;
+    const int32_t w = 1 << 30;
+    std::memcpy(&huge[4], &w, 4);
+    EXPECT_THROW(decode_film(huge), std::runtime_error);
+}
+
+TEST(ContentHash, NamesBytes) {
+    EXPECT_EQ(content_hash("abc"), content_hash(std::string("abc")));
+    EXPECT_NE(content_hash("abc"), content_hash("abd"));
+    EXPECT_NE(content_hash(std::string("a\0", 2)), content_hash("a"));
+    EXPECT_EQ(content_hash("").rfind("fnv1a64-", 0), 0u);
+}
+
+}  // namespace
+}  // namespace tessera::server
