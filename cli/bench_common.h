@@ -16,5 +16,6 @@ int bench_server(int argc, char** argv);
 int bench_convergence(int argc, char** argv);
 int bench_leave_out(int argc, char** argv);
 int bench_rays(int argc, char** argv);
+int bench_cluster(int argc, char** argv);
 
 }  // namespace tessera::cli

@@ -17,6 +17,9 @@ inline std::string tasks(long long priority) { return prefix + "tasks:" + std::t
 inline const std::string group = "nodes";
 // A render job's film, tile by tile: field t<i> the tile's encoded film, p<i> its pass.
 inline std::string film(const std::string& id) { return prefix + "film:" + id; }
+// A job rendered straight through (no stop rule needs the whole image between passes): each
+// tile's error sums and reach times per pass target, for the convergence curve (field t<i>).
+inline std::string sums(const std::string& id) { return prefix + "sums:" + id; }
 // Deliveries of each task of a job (field: pass:tile), to fail a job whose task keeps dying.
 inline std::string deliveries(const std::string& id) { return prefix + "deliveries:" + id; }
 // Tiles and seconds per node for a job's report.

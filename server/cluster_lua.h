@@ -32,7 +32,7 @@ local function transition(prefix, id, new_state, allowed, now, err, report)
     redis.call('HINCRBY', k, 'attempts', 1)
   elseif new_state ~= 'queued' then
     redis.call('HSET', k, 'finished_at', now, 'error', err, 'report', report)
-    redis.call('DEL', prefix .. 'film:' .. id, prefix .. 'deliveries:' .. id)
+    redis.call('DEL', prefix .. 'film:' .. id, prefix .. 'deliveries:' .. id, prefix .. 'sums:' .. id)
   end
   return 1
 end
@@ -45,6 +45,39 @@ local function add_tiles(stream, id, pass, n)
     redis.call('XADD', stream, '*', 'job', id, 'kind', 'tile', 'pass', pass, 'tile', t)
   end
 end
+)lua";
+
+// Stores a tile's film for its pass (once: a duplicate returns 0, a task of a pass gone by or a
+// job no longer running returns -1), adds its statistics to the job and its node's share, and
+// queues `assemble` when it was the pass's last tile.
+inline const std::string commit_tile = R"lua(
+-- KEYS: job, film, node tiles, node seconds, stream, sums
+-- ARGV: id, tile, pass, film, node, seconds, timed out, samples, camera, shadow, bounce, nodes visited,
+--       primitive tests, non-finite, max sample, the tile's error sums per pass target ('' if none)
+if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return -1 end
+if tonumber(redis.call('HGET', KEYS[1], 'pass')) ~= tonumber(ARGV[3]) then return -1 end
+local p = redis.call('HGET', KEYS[2], 'p' .. ARGV[2])
+if p and tonumber(p) >= tonumber(ARGV[3]) then return 0 end
+redis.call('HSET', KEYS[2], 't' .. ARGV[2], ARGV[4], 'p' .. ARGV[2], ARGV[3])
+if ARGV[16] ~= '' then redis.call('HSET', KEYS[6], 't' .. ARGV[2], ARGV[16]) end
+redis.call('HINCRBY', KEYS[1], 'samples', ARGV[8])
+redis.call('HINCRBY', KEYS[1], 'rays_camera', ARGV[9])
+redis.call('HINCRBY', KEYS[1], 'rays_shadow', ARGV[10])
+redis.call('HINCRBY', KEYS[1], 'rays_bounce', ARGV[11])
+redis.call('HINCRBY', KEYS[1], 'nodes_visited', ARGV[12])
+redis.call('HINCRBY', KEYS[1], 'prim_tests', ARGV[13])
+redis.call('HINCRBY', KEYS[1], 'nonfinite', ARGV[14])
+if tonumber(ARGV[15]) > tonumber(redis.call('HGET', KEYS[1], 'max_sample') or '0') then
+  redis.call('HSET', KEYS[1], 'max_sample', ARGV[15])
+end
+if ARGV[7] == '1' then redis.call('HSET', KEYS[1], 'timed_out', 1) end
+redis.call('HINCRBY', KEYS[3], ARGV[5], 1)
+redis.call('HINCRBYFLOAT', KEYS[4], ARGV[5], ARGV[6])
+local done = redis.call('HINCRBY', KEYS[1], 'tiles_done', 1)
+if done == tonumber(redis.call('HGET', KEYS[1], 'tiles_total')) then
+  redis.call('XADD', KEYS[5], '*', 'job', ARGV[1], 'kind', 'assemble', 'pass', ARGV[3], 'tile', 0)
+end
+return 1
 )lua";
 
 }  // namespace tessera::server::lua

@@ -79,34 +79,7 @@ add_tiles(KEYS[2], ARGV[2], 0, tonumber(ARGV[6]))
 return 1
 )lua"};
 
-const RedisScript kCommitTile{R"lua(
--- KEYS: job, film, node tiles, node seconds, stream
--- ARGV: id, tile, pass, film, node, seconds, timed out, samples, camera, shadow, bounce, nodes visited,
---       primitive tests, non-finite, max sample
-if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return -1 end
-if tonumber(redis.call('HGET', KEYS[1], 'pass')) ~= tonumber(ARGV[3]) then return -1 end
-local p = redis.call('HGET', KEYS[2], 'p' .. ARGV[2])
-if p and tonumber(p) >= tonumber(ARGV[3]) then return 0 end
-redis.call('HSET', KEYS[2], 't' .. ARGV[2], ARGV[4], 'p' .. ARGV[2], ARGV[3])
-redis.call('HINCRBY', KEYS[1], 'samples', ARGV[8])
-redis.call('HINCRBY', KEYS[1], 'rays_camera', ARGV[9])
-redis.call('HINCRBY', KEYS[1], 'rays_shadow', ARGV[10])
-redis.call('HINCRBY', KEYS[1], 'rays_bounce', ARGV[11])
-redis.call('HINCRBY', KEYS[1], 'nodes_visited', ARGV[12])
-redis.call('HINCRBY', KEYS[1], 'prim_tests', ARGV[13])
-redis.call('HINCRBY', KEYS[1], 'nonfinite', ARGV[14])
-if tonumber(ARGV[15]) > tonumber(redis.call('HGET', KEYS[1], 'max_sample') or '0') then
-  redis.call('HSET', KEYS[1], 'max_sample', ARGV[15])
-end
-if ARGV[7] == '1' then redis.call('HSET', KEYS[1], 'timed_out', 1) end
-redis.call('HINCRBY', KEYS[3], ARGV[5], 1)
-redis.call('HINCRBYFLOAT', KEYS[4], ARGV[5], ARGV[6])
-local done = redis.call('HINCRBY', KEYS[1], 'tiles_done', 1)
-if done == tonumber(redis.call('HGET', KEYS[1], 'tiles_total')) then
-  redis.call('XADD', KEYS[5], '*', 'job', ARGV[1], 'kind', 'assemble', 'pass', ARGV[3], 'tile', 0)
-end
-return 1
-)lua"};
+const RedisScript kCommitTile{lua::commit_tile};
 
 const RedisScript kAdvance{lua::add_tiles + R"lua(
 -- KEYS: job, curve, stream; ARGV: id, pass, next target, point, tiles
@@ -164,6 +137,12 @@ struct JobInfo {
     RenderSettings settings;  // a render job's, as nodes render it
     PassPlan plan;
     std::optional<Image> reference;
+    // No stop rule needs the whole image between passes (the job stops on spp): each tile is
+    // rendered through every pass target on the node that takes it, in one task, measuring its
+    // own error after each target. The sums match pass-by-pass rendering's (samples are added
+    // in the same order), without a barrier per pass.
+    bool straight = false;
+    std::vector<int> targets;  // the pass targets, 1, 2, 4, …, spp
 };
 
 TileRect tile_rect(const RenderSettings& s, int index) {
@@ -200,6 +179,7 @@ struct RenderNode::Impl {
         std::string consumer;
         std::shared_ptr<std::atomic<bool>> cancel;  // stop working on it (job canceled, taken over, node stops)
         std::shared_ptr<std::atomic<bool>> lost;    // another node claimed it: not ours to acknowledge
+        std::shared_ptr<std::atomic<bool>> acked;   // done here: a failed renewal means nothing then
     };
     std::map<std::string, Held> held;
     std::map<std::string, std::shared_ptr<const JobInfo>> jobs;
@@ -238,6 +218,13 @@ struct RenderNode::Impl {
                 info->reference = read_image(ref.string());
             }
             info->plan = plan_passes(info->settings, info->reference.has_value(), false);
+            const RenderSettings& s = info->settings;
+            info->straight = !info->plan.adaptive && s.target_error <= 0 && s.time_limit_s <= 0;
+            for (int t = 0, k = 0; k < info->plan.max_passes; ++k) {
+                t = pass_target(s, info->plan, t);
+                info->targets.push_back(t);
+                if (t >= s.spp) break;
+            }
         }
         std::lock_guard lock(mu);
         if (jobs.size() > 256) jobs.clear();
@@ -269,13 +256,19 @@ struct RenderNode::Impl {
         return s;
     }
 
-    std::optional<Task> next_task(Redis& r, const std::string& consumer, std::deque<Task>& local, Clock::time_point& last_reclaim) {
+    std::optional<Task> next_task(Redis& r, const std::string& consumer, std::deque<Task>& local, Clock::time_point& last_reclaim,
+                                  std::vector<std::string>& cached_streams, Clock::time_point& streams_read) {
         if (!local.empty()) {
             Task t = local.front();
             local.pop_front();
             return t;
         }
-        const std::vector<std::string> ss = streams(r);
+        // The streams in use change only when a job of a new priority arrives: read every 250 ms.
+        if (Clock::now() - streams_read > std::chrono::milliseconds(250) || cached_streams.empty()) {
+            cached_streams = streams(r);
+            streams_read = Clock::now();
+        }
+        const std::vector<std::string>& ss = cached_streams;
         if (ss.empty()) {
             std::this_thread::sleep_for(std::chrono::milliseconds(200));
             return std::nullopt;
@@ -321,11 +314,13 @@ struct RenderNode::Impl {
         Redis r(cfg.redis);
         std::deque<Task> local;
         auto last_reclaim = Clock::now() - std::chrono::hours(1);
+        auto streams_read = last_reclaim;
+        std::vector<std::string> cached_streams;
         int backoff_ms = 100;
         while (!stopping) {
             std::optional<Task> t;
             try {
-                t = next_task(r, consumer, local, last_reclaim);
+                t = next_task(r, consumer, local, last_reclaim, cached_streams, streams_read);
                 backoff_ms = 100;
             } catch (const RedisError& e) {
                 ++metrics.redis_errors;
@@ -337,14 +332,15 @@ struct RenderNode::Impl {
             if (!t) continue;
             auto cancel = std::make_shared<std::atomic<bool>>(false);
             auto lost = std::make_shared<std::atomic<bool>>(false);
+            auto acked = std::make_shared<std::atomic<bool>>(false);
             {
                 std::lock_guard lock(mu);
-                held[t->key()] = {*t, consumer, cancel, lost};
+                held[t->key()] = {*t, consumer, cancel, lost, acked};
             }
             // The same task again after a Redis error (a restart): every step is idempotent.
             for (int attempt = 0; !stopping; ++attempt) {
                 try {
-                    run_task(r, *t, *cancel, *lost);
+                    run_task(r, *t, *cancel, *lost, *acked);
                     break;
                 } catch (const RedisError& e) {
                     ++metrics.redis_errors;
@@ -359,7 +355,7 @@ struct RenderNode::Impl {
         for (const Task& t : local) hand_back(r, t, consumer);
     }
 
-    void run_task(Redis& r, const Task& t, std::atomic<bool>& cancel, const std::atomic<bool>& lost) {
+    void run_task(Redis& r, const Task& t, std::atomic<bool>& cancel, const std::atomic<bool>& lost, std::atomic<bool>& acked) {
         try {
             if (t.kind == "tile") tile(r, t, cancel);
             else if (t.kind == "assemble") assemble(r, t);
@@ -372,7 +368,10 @@ struct RenderNode::Impl {
         } catch (const std::exception& e) {
             fail_job(r, t.job, e.what());
         }
-        if (!stopping && !lost) ack(r, t);
+        if (!stopping && !lost) {
+            acked = true;
+            ack(r, t);
+        }
     }
 
     void begin(Redis& r, const Task& t, std::atomic<bool>& cancel) {
@@ -386,7 +385,8 @@ struct RenderNode::Impl {
         cache.get(r, info->ref, rj.scene_options);  // a scene that does not load fails the job here, once
         const int n = tile_count(info->settings);
         if (r.eval(kBegin, {keys::job(t.job), t.stream},
-                   {keys::prefix, t.job, num(now_s()), std::to_string(now_ms()), std::to_string(pass_target(info->settings, info->plan, 0)),
+                   {keys::prefix, t.job, num(now_s()), std::to_string(now_ms()),
+                    std::to_string(info->straight ? info->settings.spp : pass_target(info->settings, info->plan, 0)),
                     std::to_string(n)}).as_int() == 1)
             spdlog::info("node {}: job {} running: {} tiles per pass", name, t.job, n);
     }
@@ -419,9 +419,13 @@ struct RenderNode::Impl {
     }
 
     void tile(Redis& r, const Task& t, std::atomic<bool>& cancel) {
-        const RedisValue v = r.command({"HMGET", keys::job(t.job), "state", "pass", "target", "started_ms"});
+        // One round trip: the job's pass, and this task's delivery count (counted even for a task
+        // found stale, which is then dropped anyway).
+        const auto got = r.pipeline({{"HMGET", keys::job(t.job), "state", "pass", "target", "started_ms"},
+                                     {"HINCRBY", keys::deliveries(t.job), std::to_string(t.pass) + ":" + std::to_string(t.tile), "1"}});
+        const RedisValue& v = got[0];
         if (v.items[0].text != "running" || v.items[1].is_nil() || v.items[1].as_int() != t.pass) { ++metrics.duplicates; return; }
-        const long long delivered = r.command({"HINCRBY", keys::deliveries(t.job), std::to_string(t.pass) + ":" + std::to_string(t.tile), "1"}).as_int();
+        const long long delivered = got[1].as_int();
         if (delivered > cfg.max_deliveries)
             throw JobFailure("tile " + std::to_string(t.tile) + " of pass " + std::to_string(t.pass) + " was delivered " +
                              std::to_string(delivered) + " times: the nodes that took it stopped answering (crashed, killed, out of memory?)");
@@ -446,17 +450,28 @@ struct RenderNode::Impl {
         const Camera camera = make_camera(prepared->scene.camera, s.width, s.height);  // the context keeps a reference
         TileContext ctx(prepared->scene, s, camera);
         bool timed_out = late();
-        if (!timed_out && !interrupted()) timed_out = !render_tile(ctx, rect, film, target, [&] { return late() || interrupted(); }) && !interrupted();
+        json sums;  // straight through: per pass target, the tile's error sums and when it got there
+        if (info->straight) {
+            const Image* ref = info->reference ? &*info->reference : nullptr;
+            for (int k : info->targets) {
+                if (!render_tile(ctx, rect, film, k, interrupted)) break;
+                const ErrorSums e = error_sums(film, ref);
+                sums.push_back({k, now_ms(), e.spp, e.est, e.rel, e.mse, e.mae, e.pixels, e.est_pixels, e.half_buffer, e.reference});
+            }
+        } else if (!timed_out && !interrupted()) {
+            timed_out = !render_tile(ctx, rect, film, target, [&] { return late() || interrupted(); }) && !interrupted();
+        }
         if (interrupted()) return;  // canceled, taken over, or the node stops: nothing stored
         const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
         const RenderStats& st = ctx.stats;
         const long long rc = r.eval(kCommitTile,
-                                    {keys::job(t.job), keys::film(t.job), keys::node_tiles(t.job), keys::node_seconds(t.job), t.stream},
+                                    {keys::job(t.job), keys::film(t.job), keys::node_tiles(t.job), keys::node_seconds(t.job), t.stream,
+                                     keys::sums(t.job)},
                                     {t.job, std::to_string(t.tile), std::to_string(t.pass), encode_film(film), name, num(seconds),
                                      timed_out ? "1" : "0", std::to_string(st.samples), std::to_string(st.camera_rays),
                                      std::to_string(st.shadow_rays), std::to_string(st.bounce_rays),
                                      std::to_string(st.traversal.nodes_visited), std::to_string(st.traversal.prim_tests),
-                                     std::to_string(st.nonfinite_samples), num(st.max_sample)})
+                                     std::to_string(st.nonfinite_samples), num(st.max_sample), sums.is_null() ? std::string() : sums.dump()})
                                 .as_int();
         if (rc == 1) {
             ++metrics.tiles;
@@ -474,7 +489,6 @@ struct RenderNode::Impl {
         if (v.items[0].text != "running" || v.items[1].is_nil() || v.items[1].as_int() != t.pass) { ++metrics.duplicates; return; }
         const auto info = job_info(r, t.job);
         if (!info) return;
-        const auto& rj = std::get<api::RenderJob>(info->job);
         const RenderSettings& s = info->settings;
         const PassPlan& plan = info->plan;
         const int target = int(v.items[2].as_int());
@@ -490,7 +504,9 @@ struct RenderNode::Impl {
             ++found;
         }
         if (found != n) throw JobFailure("pass " + std::to_string(t.pass) + " has " + std::to_string(found) + " of " + std::to_string(n) + " tiles in Redis");
-        const double seconds = double(now_ms() - v.items[4].as_int()) / 1000.0;
+        const long long started_ms = v.items[4].as_int();
+        const double seconds = double(now_ms() - started_ms) / 1000.0;
+        if (info->straight) return finish_straight(r, t, *info, film, v, n, started_ms);
         ConvergencePoint pt;
         if (plan.measuring) pt = measure_error(film, info->reference ? &*info->reference : nullptr);
         else pt.spp_mean = double(v.items[6].as_int()) / (double(s.width) * s.height);
@@ -503,12 +519,57 @@ struct RenderNode::Impl {
                    {t.job, std::to_string(t.pass), std::to_string(pass_target(s, plan, target)), point_json(pt).dump(), std::to_string(n)});
             return;
         }
-        // The last pass: the results, then the job's state (a node that dies in between leaves
-        // the task to another, which writes the same files again).
         RenderResult result;
         for (const auto& p : r.command({"LRANGE", keys::curve(t.job), "0", "-1"}).items) result.curve.points.push_back(point_from(json::parse(p.text)));
         result.curve.points.push_back(pt);
         result.curve.stop = *stop;
+        write_results(r, t, *info, film, v, n, seconds, std::move(result), pt);
+    }
+
+    // A straight-through job's only assembly: the curve from every tile's sums per pass target
+    // (a point's time is when the last tile reached that target).
+    void finish_straight(Redis& r, const Task& t, const JobInfo& info, const Film& film, const RedisValue& v, int n, long long started_ms) {
+        std::vector<ErrorSums> total(info.targets.size());
+        std::vector<long long> reached(info.targets.size(), started_ms);
+        std::vector<int> tiles_at(info.targets.size(), 0);
+        const RedisValue all = r.command({"HGETALL", keys::sums(t.job)});
+        for (size_t i = 0; i + 1 < all.items.size(); i += 2) {
+            const json per = json::parse(all.items[i + 1].text);
+            for (size_t k = 0; k < per.size() && k < total.size(); ++k) {
+                const json& p = per[k];
+                ErrorSums e;
+                e.spp = p[2];
+                e.est = p[3];
+                e.rel = p[4];
+                e.mse = p[5];
+                e.mae = p[6];
+                e.pixels = p[7];
+                e.est_pixels = p[8];
+                e.half_buffer = p[9];
+                e.reference = p[10];
+                total[k].add(e);
+                reached[k] = std::max(reached[k], p[1].get<long long>());
+                ++tiles_at[k];
+            }
+        }
+        RenderResult result;
+        for (size_t k = 0; k < total.size(); ++k) {
+            if (tiles_at[k] != n) break;  // a tile stopped short (cannot happen without a time limit)
+            ConvergencePoint pt = total[k].point();
+            pt.seconds = double(reached[k] - started_ms) / 1000.0;
+            result.curve.points.push_back(pt);
+        }
+        result.curve.stop = StopReason::spp;
+        const ConvergencePoint last = result.curve.points.empty() ? ConvergencePoint{} : result.curve.points.back();
+        write_results(r, t, info, film, v, n, double(now_ms() - started_ms) / 1000.0, std::move(result), last);
+    }
+
+    // The last pass: the results, then the job's state (a node that dies in between leaves the
+    // task to another, which writes the same files again).
+    void write_results(Redis& r, const Task& t, const JobInfo& info, const Film& film, const RedisValue& v, int n, double seconds,
+                       RenderResult result, const ConvergencePoint& pt) {
+        const auto& rj = std::get<api::RenderJob>(info.job);
+        const RenderSettings& s = info.settings;
         result.image = film.resolve();
         RenderStats& st = result.stats;
         st.samples = uint64_t(v.items[6].as_int());
@@ -520,7 +581,7 @@ struct RenderNode::Impl {
         st.nonfinite_samples = uint64_t(v.items[12].as_int());
         st.max_sample = std::stof(v.items[13].text);
         st.render_seconds = seconds;
-        const auto prepared = cache.get(r, info->ref, rj.scene_options);
+        const auto prepared = cache.get(r, info.ref, rj.scene_options);
         describe_render(prepared->scene, s, film, result.built, result.left_out);
         const auto shares = r.pipeline({{"HGETALL", keys::node_tiles(t.job)}, {"HGETALL", keys::node_seconds(t.job)}});
         std::map<std::string, api::NodeShare> by_node;
@@ -548,7 +609,7 @@ struct RenderNode::Impl {
         fs::remove_all(part);
         if (r.eval(kComplete, {keys::job(t.job), keys::curve(t.job)},
                    {keys::prefix, t.job, std::to_string(t.pass), point_json(pt).dump(), num(now_s()), out.summary.dump()}).as_int() == 1)
-            spdlog::info("node {}: job {} succeeded ({} passes, {:.3f} s)", name, t.job, t.pass + 1, seconds);
+            spdlog::info("node {}: job {} succeeded ({} passes, {:.3f} s)", name, t.job, result.curve.points.size(), seconds);
     }
 
     void beat() {
@@ -562,7 +623,9 @@ struct RenderNode::Impl {
                     for (const auto& [k, h] : held) now.push_back(h);
                 }
                 for (const Held& h : now) {
+                    if (*h.acked) continue;
                     if (r.eval(kRenew, {h.task.stream}, {h.task.id, h.consumer}).as_int() == 0) {
+                        if (*h.acked) continue;  // acknowledged meanwhile
                         spdlog::warn("node {}: task of job {} was taken over by another node; dropping it", name, h.task.job);
                         *h.lost = true;
                         *h.cancel = true;

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "engine/render/film.h"
+#include "engine/render/image.h"
 
 namespace tessera {
 
@@ -20,41 +21,64 @@ const char* to_string(StopReason r) {
     return "?";
 }
 
-ConvergencePoint measure_error(const Film& film, const Image* reference) {
-    ConvergencePoint pt;
-    const size_t n = film.sum.size();
-    double spp = 0, est = 0, rel = 0, mse = 0, mae = 0;
-    size_t est_n = 0;
+ErrorSums error_sums(const Film& film, const Image* reference) {
+    ErrorSums e;
+    e.pixels = film.sum.size();
+    e.half_buffer = !film.sum_odd.empty();
+    e.reference = reference != nullptr;
     constexpr double eps = 0.01;
-    for (size_t i = 0; i < n; ++i) {
+    for (size_t i = 0; i < film.sum.size(); ++i) {
         const double c = double(film.count[i]);
-        spp += c;
+        e.spp += c;
         if (c == 0) continue;
         const glm::dvec3 mean = film.sum[i] / c;
         if (!film.sum_odd.empty() && film.count[i] >= 2) {
             const double n_odd = std::floor(c / 2), n_even = c - n_odd;
             const glm::dvec3 b = film.sum_odd[i] / n_odd, a = (film.sum[i] - film.sum_odd[i]) / n_even;
-            for (int k = 0; k < 3; ++k) est += (a[k] - b[k]) * (a[k] - b[k]) / 4.0 / (mean[k] * mean[k] + eps);
-            ++est_n;
+            for (int k = 0; k < 3; ++k) e.est += (a[k] - b[k]) * (a[k] - b[k]) / 4.0 / (mean[k] * mean[k] + eps);
+            ++e.est_pixels;
         }
         if (reference) {
+            // The reference covers the image; the film may cover one tile of it.
+            const size_t x = size_t(film.x0) + i % size_t(film.width), y = size_t(film.y0) + i / size_t(film.width);
+            const size_t ri = y * size_t(reference->width) + x;
             for (int k = 0; k < 3; ++k) {
-                const double r = reference->rgb[i * 3 + size_t(k)], d = mean[k] - r;
-                rel += d * d / (r * r + eps);
-                mse += d * d;
-                mae += std::abs(d);
+                const double r = reference->rgb[ri * 3 + size_t(k)], d = mean[k] - r;
+                e.rel += d * d / (r * r + eps);
+                e.mse += d * d;
+                e.mae += std::abs(d);
             }
         }
     }
-    pt.spp_mean = n ? spp / double(n) : 0;
-    if (!film.sum_odd.empty() && est_n) pt.est_rel_mse = est / double(3 * est_n);
-    if (reference) {
-        pt.rel_mse = rel / double(3 * n);
-        pt.mse = mse / double(3 * n);
-        pt.mae = mae / double(3 * n);
+    return e;
+}
+
+void ErrorSums::add(const ErrorSums& o) {
+    spp += o.spp;
+    est += o.est;
+    rel += o.rel;
+    mse += o.mse;
+    mae += o.mae;
+    pixels += o.pixels;
+    est_pixels += o.est_pixels;
+    half_buffer = half_buffer || o.half_buffer;
+    reference = reference || o.reference;
+}
+
+ConvergencePoint ErrorSums::point() const {
+    ConvergencePoint pt;
+    const double n = double(pixels);
+    pt.spp_mean = pixels ? spp / n : 0;
+    if (half_buffer && est_pixels) pt.est_rel_mse = est / double(3 * est_pixels);
+    if (reference && pixels) {
+        pt.rel_mse = rel / (3 * n);
+        pt.mse = mse / (3 * n);
+        pt.mae = mae / (3 * n);
     }
     return pt;
 }
+
+ConvergencePoint measure_error(const Film& film, const Image* reference) { return error_sums(film, reference).point(); }
 
 std::string convergence_csv(const ConvergenceCurve& c) {
     std::ostringstream o;

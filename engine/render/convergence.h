@@ -29,6 +29,19 @@ struct ConvergenceCurve {
     StopReason stop = StopReason::spp;
 };
 
+// The sums behind a ConvergencePoint: they add up over tiles, so a render farm's nodes each
+// measure their own tiles and the point of the whole image is their sum (in another order than
+// one process's, so equal to the last few bits).
+struct ErrorSums {
+    double spp = 0, est = 0, rel = 0, mse = 0, mae = 0;
+    uint64_t pixels = 0, est_pixels = 0;
+    bool half_buffer = false, reference = false;
+    void add(const ErrorSums& other);
+    ConvergencePoint point() const;  // without its time
+};
+// Of a film covering the image or one tile of it (`reference` covers the whole image).
+ErrorSums error_sums(const Film& film, const Image* reference);
+
 // The error of the film so far, by the definitions above: the half-buffer estimate when the
 // film keeps the odd samples, and the error against `reference` when given (same size).
 ConvergencePoint measure_error(const Film& film, const Image* reference);

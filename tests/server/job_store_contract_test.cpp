@@ -16,7 +16,7 @@
 
 #include "server/redis_job_store.h"
 #include "server/sqlite_job_store.h"
-#include "tests/server/redis_server.h"
+#include "server/redis_process.h"
 
 namespace tessera::server {
 namespace {
@@ -41,7 +41,7 @@ JobRecord make_job(uint64_t n, int priority = 0) {
 class JobStoreContract : public ::testing::TestWithParam<std::string> {
 protected:
     static void SetUpTestSuite() {
-        redis_ = new testing::RedisServer();
+        redis_ = new RedisServer();
         if (redis_->available() && !redis_->start()) {
             delete redis_;
             redis_ = nullptr;
@@ -60,7 +60,7 @@ protected:
         fs::create_directories(dir_);
         if (GetParam() == "redis") {
             if (!redis_) {
-                if (testing::redis_required()) FAIL() << "redis-server did not start (TESSERA_REQUIRE_REDIS=1)";
+                if (redis_required()) FAIL() << "redis-server did not start (TESSERA_REQUIRE_REDIS=1)";
                 GTEST_SKIP() << "redis-server is not installed (apt-get install redis-server): the Redis store is not tested";
             }
             Redis r(redis_->url());
@@ -78,10 +78,10 @@ protected:
     }
 
     fs::path dir_;
-    static testing::RedisServer* redis_;
+    static RedisServer* redis_;
 };
 
-testing::RedisServer* JobStoreContract::redis_ = nullptr;
+RedisServer* JobStoreContract::redis_ = nullptr;
 
 TEST_P(JobStoreContract, InsertGetRoundTripsEveryField) {
     auto owned = open();

@@ -1,8 +1,7 @@
 #pragma once
-// A real redis-server from Debian's package for a test: its own temporary directory, a random
-// loopback port, AOF on (appendfsync always, so a test's kill -9 loses nothing it was told).
-// Absent binary: the test skips with that reason, unless TESSERA_REQUIRE_REDIS=1 (CI), where
-// it fails.
+// A redis-server child process (Debian's binary) for tests and benchmarks: its own temporary
+// directory, a random loopback port, AOF on with the given fsync policy ("off": no AOF). Tests skip where the
+// binary is absent, unless TESSERA_REQUIRE_REDIS=1 (CI), where they fail.
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -16,7 +15,7 @@
 
 #include "server/redis_client.h"
 
-namespace tessera::testing {
+namespace tessera::server {
 
 inline std::string find_redis_server() {
     for (const char* dir : {"/usr/bin", "/usr/local/bin", "/usr/sbin"}) {
@@ -33,7 +32,7 @@ inline bool redis_required() {
 
 class RedisServer {
 public:
-    RedisServer() {
+    explicit RedisServer(std::string appendfsync = "always") : appendfsync_(std::move(appendfsync)) {
         binary_ = find_redis_server();
         dir_ = std::filesystem::temp_directory_path() / ("tessera_redis_" + std::to_string(::getpid()) + "_" +
                                                          std::to_string(std::random_device{}()));
@@ -55,13 +54,14 @@ public:
             if (pid_ == 0) {
                 const std::string port = std::to_string(port_), dir = dir_.string();
                 ::execl(binary_.c_str(), binary_.c_str(), "--port", port.c_str(), "--bind", "127.0.0.1", "--dir", dir.c_str(),
-                        "--appendonly", "yes", "--appendfsync", "always", "--save", "", "--daemonize", "no",
+                        "--appendonly", appendfsync_ == "off" ? "no" : "yes", "--appendfsync",
+                        appendfsync_ == "off" ? "everysec" : appendfsync_.c_str(), "--save", "", "--daemonize", "no",
                         "--logfile", (dir + "/redis.log").c_str(), static_cast<char*>(nullptr));
                 ::_exit(127);
             }
             for (int i = 0; i < 200; ++i) {
                 try {
-                    server::Redis r(url(), 1.0);
+                    Redis r(url(), 1.0);
                     if (r.command({"PING"}).text == "PONG") return true;
                 } catch (...) {
                 }
@@ -81,8 +81,8 @@ public:
         ::waitpid(pid_, &status, 0);
         pid_ = -1;
     }
-    server::RedisUrl url() const {
-        server::RedisUrl u;
+    RedisUrl url() const {
+        RedisUrl u;
         u.host = "127.0.0.1";
         u.port = port_;
         return u;
@@ -90,10 +90,11 @@ public:
     int port() const { return port_; }
 
 private:
+    std::string appendfsync_;
     std::string binary_;
     std::filesystem::path dir_;
     int port_ = 0;
     pid_t pid_ = -1;
 };
 
-}  // namespace tessera::testing
+}  // namespace tessera::server

@@ -1,0 +1,271 @@
+// `tessera bench cluster`: what a render farm costs and gains on this machine, against a real
+// redis-server (Debian's, started here with the AOF settings docs/scaling.md documents).
+//   1. hand-offs: one tile task through Redis with a render that does nothing — XADD, XREADGROUP,
+//      the real commit script with a film of the tile's size, XACK — per second, for 1 and N
+//      clients, at 16×16, 32×32 and 64×64 tiles;
+//   2. end to end: the same light job rendered by one process and by a farm of one node, both
+//      on one thread; the difference per tile is the farm's overhead (queue, film transfer,
+//      assembly);
+//   3. scaling: CBbunny as one process with 2 threads against two render nodes with 1 thread each
+//      (same image, checked bit for bit; wall time; efficiency).
+// Farm nodes here are RenderNode objects in this process, each with its own Redis connections
+// and threads, so the bench needs no orchestration; the fault tests run them as processes.
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "api/job_runner.h"
+#include "cli/bench_common.h"
+#include "engine/io/image_io.h"
+#include "engine/render/film.h"
+#include "server/cluster_keys.h"
+#include "server/cluster_lua.h"
+#include "server/command_line.h"
+#include "server/film_codec.h"
+#include "server/job_service.h"
+#include "server/redis_process.h"
+#include "server/render_node.h"
+
+namespace tessera::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+using server::Redis;
+using server::RedisScript;
+
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+double median(std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v.empty() ? 0.0 : v[v.size() / 2];
+}
+
+// Hand-offs per second of `clients` threads for `seconds`, each through the whole protocol.
+double handoffs(const server::RedisUrl& url, int tile, int clients, double seconds) {
+    const RedisScript commit{server::lua::commit_tile};
+    const std::string job = "benchbenchbench0", stream = server::keys::tasks(0);
+    {
+        Redis r(url);
+        r.command({"FLUSHALL"});
+        r.command({"HSET", server::keys::job(job), "state", "running", "pass", "0", "tiles_total", "1000000000000", "tiles_done", "0",
+                   "max_sample", "0"});
+        r.command({"XGROUP", "CREATE", stream, server::keys::group, "0", "MKSTREAM"});
+    }
+    // The film a tile of this size carries with the error estimate on (the server's default).
+    const std::string film = server::encode_film(Film::tile(0, 0, tile, tile, true, false));
+    std::atomic<uint64_t> done{0};
+    std::vector<std::thread> threads;
+    for (int c = 0; c < clients; ++c)
+        threads.emplace_back([&, c] {
+            Redis r(url);
+            const std::string consumer = "bench/" + std::to_string(c);
+            const auto t0 = Clock::now();
+            for (uint64_t i = 0; since(t0) < seconds; ++i) {
+                const std::string t = std::to_string(c * 100000 + int(i % 512));
+                r.command({"XADD", stream, "*", "job", job, "kind", "tile", "pass", "0", "tile", t});
+                const auto got = r.command({"XREADGROUP", "GROUP", server::keys::group, consumer, "COUNT", "1", "STREAMS", stream, ">"});
+                if (got.items.empty()) continue;
+                const std::string id = got.items[0].items[1].items[0].items[0].text;
+                r.eval(commit, {server::keys::job(job), server::keys::film(job), server::keys::node_tiles(job), server::keys::node_seconds(job), stream,
+                                server::keys::sums(job)},
+                       {job, t, "0", film, consumer, "0.001", "0", "1", "1", "0", "0", "0", "0", "0", "0", ""});
+                // The film field freed again so the next round of this tile index is stored too.
+                r.pipeline({{"XACK", stream, server::keys::group, id}, {"XDEL", stream, id}, {"HDEL", server::keys::film(job), "p" + t}});
+                ++done;
+            }
+        });
+    for (auto& t : threads) t.join();
+    return double(done.load()) / seconds;
+}
+
+struct Farm {
+    server::JobService service;
+    std::vector<std::unique_ptr<server::RenderNode>> nodes;
+    Farm(const server::ServiceConfig& cfg, int nodes_n, const server::RedisUrl& url) : service(cfg) {
+        for (int i = 0; i < nodes_n; ++i) {
+            server::NodeConfig nc;
+            nc.redis = url;
+            nc.data_dir = cfg.data_dir;
+            nc.name = "bench-node-" + std::to_string(i + 1);
+            nc.threads = 1;
+            nodes.push_back(std::make_unique<server::RenderNode>(nc));
+            nodes.back()->start();
+        }
+    }
+    ~Farm() {
+        for (auto& n : nodes) n->stop();
+        service.shutdown();
+    }
+    // Seconds from submission to success, and the job's id.
+    std::pair<double, std::string> run(const json& job) {
+        const auto t0 = Clock::now();
+        const std::string id = service.submit(job)["id"];
+        for (;;) {
+            const json s = service.status(id);
+            if (s["state"] == "succeeded") return {since(t0), id};
+            if (s["state"] == "failed" || s["state"] == "canceled") throw std::runtime_error("bench job " + id + " " + s.dump());
+            std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        }
+    }
+};
+
+server::ServiceConfig farm_config(const std::string& url, const fs::path& dir, const std::string& cs184) {
+    server::ServiceConfig cfg;
+    cfg.data_dir = dir.string();
+    cfg.project_scenes = TESSERA_DEFAULT_SCENES_DIR;
+    if (!cs184.empty()) cfg.scene_dirs = {cs184};
+    cfg.redis_url = url;
+    cfg.max_queued = 1'000'000;
+    return cfg;
+}
+
+// One process: the job through the same runner the server's workers use.
+double run_one(const json& body, const std::string& scene_path, int threads, const fs::path& dir) {
+    const api::RenderJob job = api::parse_render_job(body, api::JobLimits::none());
+    api::RunOptions opt;
+    opt.scene_source = scene_path;
+    opt.threads = threads;
+    fs::create_directories(dir);
+    const auto t0 = Clock::now();
+    api::run_job(job, opt, api::RunOutputs::in_directory(dir.string()));
+    return since(t0);
+}
+
+bool same_pixels(const std::string& a, const std::string& b) {
+    const Image x = read_image(a), y = read_image(b);
+    return x.rgb.size() == y.rgb.size() && std::memcmp(x.rgb.data(), y.rgb.data(), x.rgb.size() * sizeof(float)) == 0;
+}
+
+}  // namespace
+
+int bench_cluster(int argc, char** argv) {
+    double seconds = 2;
+    int clients = 2, reps = 2, spp = 64, depth = 5, width = 480, height = 360;
+    std::string scene = "sky/CBbunny", cs184 = default_cs184_dir();
+    bool skip_scaling = false;
+    std::string fsync = "everysec";
+    CLI::App app{"A render farm on this machine: tile hand-offs through one Redis, the end-to-end overhead per tile, and "
+                 "two render nodes against one process with the same cores.", "bench cluster"};
+    app.option_defaults()->always_capture_default();
+    app.add_option("--seconds", seconds, "length of each hand-off measurement")->check(CLI::Range(0.2, 600.0));
+    app.add_option("--clients", clients, "client threads for the hand-off throughput")->check(CLI::Range(1, 256));
+    app.add_option("--reps", reps, "runs of each side of the scaling comparison (alternating; medians)")->check(CLI::Range(1, 50));
+    app.add_option("--scene", scene, "the CS184 scene of the scaling comparison (path under --cs184, no extension)");
+    app.add_option("--spp", spp, "its samples per pixel")->check(CLI::Range(1, 1 << 16));
+    app.add_option("--depth", depth, "its max depth")->check(CLI::Range(0, 100));
+    app.add_option("--width", width)->check(CLI::Range(8, 8192));
+    app.add_option("--height", height)->check(CLI::Range(8, 8192));
+    app.add_option("--cs184", cs184, "the CS184 scene folder")->type_name("DIR");
+    app.add_flag("--no-scaling", skip_scaling, "only the hand-off and overhead tables");
+    app.add_option("--appendfsync", fsync, "Redis's AOF fsync policy for this run (off: no AOF), to price durability")
+        ->check(CLI::IsMember({"everysec", "always", "no", "off"}));
+    if (const auto status = server::parse_args(app, argc, argv)) return *status;
+    spdlog::set_level(spdlog::level::warn);
+
+    server::RedisServer redis(fsync);
+    if (!redis.available()) {
+        std::fprintf(stderr, "bench cluster: redis-server is not installed (apt-get install redis-server)\n");
+        return 1;
+    }
+    if (!redis.start()) {
+        std::fprintf(stderr, "bench cluster: redis-server did not start\n");
+        return 1;
+    }
+    const server::RedisUrl url = redis.url();
+    const std::string url_text = "redis://127.0.0.1:" + std::to_string(redis.port()) + "/0";
+    const fs::path dir = fs::temp_directory_path() / ("tessera_bench_cluster_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    unsigned cores = std::thread::hardware_concurrency();
+    std::printf("# tessera bench cluster (%u hardware threads; redis-server %s)\n\n", cores,
+                fsync == "off" ? "without AOF" : ("with appendonly yes, appendfsync " + fsync).c_str());
+
+    std::printf("## 1. Tile hand-offs through one Redis (render does nothing)\n\n");
+    std::printf("XADD, XREADGROUP, the commit script with the tile's film (error estimate on), XACK + XDEL; %.1f s each.\n\n", seconds);
+    std::printf("| tile | film bytes | 1 client: hand-offs/s | ms per hand-off | %d clients: hand-offs/s |\n|---|---|---|---|---|\n", clients);
+    for (int tile : {16, 32, 64}) {
+        const double one = handoffs(url, tile, 1, seconds);
+        const double many = handoffs(url, tile, clients, seconds);
+        std::printf("| %dx%d | %zu | %.0f | %.3f | %.0f |\n", tile, tile, server::encode_film(Film::tile(0, 0, tile, tile, true, false)).size(),
+                    one, 1000.0 / one, many);
+        std::fflush(stdout);
+    }
+
+    std::printf("\n## 2. End-to-end overhead per tile (one thread each side)\n\n");
+    std::printf("builtin:cornell_box 1024x1024, 1 spp, max_depth 0: a light render, so the farm's own costs show. One process\n"
+                "(the job runner) against a farm of one render node (submission to success). Medians of 3.\n\n");
+    std::printf("| tile | tiles | one process s | farm s | overhead per tile ms |\n|---|---|---|---|---|\n");
+    {
+        Redis r(url);
+        r.command({"FLUSHALL"});
+        Farm farm(farm_config(url_text, dir / "e2e", ""), 1, url);
+        for (int tile : {16, 32, 64}) {
+            const json job = {{"scene", "builtin:cornell_box"}, {"width", 1024}, {"height", 1024}, {"spp", 1}, {"max_depth", 0}, {"tile_size", tile}};
+            std::vector<double> one, f;
+            for (int i = 0; i < 3; ++i) {
+                one.push_back(run_one(job, "builtin:cornell_box", 1, dir / "one"));
+                f.push_back(farm.run(job).first);
+            }
+            const int tiles = ((1024 + tile - 1) / tile) * ((1024 + tile - 1) / tile);
+            std::printf("| %dx%d | %d | %.3f | %.3f | %.3f |\n", tile, tile, tiles, median(one), median(f),
+                        (median(f) - median(one)) / tiles * 1000.0);
+            std::fflush(stdout);
+        }
+    }
+
+    if (skip_scaling) return 0;
+    const fs::path scene_path = fs::path(cs184) / (scene + ".dae");
+    std::printf("\n## 3. Two render nodes x 1 thread against one process x 2 threads\n\n");
+    if (!fs::exists(scene_path)) {
+        std::printf("skipped: %s is absent (set TESSERA_CS184_DIR or --cs184)\n", scene_path.c_str());
+        return 0;
+    }
+    std::printf("%s %dx%d, %d spp, max_depth %d, tiles 32x32; wall time from start to written results; %d runs each, "
+                "alternating; medians.\n\n", scene.c_str(), width, height, spp, depth, reps);
+    Redis r(url);
+    r.command({"FLUSHALL"});
+    Farm farm(farm_config(url_text, dir / "farm", cs184), 2, url);
+    std::string name;
+    for (const auto& e : farm.service.catalog().entries())
+        if (fs::path(e.path).filename() == scene_path.filename()) name = e.name;
+    const json job = {{"scene", name}, {"width", width}, {"height", height}, {"spp", spp}, {"max_depth", depth}};
+    json local = job;
+    local["scene"] = scene_path.string();
+    std::vector<double> one, f;
+    std::string farm_id;
+    for (int i = 0; i < reps; ++i) {
+        one.push_back(run_one(job, scene_path.string(), 2, dir / "one2"));
+        auto [t, id] = farm.run(job);
+        f.push_back(t);
+        farm_id = id;
+    }
+    const bool same = same_pixels((dir / "one2" / "image.exr").string(), (dir / "farm" / "jobs" / farm_id / "image.exr").string());
+    const json report = json::parse(std::ifstream(dir / "farm" / "jobs" / farm_id / "report.json"));
+    std::printf("| run | wall s (median) | runs |\n|---|---|---|\n");
+    std::printf("| one process, 2 threads | %.3f | %s |\n", median(one), [&] { std::string s; for (double x : one) s += std::to_string(x).substr(0, 6) + " "; return s; }().c_str());
+    std::printf("| two render nodes, 1 thread each | %.3f | %s |\n", median(f), [&] { std::string s; for (double x : f) s += std::to_string(x).substr(0, 6) + " "; return s; }().c_str());
+    std::printf("\nefficiency (one process / farm, same cores): %.3f\n", median(one) / median(f));
+    std::printf("same image bit for bit: %s\n", same ? "yes" : "NO");
+    if (report.contains("nodes"))
+        for (const auto& n : report["nodes"])
+            std::printf("node %s: %d tiles (%.0f%%), %.2f s in tiles\n", n["node"].get<std::string>().c_str(), n["tiles"].get<int>(),
+                        n["share"].get<double>() * 100.0, n["seconds"].get<double>());
+    fs::remove_all(dir);
+    return same ? 0 : 1;
+}
+
+}  // namespace tessera::cli
