@@ -2,6 +2,7 @@
 // Running a CLI11 parser over a subcommand's arguments, with Tessera's exit statuses: 0 after
 // --help, 2 for a bad flag or value (the message names the flag). Here, in the lowest layer
 // with a command (serve), so that every command above shares it.
+#include <csignal>
 #include <cstdio>
 #include <optional>
 #include <string>
@@ -32,6 +33,19 @@ inline std::optional<int> parse_args(CLI::App& app, int argc, char** argv) {
         return 2;
     }
     return std::nullopt;
+}
+
+// Blocks SIGTERM and SIGINT in this thread and every thread started after it, for one thread to
+// take with sigwait (so stopping runs as ordinary code, not in a signal handler), and ignores
+// SIGPIPE (a client gone mid-answer). Call before any thread starts; returns the set to wait on.
+inline sigset_t block_stop_signals() {
+    sigset_t signals;
+    sigemptyset(&signals);
+    sigaddset(&signals, SIGTERM);
+    sigaddset(&signals, SIGINT);
+    pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+    std::signal(SIGPIPE, SIG_IGN);
+    return signals;
 }
 
 }  // namespace tessera::server

@@ -28,6 +28,7 @@ void put(std::string& out, const std::vector<T>& v) {
 template <class T>
 void get(const std::string& in, size_t& at, std::vector<T>& v) {
     const size_t bytes = v.size() * sizeof(T);
+    if (bytes == 0) return;
     if (in.size() - at < bytes) throw std::runtime_error("tile film: truncated");
     std::memcpy(static_cast<void*>(v.data()), in.data() + at, bytes);
     at += bytes;

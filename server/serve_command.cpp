@@ -117,14 +117,7 @@ int serve_command(int argc, char** argv) {
     }
     spdlog::set_level(level);
 
-    // SIGTERM and SIGINT are taken by one thread with sigwait, so shutdown runs as ordinary
-    // code rather than in a signal handler. The mask must be set before any thread starts.
-    sigset_t signals;
-    sigemptyset(&signals);
-    sigaddset(&signals, SIGTERM);
-    sigaddset(&signals, SIGINT);
-    pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-    std::signal(SIGPIPE, SIG_IGN);
+    sigset_t signals = block_stop_signals();
 
     const std::string openapi = (std::filesystem::path(o.service.data_dir) / "openapi.yaml").string();
     std::unique_ptr<JobService> service;

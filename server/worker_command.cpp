@@ -47,12 +47,7 @@ int worker_command(int argc, char** argv) {
         return 2;
     }
     spdlog::set_level(level);
-    sigset_t signals;
-    sigemptyset(&signals);
-    sigaddset(&signals, SIGTERM);
-    sigaddset(&signals, SIGINT);
-    pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-    std::signal(SIGPIPE, SIG_IGN);
+    sigset_t signals = block_stop_signals();
     try {
         // Fails early, with the redacted address, when Redis does not answer.
         Redis probe(node.redis);

@@ -33,8 +33,10 @@ TEST(FilmCodec, RoundTripsBitForBit) {
             EXPECT_EQ(g.width, 5);
             EXPECT_EQ(g.height, 3);
             EXPECT_EQ(0, std::memcmp(f.sum.data(), g.sum.data(), f.sum.size() * sizeof(f.sum[0])));
-            EXPECT_EQ(f.sum_odd.size(), g.sum_odd.size());
-            EXPECT_EQ(0, std::memcmp(f.sum_odd.data(), g.sum_odd.data(), f.sum_odd.size() * sizeof(glm::dvec3)));
+            ASSERT_EQ(f.sum_odd.size(), g.sum_odd.size());
+            if (half) {
+                EXPECT_EQ(0, std::memcmp(f.sum_odd.data(), g.sum_odd.data(), f.sum_odd.size() * sizeof(glm::dvec3)));
+            }
             EXPECT_EQ(f.count, g.count);
             EXPECT_EQ(f.done, g.done);
             ASSERT_EQ(f.stats.size(), g.stats.size());

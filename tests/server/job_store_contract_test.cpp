@@ -15,28 +15,17 @@
 #include <vector>
 
 #include "server/redis_job_store.h"
-#include "server/sqlite_job_store.h"
 #include "server/redis_process.h"
+#include "server/sqlite_job_store.h"
+#include "tests/server/job_records.h"
 
 namespace tessera::server {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string hex_id(uint64_t n) {
-    char buf[17];
-    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(n));
-    return buf;
-}
-
-JobRecord make_job(uint64_t n, int priority = 0) {
-    JobRecord r;
-    r.id = hex_id(n);
-    r.spec_json = R"({"scene":"builtin:cornell_box","n":)" + std::to_string(n) + "}";
-    r.priority = priority;
-    r.created_at = 1700000000.0 + static_cast<double>(n);
-    return r;
-}
+using test::hex_id;
+using test::make_job;
 
 class JobStoreContract : public ::testing::TestWithParam<std::string> {
 protected:
