@@ -277,7 +277,7 @@ struct RenderNode::Impl {
         if (Clock::now() - last_reclaim > std::chrono::milliseconds(std::max(100, cfg.visibility_ms / 4))) {
             last_reclaim = Clock::now();
             for (const auto& s : ss) {
-                const RedisValue v = r.command({"XAUTOCLAIM", s, keys::group, consumer, std::to_string(cfg.visibility_ms), "0-0", "COUNT", "1"});
+                const RedisValue v = r.command({"XAUTOCLAIM", s, keys::group, consumer, std::to_string(cfg.visibility_ms), "0-0", "COUNT", "10"});
                 if (v.items.size() >= 2)
                     for (const auto& e : v.items[1].items)
                         if (auto t = parse_entry(s, e)) {
@@ -376,8 +376,10 @@ struct RenderNode::Impl {
 
     void begin(Redis& r, const Task& t, std::atomic<bool>& cancel) {
         const RedisValue st = r.command({"HGET", keys::job(t.job), "state"});
-        if (st.text != "queued") { ++metrics.duplicates; return; }
-        const auto info = job_info(r, t.job);
+        const auto info = st.text == "queued" || st.text == "running" ? job_info(r, t.job) : nullptr;
+        // A comparison whose node died or stopped mid-run is still "running": it runs again here.
+        const bool rerun = st.text == "running" && info && std::holds_alternative<api::ComparisonJob>(info->job);
+        if (st.text != "queued" && !rerun) { ++metrics.duplicates; return; }
         if (!info) return;
         ++metrics.starts;
         if (const auto* cj = std::get_if<api::ComparisonJob>(&info->job)) return compare(r, t, *cj, cancel);
@@ -394,7 +396,10 @@ struct RenderNode::Impl {
     // A comparison runs whole here: its configurations race each other for equal time, which
     // tiles spread over nodes would not keep equal.
     void compare(Redis& r, const Task& t, const api::ComparisonJob& job, std::atomic<bool>& cancel) {
-        if (r.eval(kTransition, {}, {keys::prefix, t.job, "running", "queued", num(now_s()), "", ""}).as_int() != 1) return;
+        const std::string state = r.command({"HGET", keys::job(t.job), "state"}).text;
+        if (state != "running" &&
+            r.eval(kTransition, {}, {keys::prefix, t.job, "running", "queued", num(now_s()), "", ""}).as_int() != 1)
+            return;  // canceled meanwhile
         api::RunOptions opt;
         std::string source = job.scene;
         const auto info = job_info(r, t.job);

@@ -1,5 +1,6 @@
 #include "server/scene_cache.h"
 
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -63,7 +64,9 @@ std::string SceneCache::file_for(Redis& redis, const SceneRef& ref) {
         if (content_hash(bytes) != ref.hash) throw std::runtime_error("scene " + ref.hash + " in Redis does not match its hash");
     }
     fs::create_directories(dir_);
-    const fs::path part = cached.string() + ".part" + std::to_string(::getpid());
+    // A name of this thread's own: threads of a node miss the cache together at a job's start.
+    static std::atomic<uint64_t> writes{0};
+    const fs::path part = cached.string() + ".part" + std::to_string(::getpid()) + "-" + std::to_string(++writes);
     {
         std::ofstream out(part, std::ios::binary | std::ios::trunc);
         out.write(bytes.data(), std::streamsize(bytes.size()));
