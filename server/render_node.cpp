@@ -401,16 +401,10 @@ struct RenderNode::Impl {
             r.eval(kTransition, {}, {keys::prefix, t.job, "running", "queued", num(now_s()), "", ""}).as_int() != 1)
             return;  // canceled meanwhile
         api::RunOptions opt;
-        std::string source = job.scene;
         const auto info = job_info(r, t.job);
-        {
-            // Materialize the scene file as a render job would.
-            api::RenderJob probe = api::default_render_job();
-            cache.get(r, info->ref, probe.scene_options);
-        }
-        opt.scene_source = info->ref.hash.empty() ? info->ref.source
-                                                  : (fs::temp_directory_path() / ("tessera-node-" + std::to_string(::getpid())) /
-                                                     (info->ref.hash + info->ref.ext)).string();
+        // The comparison loads the scene itself (each configuration builds its own BVH): only
+        // the file is needed here.
+        opt.scene_source = cache.file_for(r, info->ref);
         opt.load_limits = cfg.load_limits;
         opt.threads = 1;
         opt.job_id = t.job;

@@ -36,11 +36,12 @@ public:
     SceneCache(std::string dir, int64_t max_bytes, LoadLimits limits);
     // Throws SceneError (a broken file) or std::runtime_error (its bytes are gone from Redis).
     std::shared_ptr<const PreparedScene> get(Redis& redis, const SceneRef& ref, const RenderSceneOptions& options);
+    // The job's scene as a file on this node (a built-in's name as is); throws std::runtime_error.
+    std::string file_for(Redis& redis, const SceneRef& ref);
     uint64_t hits() const { return hits_; }
     uint64_t misses() const { return misses_; }
 
 private:
-    std::string file_for(Redis& redis, const SceneRef& ref);
     struct Entry {
         std::string key;
         std::shared_ptr<const PreparedScene> scene;
