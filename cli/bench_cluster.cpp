@@ -1,8 +1,8 @@
 // `tessera bench cluster`: what a render farm costs and gains on this machine, against a real
 // redis-server (Debian's, started here with the AOF settings docs/scaling.md documents).
-//   1. hand-offs: one tile task through Redis with a render that does nothing — XADD, XREADGROUP,
-//      the real commit script with a film of the tile's size, XACK — per second, for 1 and N
-//      clients, at 16×16, 32×32 and 64×64 tiles;
+//   1. hand-offs: tile tasks through Redis with a render that does nothing — added a pass at a
+//      time, read in batches, each stored by the real commit script (which acknowledges it) with
+//      the bytes a tile carries — per second, for 1 and N clients, at 16×16, 32×32 and 64×64;
 //   2. end to end: the same light job rendered by one process and by a farm of one node, both
 //      on one thread; the difference per tile is the farm's overhead (queue, film transfer,
 //      assembly);
@@ -55,9 +55,13 @@ double median(std::vector<double> v) {
     return v.empty() ? 0.0 : v[v.size() / 2];
 }
 
-// Hand-offs per second of `clients` threads for `seconds`, each through the whole protocol.
-double handoffs(const server::RedisUrl& url, int tile, int clients, double seconds) {
+// Hand-offs per second of `clients` threads for `seconds`, each through the protocol a render
+// node runs on tasks this short: tiles added a pass at a time by the add_tiles script, read 32
+// at a time with XREADGROUP, each result stored by the commit script (which acknowledges and
+// deletes its task in the same call) with `payload` as the tile's bytes.
+double handoffs(const server::RedisUrl& url, const std::string& payload, int clients, double seconds) {
     const RedisScript commit{server::lua::commit_tile};
+    const RedisScript add{server::lua::add_tiles + "add_tiles(KEYS[1], ARGV[1], ARGV[2], tonumber(ARGV[3]))"};
     const std::string job = "benchbenchbench0", stream = server::keys::tasks(0);
     {
         Redis r(url);
@@ -66,27 +70,32 @@ double handoffs(const server::RedisUrl& url, int tile, int clients, double secon
                    "max_sample", "0"});
         r.command({"XGROUP", "CREATE", stream, server::keys::group, "0", "MKSTREAM"});
     }
-    // The film a tile of this size carries with the error estimate on (the server's default).
-    const std::string film = server::encode_film(Film::tile(0, 0, tile, tile, true, false));
     std::atomic<uint64_t> done{0};
     std::vector<std::thread> threads;
     for (int c = 0; c < clients; ++c)
         threads.emplace_back([&, c] {
             Redis r(url);
             const std::string consumer = "bench/" + std::to_string(c);
+            std::vector<std::string> ids;
             const auto t0 = Clock::now();
-            for (uint64_t i = 0; since(t0) < seconds; ++i) {
-                const std::string t = std::to_string(c * 100000 + int(i % 512));
-                r.command({"XADD", stream, "*", "job", job, "kind", "tile", "pass", "0", "tile", t});
-                const auto got = r.command({"XREADGROUP", "GROUP", server::keys::group, consumer, "COUNT", "1", "STREAMS", stream, ">"});
-                if (got.items.empty()) continue;
-                const std::string id = got.items[0].items[1].items[0].items[0].text;
+            for (uint64_t i = 0; since(t0) < seconds;) {
+                if (ids.empty()) {
+                    const auto got = r.command({"XREADGROUP", "GROUP", server::keys::group, consumer, "COUNT", "32", "STREAMS", stream, ">"});
+                    for (const auto& st : got.items)
+                        for (const auto& e : st.items[1].items) ids.push_back(e.items[0].text);
+                    if (ids.empty()) r.eval(add, {stream}, {job, "0", "256"});
+                    std::reverse(ids.begin(), ids.end());
+                    continue;
+                }
+                const std::string id = ids.back();
+                ids.pop_back();
+                // Every result under its own tile index, so each is stored (none is a duplicate).
+                const std::string t = std::to_string(uint64_t(c) * 1'000'000'000ull + i++);
                 r.eval(commit, {server::keys::job(job), server::keys::film(job), server::keys::node_tiles(job), server::keys::node_seconds(job), stream,
                                 server::keys::sums(job)},
-                       {job, t, "0", film, consumer, "0.001", "0", "1", "1", "0", "0", "0", "0", "0", "0", ""});
-                // The film field freed again so the next round of this tile index is stored too.
-                r.pipeline({{"XACK", stream, server::keys::group, id}, {"XDEL", stream, id}, {"HDEL", server::keys::film(job), "p" + t}});
+                       {job, t, "0", payload, consumer, "0.001", "0", "1", "1", "0", "0", "0", "0", "0", "0", "", id, server::keys::group});
                 ++done;
+                if (i % 256 == 0) r.command({"DEL", server::keys::film(job)});  // keeps Redis's memory bounded
             }
         });
     for (auto& t : threads) t.join();
@@ -195,14 +204,23 @@ int bench_cluster(int argc, char** argv) {
                 fsync == "off" ? "without AOF" : ("with appendonly yes, appendfsync " + fsync).c_str());
 
     std::printf("## 1. Tile hand-offs through one Redis (render does nothing)\n\n");
-    std::printf("XADD, XREADGROUP, the commit script with the tile's film (error estimate on), XACK + XDEL; %.1f s each.\n\n", seconds);
-    std::printf("| tile | film bytes | 1 client: hand-offs/s | ms per hand-off | %d clients: hand-offs/s |\n|---|---|---|---|---|\n", clients);
+    std::printf("Tiles added a pass at a time, read 32 at a time (XREADGROUP), each stored by the commit script, which\n"
+                "acknowledges and deletes its task in the same call; %.1f s each. A job that stops on spp ships each tile's\n"
+                "resolved pixels (16 bytes a pixel); a pass-by-pass job ships its film (52 bytes a pixel with the error\n"
+                "estimate on, the server's default).\n\n", seconds);
+    std::printf("| tile | payload | bytes | 1 client: hand-offs/s | ms per hand-off | %d clients: hand-offs/s |\n|---|---|---|---|---|---|\n", clients);
     for (int tile : {16, 32, 64}) {
-        const double one = handoffs(url, tile, 1, seconds);
-        const double many = handoffs(url, tile, clients, seconds);
-        std::printf("| %dx%d | %zu | %.0f | %.3f | %.0f |\n", tile, tile, server::encode_film(Film::tile(0, 0, tile, tile, true, false)).size(),
-                    one, 1000.0 / one, many);
-        std::fflush(stdout);
+        const Film film = Film::tile(0, 0, tile, tile, true, false);
+        std::vector<std::pair<const char*, std::string>> payloads = {{"resolved pixels", server::encode_tile_image(film)},
+                                                                       {"film", server::encode_film(film)}};
+        if (tile == 16) payloads.insert(payloads.begin(), {"none (the queue alone)", std::string()});
+        for (const auto& [what, payload] : payloads) {
+            const double one = handoffs(url, payload, 1, seconds);
+            const double many = handoffs(url, payload, clients, seconds);
+            std::printf("| %s | %s | %zu | %.0f | %.3f | %.0f |\n", payload.empty() ? "-" : (std::to_string(tile) + "x" + std::to_string(tile)).c_str(),
+                        what, payload.size(), one, 1000.0 / one, many);
+            std::fflush(stdout);
+        }
     }
 
     std::printf("\n## 2. End-to-end overhead per tile (one thread each side)\n\n");

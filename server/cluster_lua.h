@@ -47,13 +47,17 @@ local function add_tiles(stream, id, pass, n)
 end
 )lua";
 
-// Stores a tile's film for its pass (once: a duplicate returns 0, a task of a pass gone by or a
-// job no longer running returns -1), adds its statistics to the job and its node's share, and
-// queues `assemble` when it was the pass's last tile.
+// Stores a tile's film (or resolved pixels) for its pass (once: a duplicate returns 0, a task of
+// a pass gone by or a job no longer running returns -1), adds its statistics to the job and its
+// node's share, queues `assemble` when it was the pass's last tile, and acknowledges and deletes
+// the task in every case: the result and the acknowledgement are one step, and one round trip.
 inline const std::string commit_tile = R"lua(
 -- KEYS: job, film, node tiles, node seconds, stream, sums
 -- ARGV: id, tile, pass, film, node, seconds, timed out, samples, camera, shadow, bounce, nodes visited,
---       primitive tests, non-finite, max sample, the tile's error sums per pass target ('' if none)
+--       primitive tests, non-finite, max sample, the tile's error sums per pass target ('' if none),
+--       task id, consumer group
+redis.call('XACK', KEYS[5], ARGV[18], ARGV[17])
+redis.call('XDEL', KEYS[5], ARGV[17])
 if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return -1 end
 if tonumber(redis.call('HGET', KEYS[1], 'pass')) ~= tonumber(ARGV[3]) then return -1 end
 local p = redis.call('HGET', KEYS[2], 'p' .. ARGV[2])

@@ -47,6 +47,7 @@ std::string num(double v) {
 struct Task {
     std::string stream, id, job, kind;
     int pass = 0, tile = 0;
+    bool reclaimed = false;  // taken over from a silent node (not a first delivery)
     std::string key() const { return stream + " " + id; }
 };
 
@@ -164,6 +165,10 @@ struct JobFailure : std::runtime_error {
 
 }  // namespace
 
+// How much work one read of the streams takes (see fetch), and at most how many tasks.
+constexpr double kBatchSeconds = 0.02;
+constexpr int kMaxBatch = 32;
+
 struct RenderNode::Impl {
     NodeConfig cfg;
     std::string name;
@@ -183,6 +188,15 @@ struct RenderNode::Impl {
     };
     std::map<std::string, Held> held;
     std::map<std::string, std::shared_ptr<const JobInfo>> jobs;
+    // The state of a job's run as a tile needs it. A state seen running at the task's pass in the
+    // last 50 ms is taken as is (one round trip less per tile: the commit checks again); any
+    // other answer is read afresh, so a stale cache never drops a task.
+    struct RunState {
+        std::string state;
+        long long pass = -1, target = 0, started_ms = 0;
+        Clock::time_point read;
+    };
+    std::map<std::string, RunState> states;
 
     explicit Impl(NodeConfig c)
         : cfg(std::move(c)),
@@ -256,13 +270,11 @@ struct RenderNode::Impl {
         return s;
     }
 
-    std::optional<Task> next_task(Redis& r, const std::string& consumer, std::deque<Task>& local, Clock::time_point& last_reclaim,
-                                  std::vector<std::string>& cached_streams, Clock::time_point& streams_read) {
-        if (!local.empty()) {
-            Task t = local.front();
-            local.pop_front();
-            return t;
-        }
+    // Reads more tasks into `local`: those of silent nodes first, then new ones, highest priority
+    // first. A read takes about `batch_ms_` of work (from the last tasks' times), so short tiles
+    // do not cost a round trip each, while a long tile is never held back behind another.
+    void fetch(Redis& r, const std::string& consumer, std::deque<Task>& local, Clock::time_point& last_reclaim,
+               std::vector<std::string>& cached_streams, Clock::time_point& streams_read, double task_seconds) {
         // The streams in use change only when a job of a new priority arrives: read every 250 ms.
         if (Clock::now() - streams_read > std::chrono::milliseconds(250) || cached_streams.empty()) {
             cached_streams = streams(r);
@@ -271,28 +283,32 @@ struct RenderNode::Impl {
         const std::vector<std::string>& ss = cached_streams;
         if (ss.empty()) {
             std::this_thread::sleep_for(std::chrono::milliseconds(200));
-            return std::nullopt;
+            return;
         }
-        // Tasks of silent nodes first, highest priority first.
+        const int count = std::clamp(int(kBatchSeconds / std::max(task_seconds, 1e-6)), 1, kMaxBatch);
+        const std::string n = std::to_string(count);
         if (Clock::now() - last_reclaim > std::chrono::milliseconds(std::max(100, cfg.visibility_ms / 4))) {
             last_reclaim = Clock::now();
             for (const auto& s : ss) {
-                const RedisValue v = r.command({"XAUTOCLAIM", s, keys::group, consumer, std::to_string(cfg.visibility_ms), "0-0", "COUNT", "10"});
+                const RedisValue v = r.command({"XAUTOCLAIM", s, keys::group, consumer, std::to_string(cfg.visibility_ms), "0-0", "COUNT", n});
                 if (v.items.size() >= 2)
                     for (const auto& e : v.items[1].items)
                         if (auto t = parse_entry(s, e)) {
                             ++metrics.reclaimed;
+                            t->reclaimed = true;
                             spdlog::warn("node {}: took over {} task of job {} (pass {}, tile {}) from a silent node", name, t->kind, t->job, t->pass, t->tile);
-                            return t;
+                            local.push_back(*t);
                         }
+                if (!local.empty()) return;
             }
         }
         for (const auto& s : ss) {
-            const RedisValue v = r.command({"XREADGROUP", "GROUP", keys::group, consumer, "COUNT", "1", "STREAMS", s, ">"});
+            const RedisValue v = r.command({"XREADGROUP", "GROUP", keys::group, consumer, "COUNT", n, "STREAMS", s, ">"});
             for (const auto& st : v.items)
                 if (st.items.size() >= 2)
                     for (const auto& e : st.items[1].items)
-                        if (auto t = parse_entry(s, e)) return t;
+                        if (auto t = parse_entry(s, e)) local.push_back(*t);
+            if (!local.empty()) return;
         }
         std::vector<std::string> cmd = {"XREADGROUP", "GROUP", keys::group, consumer, "COUNT", "1", "BLOCK", "500", "STREAMS"};
         cmd.insert(cmd.end(), ss.begin(), ss.end());
@@ -303,10 +319,6 @@ struct RenderNode::Impl {
             if (st.items.size() >= 2)
                 for (const auto& e : st.items[1].items)
                     if (auto t = parse_entry(st.items[0].text, e)) local.push_back(*t);
-        if (local.empty()) return std::nullopt;
-        Task t = local.front();
-        local.pop_front();
-        return t;
     }
 
     void worker(int index) {
@@ -316,49 +328,73 @@ struct RenderNode::Impl {
         auto last_reclaim = Clock::now() - std::chrono::hours(1);
         auto streams_read = last_reclaim;
         std::vector<std::string> cached_streams;
+        double task_seconds = 1.0;  // a moving average: how many tasks one read takes
         int backoff_ms = 100;
         while (!stopping) {
-            std::optional<Task> t;
-            try {
-                t = next_task(r, consumer, local, last_reclaim, cached_streams, streams_read);
-                backoff_ms = 100;
-            } catch (const RedisError& e) {
-                ++metrics.redis_errors;
-                spdlog::warn("node {}: {}; retrying in {} ms", name, e.what(), backoff_ms);
-                std::this_thread::sleep_for(std::chrono::milliseconds(backoff_ms));
-                backoff_ms = std::min(2000, backoff_ms * 2);
-                continue;
+            if (local.empty()) {
+                try {
+                    fetch(r, consumer, local, last_reclaim, cached_streams, streams_read, task_seconds);
+                    backoff_ms = 100;
+                } catch (const RedisError& e) {
+                    ++metrics.redis_errors;
+                    spdlog::warn("node {}: {}; retrying in {} ms", name, e.what(), backoff_ms);
+                    std::this_thread::sleep_for(std::chrono::milliseconds(backoff_ms));
+                    backoff_ms = std::min(2000, backoff_ms * 2);
+                    continue;
+                }
+                // Every task read is held from now on: the heartbeat renews its claim while it
+                // waits its turn here, and stops it if its job is canceled.
+                std::lock_guard lock(mu);
+                for (const Task& t : local)
+                    held[t.key()] = {t, consumer, std::make_shared<std::atomic<bool>>(false), std::make_shared<std::atomic<bool>>(false),
+                                     std::make_shared<std::atomic<bool>>(false)};
+                if (local.empty()) continue;
             }
-            if (!t) continue;
-            auto cancel = std::make_shared<std::atomic<bool>>(false);
-            auto lost = std::make_shared<std::atomic<bool>>(false);
-            auto acked = std::make_shared<std::atomic<bool>>(false);
+            const Task t = local.front();
+            local.pop_front();
+            Held h;
             {
                 std::lock_guard lock(mu);
-                held[t->key()] = {*t, consumer, cancel, lost, acked};
+                h = held.at(t.key());
             }
+            const auto t0 = Clock::now();
             // The same task again after a Redis error (a restart): every step is idempotent.
-            for (int attempt = 0; !stopping; ++attempt) {
+            for (int attempt = 0; !stopping && !*h.lost; ++attempt) {
                 try {
-                    run_task(r, *t, *cancel, *lost, *acked);
+                    run_task(r, t, *h.cancel, *h.lost, *h.acked);
                     break;
                 } catch (const RedisError& e) {
                     ++metrics.redis_errors;
-                    spdlog::warn("node {}: {} task of job {}: {}; retrying", name, t->kind, t->job, e.what());
+                    spdlog::warn("node {}: {} task of job {}: {}; retrying", name, t.kind, t.job, e.what());
                     std::this_thread::sleep_for(std::chrono::milliseconds(std::min(2000, 100 << std::min(attempt, 5))));
                 }
             }
-            if (stopping) hand_back(r, *t, consumer);
+            if (t.kind == "tile") task_seconds = 0.8 * task_seconds + 0.2 * std::chrono::duration<double>(Clock::now() - t0).count();
+            if (stopping && !*h.acked) hand_back(r, t, consumer);
             std::lock_guard lock(mu);
-            held.erase(t->key());
+            held.erase(t.key());
         }
         for (const Task& t : local) hand_back(r, t, consumer);
+        std::lock_guard lock(mu);
+        for (const Task& t : local) held.erase(t.key());
     }
 
     void run_task(Redis& r, const Task& t, std::atomic<bool>& cancel, const std::atomic<bool>& lost, std::atomic<bool>& acked) {
         try {
-            if (t.kind == "tile") tile(r, t, cancel);
-            else if (t.kind == "assemble") assemble(r, t);
+            // A first delivery needs no count; a task taken over from a silent node counts the
+            // takeovers, so a task that kills every node that takes it fails its job.
+            if (t.reclaimed) {
+                const std::string what = t.kind == "tile" ? "tile " + std::to_string(t.tile) + " of pass " + std::to_string(t.pass)
+                                                          : "the " + t.kind + " task" + (t.kind == "assemble" ? " of pass " + std::to_string(t.pass) : "");
+                const long long taken =
+                    r.command({"HINCRBY", keys::deliveries(t.job), t.kind + ":" + std::to_string(t.pass) + ":" + std::to_string(t.tile), "1"}).as_int();
+                if (taken + 1 > cfg.max_deliveries)
+                    throw JobFailure(what + " was delivered " + std::to_string(taken + 1) +
+                                     " times: the nodes that took it stopped answering (crashed, killed, out of memory?)");
+            }
+            if (t.kind == "tile") {
+                if (tile(r, t, cancel, acked)) return;
+            } else if (t.kind == "assemble") assemble(r, t);
             else if (t.kind == "start") begin(r, t, cancel);
             else spdlog::warn("node {}: unknown task kind '{}' dropped", name, t.kind);
         } catch (const RedisError&) {
@@ -417,21 +453,36 @@ struct RenderNode::Impl {
         r.eval(kTransition, {}, {keys::prefix, t.job, "succeeded", "running", num(now_s()), "", out.summary.dump()});
     }
 
-    void tile(Redis& r, const Task& t, std::atomic<bool>& cancel) {
-        // One round trip: the job's pass, and this task's delivery count (counted even for a task
-        // found stale, which is then dropped anyway).
-        const auto got = r.pipeline({{"HMGET", keys::job(t.job), "state", "pass", "target", "started_ms"},
-                                     {"HINCRBY", keys::deliveries(t.job), std::to_string(t.pass) + ":" + std::to_string(t.tile), "1"}});
-        const RedisValue& v = got[0];
-        if (v.items[0].text != "running" || v.items[1].is_nil() || v.items[1].as_int() != t.pass) { ++metrics.duplicates; return; }
-        const long long delivered = got[1].as_int();
-        if (delivered > cfg.max_deliveries)
-            throw JobFailure("tile " + std::to_string(t.tile) + " of pass " + std::to_string(t.pass) + " was delivered " +
-                             std::to_string(delivered) + " times: the nodes that took it stopped answering (crashed, killed, out of memory?)");
-        const int target = int(v.items[2].as_int());
-        const long long started_ms = v.items[3].as_int();
+    // The state of a job's run as a tile needs it (see run_state).
+    RunState run_state(Redis& r, const std::string& id, int pass) {
+        {
+            std::lock_guard lock(mu);
+            auto it = states.find(id);
+            if (it != states.end() && it->second.state == "running" && it->second.pass == pass &&
+                Clock::now() - it->second.read < std::chrono::milliseconds(50))
+                return it->second;
+        }
+        const RedisValue v = r.command({"HMGET", keys::job(id), "state", "pass", "target", "started_ms"});
+        RunState st;
+        st.state = v.items[0].text;
+        st.pass = v.items[1].is_nil() ? -1 : v.items[1].as_int();
+        st.target = v.items[2].is_nil() ? 0 : v.items[2].as_int();
+        st.started_ms = v.items[3].is_nil() ? 0 : v.items[3].as_int();
+        st.read = Clock::now();
+        std::lock_guard lock(mu);
+        if (states.size() > 1024) states.clear();
+        states[id] = st;
+        return st;
+    }
+
+    // Returns whether the task was acknowledged (the commit script does it with the result).
+    bool tile(Redis& r, const Task& t, std::atomic<bool>& cancel, std::atomic<bool>& acked) {
+        const RunState js = run_state(r, t.job, t.pass);
+        if (js.state != "running" || js.pass != t.pass) { ++metrics.duplicates; return false; }
+        const int target = int(js.target);
+        const long long started_ms = js.started_ms;
         const auto info = job_info(r, t.job);
-        if (!info) return;
+        if (!info) return false;
         const auto& rj = std::get<api::RenderJob>(info->job);
         const auto prepared = cache.get(r, info->ref, rj.scene_options);
         const RenderSettings& s = info->settings;
@@ -460,17 +511,22 @@ struct RenderNode::Impl {
         } else if (!timed_out && !interrupted()) {
             timed_out = !render_tile(ctx, rect, film, target, [&] { return late() || interrupted(); }) && !interrupted();
         }
-        if (interrupted()) return;  // canceled, taken over, or the node stops: nothing stored
+        if (interrupted()) return false;  // canceled, taken over, or the node stops: nothing stored
         const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
         const RenderStats& st = ctx.stats;
+        // A job rendered straight through is finished with this tile: it ships the resolved
+        // pixels. A pass-by-pass job's next pass goes on from the whole film.
+        const std::string payload = info->straight ? encode_tile_image(film) : encode_film(film);
+        acked = true;
         const long long rc = r.eval(kCommitTile,
                                     {keys::job(t.job), keys::film(t.job), keys::node_tiles(t.job), keys::node_seconds(t.job), t.stream,
                                      keys::sums(t.job)},
-                                    {t.job, std::to_string(t.tile), std::to_string(t.pass), encode_film(film), name, num(seconds),
+                                    {t.job, std::to_string(t.tile), std::to_string(t.pass), payload, name, num(seconds),
                                      timed_out ? "1" : "0", std::to_string(st.samples), std::to_string(st.camera_rays),
                                      std::to_string(st.shadow_rays), std::to_string(st.bounce_rays),
                                      std::to_string(st.traversal.nodes_visited), std::to_string(st.traversal.prim_tests),
-                                     std::to_string(st.nonfinite_samples), num(st.max_sample), sums.is_null() ? std::string() : sums.dump()})
+                                     std::to_string(st.nonfinite_samples), num(st.max_sample), sums.is_null() ? std::string() : sums.dump(),
+                                     t.id, keys::group})
                                 .as_int();
         if (rc == 1) {
             ++metrics.tiles;
@@ -479,6 +535,7 @@ struct RenderNode::Impl {
         } else {
             ++metrics.duplicates;  // another node stored it first: the same film, dropped
         }
+        return true;
     }
 
     void assemble(Redis& r, const Task& t) {
@@ -492,20 +549,26 @@ struct RenderNode::Impl {
         const PassPlan& plan = info->plan;
         const int target = int(v.items[2].as_int());
         const int n = int(v.items[3].as_int());
-        Film film(s.width, s.height, plan.half_buffer, plan.adaptive);
+        // A straight-through job's tiles are resolved pixels; a pass-by-pass job's are films.
+        Film film(info->straight ? 1 : s.width, info->straight ? 1 : s.height, plan.half_buffer, plan.adaptive);
+        Image image(info->straight ? s.width : 0, info->straight ? s.height : 0);
         const RedisValue tiles = r.command({"HGETALL", keys::film(t.job)});
         int found = 0;
         for (size_t i = 0; i + 1 < tiles.items.size(); i += 2) {
             const std::string& field = tiles.items[i].text;
             if (field.empty() || field[0] != 't') continue;
-            const Film tf = decode_film(tiles.items[i + 1].text);
-            copy_tile_into(tf, {tf.x0, tf.y0, tf.x0 + tf.width, tf.y0 + tf.height}, film);
+            if (info->straight) {
+                place_tile(decode_tile_image(tiles.items[i + 1].text), image);
+            } else {
+                const Film tf = decode_film(tiles.items[i + 1].text);
+                copy_tile_into(tf, {tf.x0, tf.y0, tf.x0 + tf.width, tf.y0 + tf.height}, film);
+            }
             ++found;
         }
         if (found != n) throw JobFailure("pass " + std::to_string(t.pass) + " has " + std::to_string(found) + " of " + std::to_string(n) + " tiles in Redis");
         const long long started_ms = v.items[4].as_int();
         const double seconds = double(now_ms() - started_ms) / 1000.0;
-        if (info->straight) return finish_straight(r, t, *info, film, v, n, started_ms);
+        if (info->straight) return finish_straight(r, t, *info, std::move(image), film, v, n, started_ms);
         ConvergencePoint pt;
         if (plan.measuring) pt = measure_error(film, info->reference ? &*info->reference : nullptr);
         else pt.spp_mean = double(v.items[6].as_int()) / (double(s.width) * s.height);
@@ -522,12 +585,13 @@ struct RenderNode::Impl {
         for (const auto& p : r.command({"LRANGE", keys::curve(t.job), "0", "-1"}).items) result.curve.points.push_back(point_from(json::parse(p.text)));
         result.curve.points.push_back(pt);
         result.curve.stop = *stop;
-        write_results(r, t, *info, film, v, n, seconds, std::move(result), pt);
+        write_results(r, t, *info, film.resolve(), film, v, n, seconds, std::move(result), pt);
     }
 
     // A straight-through job's only assembly: the curve from every tile's sums per pass target
     // (a point's time is when the last tile reached that target).
-    void finish_straight(Redis& r, const Task& t, const JobInfo& info, const Film& film, const RedisValue& v, int n, long long started_ms) {
+    void finish_straight(Redis& r, const Task& t, const JobInfo& info, Image image, const Film& buffers, const RedisValue& v, int n,
+                         long long started_ms) {
         std::vector<ErrorSums> total(info.targets.size());
         std::vector<long long> reached(info.targets.size(), started_ms);
         std::vector<int> tiles_at(info.targets.size(), 0);
@@ -560,16 +624,17 @@ struct RenderNode::Impl {
         }
         result.curve.stop = StopReason::spp;
         const ConvergencePoint last = result.curve.points.empty() ? ConvergencePoint{} : result.curve.points.back();
-        write_results(r, t, info, film, v, n, double(now_ms() - started_ms) / 1000.0, std::move(result), last);
+        write_results(r, t, info, std::move(image), buffers, v, n, double(now_ms() - started_ms) / 1000.0, std::move(result), last);
     }
 
     // The last pass: the results, then the job's state (a node that dies in between leaves the
-    // task to another, which writes the same files again).
-    void write_results(Redis& r, const Task& t, const JobInfo& info, const Film& film, const RedisValue& v, int n, double seconds,
-                       RenderResult result, const ConvergencePoint& pt) {
+    // task to another, which writes the same files again). `buffers` says which film buffers the
+    // render kept (the report lists them).
+    void write_results(Redis& r, const Task& t, const JobInfo& info, Image image, const Film& buffers, const RedisValue& v, int n,
+                       double seconds, RenderResult result, const ConvergencePoint& pt) {
         const auto& rj = std::get<api::RenderJob>(info.job);
         const RenderSettings& s = info.settings;
-        result.image = film.resolve();
+        result.image = std::move(image);
         RenderStats& st = result.stats;
         st.samples = uint64_t(v.items[6].as_int());
         st.camera_rays = uint64_t(v.items[7].as_int());
@@ -581,7 +646,7 @@ struct RenderNode::Impl {
         st.max_sample = std::stof(v.items[13].text);
         st.render_seconds = seconds;
         const auto prepared = cache.get(r, info.ref, rj.scene_options);
-        describe_render(prepared->scene, s, film, result.built, result.left_out);
+        describe_render(prepared->scene, s, buffers, result.built, result.left_out);
         const auto shares = r.pipeline({{"HGETALL", keys::node_tiles(t.job)}, {"HGETALL", keys::node_seconds(t.job)}});
         std::map<std::string, api::NodeShare> by_node;
         for (size_t i = 0; i + 1 < shares[0].items.size(); i += 2) {

@@ -7,6 +7,7 @@
 #                     result changes nothing
 #   redis_restart     kill -9 of Redis after the AOF's fsync window, restarted from its AOF mid-job
 #   cancel_priority   a high-priority job overtakes a running low one; cancel stops a running job
+#   poison_task       a task whose nodes keep dying fails its job with the reason, instead of looping
 #   random_kills      3 nodes (API + render each), 50 jobs, random kill -9 and restarts: every job
 #                     accounted for, every image identical to one process's
 set -u
@@ -55,6 +56,21 @@ kill_api_node)
   same_image api2 "$id" "$ref"
   code=$(api -o /dev/null -w '%{http_code}' "$(url api2)/v1/jobs/$id/report.json")
   [ "$code" = 200 ] || fail "report.json through api2: $code"
+  ;;
+poison_task)
+  # --max-deliveries 1: the first takeover is already one delivery too many.
+  start_api api
+  start_worker w1 --max-deliveries 1
+  id=$(submit api "$job")
+  wait_state_on api "$id" 30 running
+  while [ "$(tiles_done_on api "$id")" = 0 ] || [ -z "$(tiles_done_on api "$id")" ]; do sleep 0.05; done
+  kill_node w1 9
+  start_worker w2 --max-deliveries 1
+  wait_state_on api "$id" 60 failed
+  api "$(url api)/v1/jobs/$id" | grep -q 'was delivered 2 times' || fail "the failed job does not say why: $(api "$(url api)/v1/jobs/$id")"
+  # The farm goes on: the next job succeeds.
+  id2=$(submit api '{"scene":"cornell_spheres","width":32,"height":24,"spp":4,"tile_size":16}')
+  wait_state_on api "$id2" 60 succeeded
   ;;
 sigstop_node)
   ref=$(reference "$job")
