@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "engine/core/float_util.h"
 #include "engine/sampling/rng.h"
 #include "engine/sampling/warp.h"
 #include "engine/scene/intersect.h"
@@ -12,6 +13,8 @@ namespace tessera {
 
 struct LightSample {
     glm::vec3 point;
+    glm::vec3 point_err;  // bound on point's rounding error (spawn_ray_between)
+    glm::vec3 n;          // the light triangle's unit normal
     glm::vec3 wi;    // unit, from the shading point to `point`
     float dist2;
     float pdf_w;     // solid-angle density
@@ -25,7 +28,12 @@ inline bool sample_area_light(const RenderScene& s, const AreaLight& light, cons
     const LightTriangle* tri = std::lower_bound(first, last, u, [](const LightTriangle& t, float v) { return t.cdf <= v; });
     if (tri == last) tri = last - 1;
     const glm::vec2 b = sample_triangle(rng.next_float(), rng.next_float());
-    out.point = tri->p0 + b.y * tri->e1 + (1.f - b.x - b.y) * tri->e2;
+    const float b1 = b.y, b2 = 1.f - b.x - b.y;
+    out.point = tri->p0 + b1 * tri->e1 + b2 * tri->e2;
+    // As the intersector bounds a hit point's error (γ7 over the weighted vertices), with one
+    // more rounding for the stored edges.
+    out.point_err = gamma(8) * (glm::abs(b.x * tri->p0) + glm::abs(b1 * (tri->p0 + tri->e1)) + glm::abs(b2 * (tri->p0 + tri->e2)));
+    out.n = tri->n;
     const glm::vec3 d = out.point - p;
     out.dist2 = glm::dot(d, d);
     if (!(out.dist2 > 0.f)) return false;

@@ -125,7 +125,7 @@ private:
             const float c = glm::dot(si.ns, ls.wi);
             if (c <= 0.f || glm::dot(si.ng, ls.wi) <= 0.f) return;
             ++stats_.shadow_rays;
-            if (occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, ls.point, si.tri), stats_.traversal)) return;
+            if (occluded(s_, spawn_ray_between(si.p, si.p_err, si.ng, ls.point, ls.point_err, ls.n, si.tri), stats_.traversal)) return;
             const float pdf = ls.pdf_w * pick;
             const float w = mis ? power_heuristic(pdf, cosine_hemisphere_pdf(c)) : 1.f;
             Ld += f * ls.Le * (w * c / (pdf * float(n)));

@@ -122,14 +122,13 @@ SceneDescription furnace_box(float albedo, float emission, float half, glm::vec3
     return s;
 }
 
-SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed) {
-    // A geodesic octahedron of frequency k (8·k² triangles, the fewest at or above the request):
+namespace {
+
+// A unit geodesic octahedron of frequency k (8·k² triangles), wound outward.
+void geodesic_sphere(int k, std::vector<glm::vec3>& pos, std::vector<uint32_t>& idx) {
+    // A geodesic octahedron of frequency k (8·k² triangles):
     // each octant's face is a triangular lattice whose points (i, j, k−i−j) are keyed by signed
     // integer coordinates, so points on shared edges are one vertex and the mesh is closed.
-    // Vertices are then pushed along the normal by a sum of random sinusoids.
-    const int k = std::max(1, int(std::ceil(std::sqrt(double(min_triangles) / 8.0))));
-    std::vector<glm::vec3> pos;
-    std::vector<uint32_t> idx;
     idx.reserve(size_t(8) * k * k * 3);
     std::unordered_map<uint64_t, uint32_t> lattice;
     lattice.reserve(size_t(4) * k * k + 2);
@@ -154,6 +153,36 @@ SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed) {
             }
         }
     }
+}
+
+}  // namespace
+
+SceneDescription furnace_sphere(float albedo, float emission, float radius, glm::vec3 center, int frequency) {
+    SceneDescription s = furnace_box(albedo, emission, radius, center);
+    s.source = "builtin:furnace_sphere";
+    MeshDesc& m = s.meshes[0];
+    m.name = "sphere";
+    m.origin = here("sphere");
+    m.positions.clear();
+    m.indices.clear();
+    geodesic_sphere(std::max(1, frequency), m.positions, m.indices);
+    // Turned about a generic axis: no face plane is aligned with a coordinate plane, so sampled
+    // light points round off their faces as in any real scene.
+    const glm::vec3 axis = glm::normalize(glm::vec3(0.3f, 0.8f, 0.52f));
+    const float angle = 0.7f, c = std::cos(angle), sn = std::sin(angle);
+    for (glm::vec3& p : m.positions) {
+        const glm::vec3 r = p * c + glm::cross(axis, p) * sn + axis * glm::dot(axis, p) * (1.f - c);
+        p = center + radius * r;
+    }
+    return s;
+}
+
+SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed) {
+    // Vertices of a geodesic sphere pushed along the normal by a sum of random sinusoids.
+    const int k = std::max(1, int(std::ceil(std::sqrt(double(min_triangles) / 8.0))));
+    std::vector<glm::vec3> pos;
+    std::vector<uint32_t> idx;
+    geodesic_sphere(k, pos, idx);
     Pcg32 rng(seed, 7);
     glm::vec3 freq[8];
     float phase[8];

@@ -19,6 +19,9 @@ SceneDescription many_lights(int lamps = 32);
 // A closed cube of half-size `half` centred at `center` whose walls all emit `emission` and
 // reflect with `albedo` (white furnace); the camera looks from inside.
 SceneDescription furnace_box(float albedo, float emission, float half = 1.f, glm::vec3 center = glm::vec3(0.f));
+// The furnace as a closed geodesic sphere (8·frequency² faces, turned so that no face is aligned
+// with the axes) of radius `radius` at `center`, the camera at its centre.
+SceneDescription furnace_sphere(float albedo, float emission, float radius = 1.f, glm::vec3 center = glm::vec3(0.f), int frequency = 4);
 // A noisy subdivided sphere with at least `min_triangles` triangles and a directional light.
 SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed = 1);
 

@@ -111,5 +111,59 @@ TEST(Stability, CoplanarOverlappingTriangles) {
     EXPECT_GT(test::iid_pixel_mean(a.image).mean, 1.0);
 }
 
+// Far from the origin, every sampled light point carries the rounding error of its coordinates:
+// the shadow ray toward it must neither stop short of a real occluder nor report the light's
+// own surface as one. A closed emitting sphere (faces in general orientation, unlike a cube's
+// axis-aligned faces, whose points lie exactly on their planes) of radius r at distance D from
+// the origin gives exactly 1 + a + … + a^depth in every pixel, with every strategy, at every
+// D/r up to 10⁴ and every scale. Prints the measured table (docs/stability.md).
+struct FarFromOrigin : testing::TestWithParam<std::tuple<DirectLighting, int>> {};
+
+TEST_P(FarFromOrigin, FurnaceSphereKeepsItsEnergy) {
+    const auto [direct, depth] = GetParam();
+    const float a = 0.5f;
+    const double want = series(a, depth);
+    const char* name = direct == DirectLighting::hemisphere ? "hemisphere" : direct == DirectLighting::importance ? "light" : "MIS";
+    for (float r : {1e-4f, 1.f, 1e4f}) {
+        std::string row = "| " + std::string(name) + " | " + std::to_string(depth) + " | " + (r == 1.f ? "1" : r < 1.f ? "1e-4" : "1e4") + " |";
+        for (double ratio : {0.0, 1.0, 1e2, 1e3, 1e4, 1e5, 1e6}) {
+            // The centre on a generic direction, so no coordinate is small.
+            const glm::vec3 center = float(ratio * r) * glm::normalize(glm::vec3(0.62f, -0.47f, 0.63f));
+            RenderSettings s = furnace(depth, 0.f, 32, 32, 16);
+            s.direct = direct;
+            const RenderResult res = test::render_desc(furnace_sphere(a, 1.f, r, center, 4), s);
+            expect_finite(res);
+            const test::MeanEstimate m = test::iid_pixel_mean(res.image);
+            // Past 10⁴ radii a float coordinate resolves less than 1/1000 of the sphere: what
+            // is measured there is in docs/stability.md, not asserted (issue 19's open part).
+            if (ratio <= 1e4) EXPECT_NEAR(m.mean, want, 4.5 * m.se + 1e-6 * want) << name << " depth " << depth << " r " << r << " D/r " << ratio;
+            char cell[64];
+            std::snprintf(cell, sizeof cell, " %.4f ± %.4f |", m.mean, m.se);
+            row += cell;
+        }
+        std::printf("%s\n", row.c_str());
+    }
+}
+
+// Embree's traversal takes the same shadow rays: it kept the same loss before, and must not now.
+TEST(Stability, FarFromOriginWithEmbreeKeepsItsEnergy) {
+    RenderSceneOptions o;
+    o.bvh.type = BvhType::embree;
+    for (DirectLighting direct : {DirectLighting::importance, DirectLighting::mis})
+        for (double ratio : {1e3, 1e4}) {
+            const glm::vec3 center = float(ratio) * glm::normalize(glm::vec3(0.62f, -0.47f, 0.63f));
+            RenderSettings s = furnace(1, 0.f, 32, 32, 16);
+            s.direct = direct;
+            const RenderResult res = test::render_desc(furnace_sphere(0.5f, 1.f, 1.f, center, 4), s, o);
+            expect_finite(res);
+            const test::MeanEstimate m = test::iid_pixel_mean(res.image);
+            EXPECT_NEAR(m.mean, 1.5, 4.5 * m.se + 1e-6) << "D/r " << ratio;
+        }
+}
+
+INSTANTIATE_TEST_SUITE_P(Strategies, FarFromOrigin,
+                         testing::Combine(testing::Values(DirectLighting::importance, DirectLighting::hemisphere, DirectLighting::mis),
+                                          testing::Values(1, 5)));
+
 }  // namespace
 }  // namespace tessera
