@@ -21,7 +21,16 @@ struct LightSample {
     glm::vec3 Le;
 };
 
-inline bool sample_area_light(const RenderScene& s, const AreaLight& light, const glm::vec3& p, Pcg32& rng, LightSample& out) {
+// The direction and distance from a shading point (anchor + local, see SurfaceInteraction) to a
+// point q given the same way: anchors of nearby triangles subtract exactly (Sterbenz), so the
+// difference keeps its digits at any distance from the origin.
+inline glm::vec3 anchored_difference(const glm::vec3& q_anchor, const glm::vec3& q_local, const glm::vec3& p_anchor,
+                                     const glm::vec3& p_local) {
+    return (q_anchor - p_anchor) + (q_local - p_local);
+}
+
+inline bool sample_area_light(const RenderScene& s, const AreaLight& light, const glm::vec3& p_anchor, const glm::vec3& p_local,
+                              Pcg32& rng, LightSample& out) {
     const float u = rng.next_float();
     const LightTriangle* first = &s.light_triangles[light.first];
     const LightTriangle* last = first + light.count;
@@ -29,12 +38,13 @@ inline bool sample_area_light(const RenderScene& s, const AreaLight& light, cons
     if (tri == last) tri = last - 1;
     const glm::vec2 b = sample_triangle(rng.next_float(), rng.next_float());
     const float b1 = b.y, b2 = 1.f - b.x - b.y;
-    out.point = tri->p0 + b1 * tri->e1 + b2 * tri->e2;
+    const glm::vec3 local = b1 * tri->e1 + b2 * tri->e2;
+    out.point = tri->p0 + local;
     // As the intersector bounds a hit point's error (γ7 over the weighted vertices), with one
     // more rounding for the stored edges.
     out.point_err = gamma(8) * (glm::abs(b.x * tri->p0) + glm::abs(b1 * (tri->p0 + tri->e1)) + glm::abs(b2 * (tri->p0 + tri->e2)));
     out.n = tri->n;
-    const glm::vec3 d = out.point - p;
+    const glm::vec3 d = anchored_difference(tri->p0, local, p_anchor, p_local);
     out.dist2 = glm::dot(d, d);
     if (!(out.dist2 > 0.f)) return false;
     out.wi = d * (1.f / std::sqrt(out.dist2));
@@ -43,6 +53,10 @@ inline bool sample_area_light(const RenderScene& s, const AreaLight& light, cons
     out.pdf_w = out.dist2 / (std::abs(cos_l) * light.area);
     out.Le = light.radiance;
     return true;
+}
+
+inline bool sample_area_light(const RenderScene& s, const AreaLight& light, const glm::vec3& p, Pcg32& rng, LightSample& out) {
+    return sample_area_light(s, light, p, glm::vec3(0.f), rng, out);
 }
 
 // The density sample_area_light gives direction wi that reaches the light at distance `dist`

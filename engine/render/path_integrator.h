@@ -121,7 +121,7 @@ private:
         // One light sample toward `light`, chosen with probability `pick` among the lights.
         auto light_sample = [&](const AreaLight& light, float pick) {
             LightSample ls;
-            if (!sample_area_light(s_, light, si.p, rng, ls)) return;
+            if (!sample_area_light(s_, light, si.anchor, si.local, rng, ls)) return;
             const float c = glm::dot(si.ns, ls.wi);
             if (c <= 0.f || glm::dot(si.ng, ls.wi) <= 0.f) return;
             ++stats_.shadow_rays;
@@ -159,8 +159,16 @@ private:
                 if (Le == glm::vec3(0.f)) continue;
                 const float pdf_b = cosine_hemisphere_pdf(wl.z);
                 const AreaLight& hit_light = s_.area_lights[li];
-                const float pdf_l = area_light_pdf(hit_light, hs.ng, wi, h.t) * (by_power ? hit_light.power_pmf : 1.f);
-                Ld += f * Le * (power_heuristic(pdf_b, pdf_l) * wl.z / (pdf_b * float(n)));
+                // The weight as the light sample of the same point computes it: geometry from
+                // the shading point, not from the offset ray origin (whose offset is not small
+                // against the distance far from the origin), so the two weights sum to one.
+                const glm::vec3 d = anchored_difference(hs.anchor, hs.local, si.anchor, si.local);
+                const float dist = glm::length(d);
+                if (!(dist > 0.f)) continue;
+                const glm::vec3 wp = d / dist;
+                const float pdf_bp = cosine_hemisphere_pdf(std::max(0.f, glm::dot(si.ns, wp)));
+                const float pdf_l = area_light_pdf(hit_light, hs.ng, wp, dist) * (by_power ? hit_light.power_pmf : 1.f);
+                Ld += f * Le * (power_heuristic(pdf_bp, pdf_l) * wl.z / (pdf_b * float(n)));
             }
         }
         if (s_.has_sky) {

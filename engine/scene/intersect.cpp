@@ -101,6 +101,8 @@ SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hi
         // Re-project onto the surface; the error bound then scales with the sphere, not with t.
         rel = len > 0.f ? rel * (s.radius / len) : glm::vec3(0, s.radius, 0);
         si.p = s.center + rel;
+        si.anchor = s.center;
+        si.local = rel;
         si.p_err = gamma(5) * glm::abs(rel) + gamma(2) * glm::abs(si.p);
         si.ng = glm::normalize(rel);
         si.ns = si.ng;
@@ -112,16 +114,19 @@ SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hi
     const float b0 = 1.f - hit.b1 - hit.b2;
     // Relative to p0: edges of nearby vertices subtract exactly, so far from the origin p is
     // within half an ulp of the true point and cannot fall outside a neighbouring face.
-    si.p = t.p0 + (hit.b1 * (t.p1 - t.p0) + hit.b2 * (t.p2 - t.p0));
+    si.anchor = t.p0;
+    si.local = hit.b1 * (t.p1 - t.p0) + hit.b2 * (t.p2 - t.p0);
+    si.p = t.p0 + si.local;
     si.p_err = gamma(7) * (glm::abs(b0 * t.p0) + glm::abs(hit.b1 * t.p1) + glm::abs(hit.b2 * t.p2));
     // A hit on a shared edge may round onto the plane of the neighbouring face; a ray spawned
     // there and leaving through that face meets it at t ≈ 0 with either sign. Pulling the
     // point toward its triangle's interior by the error bound moves it off that plane.
-    const glm::vec3 to_centroid = t.p0 + ((t.p1 - t.p0) + (t.p2 - t.p0)) * (1.f / 3.f) - si.p;
+    const glm::vec3 to_centroid = ((t.p1 - t.p0) + (t.p2 - t.p0)) * (1.f / 3.f) - si.local;
     const float dist = glm::length(to_centroid);
     const float need = 2.f * std::max(si.p_err.x, std::max(si.p_err.y, si.p_err.z));
     if (dist > 0.f) {
-        si.p += to_centroid * std::min(0.5f, need / dist);
+        si.local += to_centroid * std::min(0.5f, need / dist);
+        si.p = t.p0 + si.local;
         si.p_err += gamma(2) * glm::abs(si.p);
     }
     glm::vec3 ng = glm::cross(t.p1 - t.p0, t.p2 - t.p0);

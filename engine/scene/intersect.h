@@ -17,6 +17,10 @@ struct Hit {
 struct SurfaceInteraction {
     glm::vec3 p;       // hit point, computed from the surface (barycentrics / sphere), not o + t·d
     glm::vec3 p_err;   // conservative bound on p's rounding error (for spawn.h)
+    // p as anchor + local: a vertex of its triangle (a sphere's centre) and the small offset from
+    // it. Differences between two nearby points taken anchor to anchor and local to local keep
+    // the digits that p's own coordinates lose far from the origin (light_sampler.h).
+    glm::vec3 anchor, local;
     glm::vec3 ng;      // unit geometric normal (facing is not flipped)
     glm::vec3 ns;      // unit shading normal, on the same side as ng
     uint32_t material;

@@ -116,7 +116,8 @@ TEST(Stability, CoplanarOverlappingTriangles) {
 // own surface as one. A closed emitting sphere (faces in general orientation, unlike a cube's
 // axis-aligned faces, whose points lie exactly on their planes) of radius r at distance D from
 // the origin gives exactly 1 + a + … + a^depth in every pixel, with every strategy, at every
-// D/r up to 10⁴ and every scale. Prints the measured table (docs/stability.md).
+// D/r (within the noise up to 10⁴, within 0.5% to 10⁶) and every scale. Prints the measured
+// table (docs/stability.md).
 struct FarFromOrigin : testing::TestWithParam<std::tuple<DirectLighting, int>> {};
 
 TEST_P(FarFromOrigin, FurnaceSphereKeepsItsEnergy) {
@@ -134,9 +135,11 @@ TEST_P(FarFromOrigin, FurnaceSphereKeepsItsEnergy) {
             const RenderResult res = test::render_desc(furnace_sphere(a, 1.f, r, center, 4), s);
             expect_finite(res);
             const test::MeanEstimate m = test::iid_pixel_mean(res.image);
-            // Past 10⁴ radii a float coordinate resolves less than 1/1000 of the sphere: what
-            // is measured there is in docs/stability.md, not asserted (issue 19's open part).
-            if (ratio <= 1e4) EXPECT_NEAR(m.mean, want, 4.5 * m.se + 1e-6 * want) << name << " depth " << depth << " r " << r << " D/r " << ratio;
+            // Past 10⁴ radii a float coordinate resolves less than 1/1000 of the sphere, and a
+            // ray's origin must move that far off its surface: there, 0.5% (MIS reads 0.1–0.3%
+            // low, docs/stability.md).
+            const double tol = ratio <= 1e4 ? 0.0 : 5e-3 * want;
+            EXPECT_NEAR(m.mean, want, 4.5 * m.se + 1e-6 * want + tol) << name << " depth " << depth << " r " << r << " D/r " << ratio;
             char cell[64];
             std::snprintf(cell, sizeof cell, " %.4f ± %.4f |", m.mean, m.se);
             row += cell;
