@@ -48,6 +48,7 @@ constexpr Named<BounceMode> kBounces[] = {{"accumulate", BounceMode::accumulate}
 constexpr Named<LightingOutput> kLighting[] = {
     {"all", LightingOutput::all}, {"direct", LightingOutput::direct}, {"indirect", LightingOutput::indirect}};
 constexpr Named<LightSelection> kSelection[] = {{"all", LightSelection::all}, {"power", LightSelection::power}};
+constexpr Named<SamplerKind> kSampler[] = {{"sobol", SamplerKind::sobol}, {"independent", SamplerKind::independent}};
 constexpr Named<Integrator> kIntegrator[] = {{"path", Integrator::path}, {"normals", Integrator::normals}};
 constexpr Named<TriangleTest> kTriangle[] = {
     {"watertight", TriangleTest::watertight}, {"moller_trumbore", TriangleTest::moller_trumbore}};
@@ -218,6 +219,9 @@ const Field<RenderJob> kRenderFields[] = {
     choice<RenderJob, kSelection, &RenderJob::render, &RenderSettings::light_selection>(
         "light_selection", "\"all\"", "Every area light light_rays times (all), or light_rays in all by power.",
         "--light-selection"),
+    choice<RenderJob, kSampler, &RenderJob::render, &RenderSettings::sampler>(
+        "sampler", "\"sobol\"", "Owen-scrambled Sobol points (stratified: less error per sample), or independent random numbers.",
+        "--sampler"),
     [] {
         Field<RenderJob> f = field<RenderJob>("adaptive", FieldKind::object, "Adaptive sampling {batch, tolerance}, or null (off).", "null");
         f.nullable = true;

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -41,6 +42,9 @@ int bench_convergence(int argc, char** argv) {
         ->check(CLI::Range(1e-6, 100.0));
     app.add_option("--depth", depth, "maximum bounce depth")->check(CLI::Range(0, 100));
     app.add_option("--svg", out_svg, "also plot the curves to this file")->type_name("FILE");
+    bool samplers = false;
+    app.add_flag("--samplers", samplers, "compare Sobol points against independent sampling (light sampling with 1 and 4 "
+                                         "light rays, MIS with 4), instead of the standard strategies");
     app.add_option("--cs184", cs184, "the CS184 scene folder")->type_name("DIR");
     if (const auto status = parse_args(app, argc, argv)) return *status;
     const int width = size.first, height = size.second;
@@ -49,8 +53,22 @@ int bench_convergence(int argc, char** argv) {
     base.width = width;
     base.height = height;
     base.max_depth = depth;
-    const api::ComparisonResult r =
-        api::run_comparison(desc, api::standard_configs(base), base, ref_spp, budget, reps, target);
+    std::vector<api::ComparisonConfig> configs;
+    if (samplers) {
+        for (const auto& [direct, rays, what] : {std::tuple{DirectLighting::importance, 1, "importance, 1 light ray"},
+                                                 std::tuple{DirectLighting::importance, 4, "importance, 4 light rays"},
+                                                 std::tuple{DirectLighting::mis, 4, "MIS, 4 light rays"}})
+            for (SamplerKind k : {SamplerKind::independent, SamplerKind::sobol}) {
+                api::ComparisonConfig c{std::string(what) + (k == SamplerKind::sobol ? ", Sobol" : ", independent"), base, {}};
+                c.settings.direct = direct;
+                c.settings.light_rays = rays;
+                c.settings.sampler = k;
+                configs.push_back(c);
+            }
+    } else {
+        configs = api::standard_configs(base);
+    }
+    const api::ComparisonResult r = api::run_comparison(desc, configs, base, ref_spp, budget, reps, target);
     std::printf("Scene %s, %d×%d, depth %d, reference %d spp MIS (%.1f s). Each configuration: %d runs of %.1f s "
                 "against the reference (relMSE, ε = 0.01).\n\n%s", scene_name.c_str(), width, height, depth, ref_spp,
                 r.reference_seconds, reps, budget, api::comparison_markdown(r, budget, target).c_str());

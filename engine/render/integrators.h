@@ -8,7 +8,7 @@ namespace tessera {
 class NormalsIntegrator {
 public:
     NormalsIntegrator(const RenderScene& scene, RenderStats& stats) : s_(scene), stats_(stats) {}
-    glm::vec3 radiance(Ray ray, Pcg32&) {
+    glm::vec3 radiance(Ray ray, Sampler&) {
         Hit hit;
         if (!intersect(s_, ray, hit, stats_.traversal)) return glm::vec3(0.f);
         return 0.5f * surface_at(s_, ray, hit).ns + 0.5f;
@@ -23,7 +23,7 @@ class IntegratorDispatch {
 public:
     IntegratorDispatch(const RenderScene& scene, const RenderSettings& settings, RenderStats& stats)
         : kind_(settings.integrator), normals_(scene, stats), path_(scene, settings, stats) {}
-    glm::vec3 radiance(const Ray& ray, Pcg32& rng) {
+    glm::vec3 radiance(const Ray& ray, Sampler& rng) {
         return kind_ == Integrator::normals ? normals_.radiance(ray, rng) : path_.radiance(ray, rng);
     }
 

@@ -3,9 +3,10 @@
 // it. Densities are per solid angle as seen from the shading point.
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 #include "engine/core/float_util.h"
-#include "engine/sampling/rng.h"
+#include "engine/sampling/sampler.h"
 #include "engine/sampling/warp.h"
 #include "engine/scene/intersect.h"
 
@@ -29,14 +30,19 @@ inline glm::vec3 anchored_difference(const glm::vec3& q_anchor, const glm::vec3&
     return (q_anchor - p_anchor) + (q_local - p_local);
 }
 
-inline bool sample_area_light(const RenderScene& s, const AreaLight& light, const glm::vec3& p_anchor, const glm::vec3& p_local,
-                              Pcg32& rng, LightSample& out) {
+// Rng: Sampler, or Pcg32 (tests).
+template <class Rng>
+bool sample_area_light(const RenderScene& s, const AreaLight& light, const glm::vec3& p_anchor, const glm::vec3& p_local, Rng& rng,
+                       LightSample& out) {
     const float u = rng.next_float();
     const LightTriangle* first = &s.light_triangles[light.first];
     const LightTriangle* last = first + light.count;
     const LightTriangle* tri = std::lower_bound(first, last, u, [](const LightTriangle& t, float v) { return t.cdf <= v; });
     if (tri == last) tri = last - 1;
-    const glm::vec2 b = sample_triangle(rng.next_float(), rng.next_float());
+    glm::vec2 uv;
+    if constexpr (std::is_same_v<Rng, Pcg32>) uv = independent_2d(rng);
+    else uv = rng.next_2d();
+    const glm::vec2 b = sample_triangle(uv.x, uv.y);
     const float b1 = b.y, b2 = 1.f - b.x - b.y;
     const glm::vec3 local = b1 * tri->e1 + b2 * tri->e2;
     out.point = tri->p0 + local;
@@ -55,7 +61,8 @@ inline bool sample_area_light(const RenderScene& s, const AreaLight& light, cons
     return true;
 }
 
-inline bool sample_area_light(const RenderScene& s, const AreaLight& light, const glm::vec3& p, Pcg32& rng, LightSample& out) {
+template <class Rng>
+bool sample_area_light(const RenderScene& s, const AreaLight& light, const glm::vec3& p, Rng& rng, LightSample& out) {
     return sample_area_light(s, light, p, glm::vec3(0.f), rng, out);
 }
 

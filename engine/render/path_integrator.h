@@ -10,7 +10,7 @@
 #include "engine/geometry/spawn.h"
 #include "engine/render/light_sampler.h"
 #include "engine/render/renderer.h"
-#include "engine/sampling/rng.h"
+#include "engine/sampling/sampler.h"
 #include "engine/sampling/warp.h"
 #include "engine/scene/intersect.h"
 
@@ -21,7 +21,7 @@ public:
     PathIntegrator(const RenderScene& scene, const RenderSettings& settings, RenderStats& stats)
         : s_(scene), st_(settings), stats_(stats) {}
 
-    glm::vec3 radiance(Ray ray, Pcg32& rng) {
+    glm::vec3 radiance(Ray ray, Sampler& rng) {
         Hit hit;
         if (!intersect(s_, ray, hit, stats_.traversal)) return include(0) ? sky(ray.d) : glm::vec3(0.f);
         SurfaceInteraction si = surface_at(s_, ray, hit);
@@ -39,7 +39,8 @@ public:
                 beta /= st_.russian_roulette;
             }
             // Cosine-weighted continuation: f·cos/pdf of the Lambertian lobe is its albedo.
-            const glm::vec3 wi = Frame(si.ns).to_world(sample_cosine_hemisphere(rng.next_float(), rng.next_float()));
+            const glm::vec2 u = rng.next_2d();
+            const glm::vec3 wi = Frame(si.ns).to_world(sample_cosine_hemisphere(u.x, u.y));
             if (glm::dot(wi, si.ng) <= 0.f) break;  // below the true surface (shading normal bent away)
             beta *= m.albedo;
             Ray next = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri);
@@ -76,7 +77,7 @@ private:
 
     static float power_heuristic(float a, float b) { return a * a / (a * a + b * b); }
 
-    glm::vec3 direct(const SurfaceInteraction& si, const Material& m, Pcg32& rng) {
+    glm::vec3 direct(const SurfaceInteraction& si, const Material& m, Sampler& rng) {
         if (!s_.has_lights()) return glm::vec3(0.f);
         const glm::vec3 f = m.albedo * kInvPi;
         glm::vec3 Ld(0.f);
@@ -104,7 +105,8 @@ private:
         if (st_.direct == DirectLighting::hemisphere) {
             const int count = n * int(s_.area_lights.size() + (s_.has_sky ? 1 : 0));
             for (int i = 0; i < count; ++i) {
-                const glm::vec3 wi = frame.to_world(sample_uniform_hemisphere(rng.next_float(), rng.next_float()));
+                const glm::vec2 u = rng.next_2d();
+                const glm::vec3 wi = frame.to_world(sample_uniform_hemisphere(u.x, u.y));
                 if (glm::dot(wi, si.ng) <= 0.f) continue;
                 Ray r = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri);
                 ++stats_.shadow_rays;
@@ -145,7 +147,8 @@ private:
         if (mis && !s_.area_lights.empty()) {
             // BSDF samples, shared by all area lights; each hit counts for the light it found.
             for (int i = 0; i < n; ++i) {
-                const glm::vec3 wl = sample_cosine_hemisphere(rng.next_float(), rng.next_float());
+                const glm::vec2 u = rng.next_2d();
+                const glm::vec3 wl = sample_cosine_hemisphere(u.x, u.y);
                 const glm::vec3 wi = frame.to_world(wl);
                 if (glm::dot(wi, si.ng) <= 0.f || wl.z <= 0.f) continue;
                 Ray r = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri);
@@ -174,7 +177,8 @@ private:
         if (s_.has_sky) {
             // The sky is sampled with the cosine lobe: f·L·cos/pdf reduces to albedo·L.
             for (int i = 0; i < n; ++i) {
-                const glm::vec3 wi = frame.to_world(sample_cosine_hemisphere(rng.next_float(), rng.next_float()));
+                const glm::vec2 u = rng.next_2d();
+                const glm::vec3 wi = frame.to_world(sample_cosine_hemisphere(u.x, u.y));
                 if (glm::dot(wi, si.ng) <= 0.f || wi.y <= 0.f) continue;
                 ++stats_.shadow_rays;
                 if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri), stats_.traversal)) Ld += m.albedo * s_.sky / float(n);

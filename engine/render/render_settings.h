@@ -4,6 +4,8 @@
 #include <cstdint>
 #include <optional>
 
+#include "engine/sampling/sampler.h"
+
 namespace tessera {
 
 enum class Integrator { normals, path };
@@ -34,6 +36,7 @@ struct RenderSettings {
     BounceMode bounces = BounceMode::accumulate;
     LightingOutput output = LightingOutput::all;
     LightSelection light_selection = LightSelection::all;
+    SamplerKind sampler = SamplerKind::sobol;  // engine/sampling/sampler.h
     std::optional<AdaptiveSettings> adaptive;
     int tile_size = 32;
     uint64_t seed = 0;

@@ -10,7 +10,7 @@
 #include "engine/render/integrators.h"
 #include "engine/render/render_settings.h"
 #include "engine/render/renderer.h"
-#include "engine/sampling/rng.h"
+#include "engine/sampling/sampler.h"
 
 namespace tessera {
 
@@ -39,8 +39,9 @@ public:
         glm::dvec3 sum_odd = film.sum_odd.empty() ? glm::dvec3(0.0) : film.sum_odd[p];
         int s = int(film.count[p]);
         for (; s < target; ++s) {
-            Pcg32 rng = sample_rng(settings_.seed, pixel, uint64_t(s));
-            const float jx = rng.next_float(), jy = rng.next_float();
+            Sampler rng(settings_.sampler, settings_.seed, pixel, uint64_t(s));
+            const glm::vec2 j = rng.next_2d();
+            const float jx = j.y, jy = j.x;  // independent: the first number drawn goes to x, as it always did
             Ray ray = generate_ray(camera_, (float(x) + jx) * inv_w, 1.f - (float(y) + jy) * inv_h);
             ++stats.camera_rays;
             glm::vec3 L = integrator_.radiance(ray, rng);

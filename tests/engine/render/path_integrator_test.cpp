@@ -251,3 +251,39 @@ TEST(PathIntegrator, LightSelectionByPowerIsUnbiased) {
 
 }  // namespace
 }  // namespace tessera
+
+namespace tessera {
+namespace {
+
+// Sobol points and independent numbers estimate the same image: the Cornell box with spheres,
+// MIS, three bounces, averaged over the image, over six seeds each (the seeds' spread gives the
+// standard error).
+TEST(PathIntegrator, SobolAndIndependentSamplingAgree) {
+    const RenderScene scene = build_render_scene(cornell_spheres(), {});
+    double mean[2] = {0, 0}, var[2] = {0, 0};
+    const int seeds = 6;
+    for (int k = 0; k < 2; ++k) {
+        std::vector<double> m;
+        for (int seed = 1; seed <= seeds; ++seed) {
+            RenderSettings s;
+            s.width = 40;
+            s.height = 30;
+            s.spp = 8;
+            s.max_depth = 3;
+            s.direct = DirectLighting::mis;
+            s.sampler = k ? SamplerKind::sobol : SamplerKind::independent;
+            s.seed = uint64_t(seed);
+            const Image img = render(scene, s).image;
+            double sum = 0;
+            for (float v : img.rgb) sum += v;
+            m.push_back(sum / double(img.rgb.size()));
+        }
+        for (double x : m) mean[k] += x / seeds;
+        for (double x : m) var[k] += (x - mean[k]) * (x - mean[k]) / (seeds - 1);
+    }
+    const double se = std::sqrt(var[0] / seeds + var[1] / seeds);
+    EXPECT_NEAR(mean[1], mean[0], 4.5 * se + 1e-6) << "independent " << mean[0] << ", Sobol " << mean[1] << ", se " << se;
+}
+
+}  // namespace
+}  // namespace tessera
