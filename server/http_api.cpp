@@ -7,6 +7,9 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <utility>
+#include <vector>
 #include <sstream>
 
 #include <httplib.h>
@@ -29,7 +32,7 @@ void send_json(httplib::Response& res, int status, const json& body) {
 
 void send_problem(httplib::Response& res, const Problem& p) {
     json body = {{"type", "/problems/" + p.slug}, {"title", p.title}, {"status", p.status}, {"detail", p.what()}};
-    if (!p.field.empty()) body["field"] = p.field;
+    if (p.field) body["field"] = *p.field;
     if (!p.location.empty()) body["location"] = p.location;
     if (p.retry_after > 0) res.set_header("Retry-After", std::to_string(p.retry_after));
     res.status = p.status;
@@ -55,20 +58,68 @@ size_t size_param(const httplib::Request& req, const char* name, size_t fallback
     return n;
 }
 
+}  // namespace
+
+// RFC 9110: the media type is case-insensitive and may carry parameters (charset); JSON is
+// application/json or a structured +json type. Anything else, or none, is refused.
+bool is_json_media_type(const std::string& header) {
+    std::string t = header.substr(0, header.find(';'));
+    while (!t.empty() && (t.back() == ' ' || t.back() == '\t')) t.pop_back();
+    size_t start = t.find_first_not_of(" \t");
+    t = start == std::string::npos ? std::string() : t.substr(start);
+    for (char& c : t) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (t == "application/json") return true;
+    return t.rfind("application/", 0) == 0 && t.size() > 17 && t.compare(t.size() - 5, 5, "+json") == 0;
+}
+
+// Request text as it may go into a log line: control characters and bytes that are not
+// printable ASCII are written as \xNN, so a path cannot forge a line, a NUL or a terminal escape.
+std::string loggable(std::string_view s, size_t max) {
+    std::string out;
+    for (size_t i = 0; i < s.size() && out.size() < max; ++i) {
+        const unsigned char c = static_cast<unsigned char>(s[i]);
+        if (c >= 0x20 && c < 0x7f && c != '\\') {
+            out += char(c);
+        } else {
+            char buf[5];
+            std::snprintf(buf, sizeof buf, "\\x%02x", c);
+            out += buf;
+        }
+    }
+    if (out.size() >= max) out += "...";
+    return out;
+}
+
+std::string allowed_methods(const std::string& path) {
+    // As routes() registers them; httplib answers HEAD with a GET route.
+    static const std::vector<std::pair<std::regex, std::string>> table = {
+        {std::regex(R"(/healthz|/readyz|/metrics|/v1/openapi\.yaml)"), "GET, HEAD"},
+        {std::regex(R"(/v1/jobs|/v1/scenes)"), "GET, HEAD, POST"},
+        {std::regex(R"(/v1/comparisons)"), "POST"},
+        {std::regex(R"(/v1/jobs/[^/]+)"), "GET, HEAD, DELETE"},
+        {std::regex(R"(/v1/jobs/[^/]+/results)"), "DELETE"},
+        {std::regex(R"(/v1/jobs/[^/]+/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg))"), "GET, HEAD"},
+    };
+    for (const auto& [re, allow] : table)
+        if (std::regex_match(path, re)) return allow;
+    return "";
+}
+
+namespace {
+
 std::string scene_format(const CatalogEntry& e) {
     if (e.source == "builtin") return "builtin";
     const std::string ext = std::filesystem::path(e.path).extension().string();
-    return ext == ".dae" ? "collada" : ext == ".glb" ? "glb" : "gltf";
+    return ext == ".dae" ? "dae" : ext == ".glb" ? "glb" : "gltf";
 }
 
 json parse_body(const httplib::Request& req) {
-    // curl -d sends application/x-www-form-urlencoded unless told otherwise: take it as JSON.
-    const std::string ct = req.get_header_value("Content-Type");
-    if (!ct.empty() && ct.find("json") == std::string::npos && ct.find("x-www-form-urlencoded") == std::string::npos)
-        throw Problem(415, "unsupported-media-type", "Unsupported media type", "send the job as application/json");
+    if (!is_json_media_type(req.get_header_value("Content-Type")))
+        throw Problem(415, "unsupported-media-type", "Unsupported media type",
+                      "send the job with Content-Type: application/json (curl: -H 'Content-Type: application/json')");
     json body = json::parse(req.body, nullptr, false);
     if (body.is_discarded())
-        throw Problem(400, "malformed-json", "Malformed JSON", "the request body is not valid JSON");
+        throw Problem(400, "malformed-json", "Malformed JSON", "the request body is not valid JSON").with_field("");
     return body;
 }
 
@@ -82,19 +133,33 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
     // Small JSON responses must not wait for Nagle's algorithm and the client's delayed ACK
     // (measured: 43 ms per status poll without this, 0.1 ms of work).
     server_->set_tcp_nodelay(true);
+    // httplib closes a connection after 5 requests by default: pollers would reconnect all the
+    // time. Idle connections still close after the keep-alive timeout.
+    server_->set_keep_alive_max_count(10000);
+    server_->set_keep_alive_timeout(5);
     server_->set_pre_routing_handler([](const httplib::Request&, httplib::Response&) {
         request_start = std::chrono::steady_clock::now();
         return httplib::Server::HandlerResponse::Unhandled;
     });
     server_->set_logger([this](const httplib::Request& req, const httplib::Response& res) {
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - request_start).count();
-        spdlog::info("{} {} {} {:.2f} ms", req.method, req.path, res.status, ms);
+        spdlog::info("{} {} {} {:.2f} ms", loggable(req.method, 16), loggable(req.path, 512), res.status, ms);
         std::lock_guard<std::mutex> lock(status_mutex_);
         ++responses_by_status_[res.status];
     });
     // Errors httplib raises itself (unknown route, body too large) get a problem body too.
     server_->set_error_handler([](const httplib::Request& req, httplib::Response& res) {
         if (!res.body.empty()) return;
+        if (res.status == 404) {
+            // A route that exists under other methods: 405 with the ones it takes (RFC 9110).
+            const std::string allow = allowed_methods(req.path);
+            if (!allow.empty()) {
+                res.set_header("Allow", allow);
+                send_problem(res, Problem(405, "method-not-allowed", "Method not allowed",
+                                          req.path + " takes " + allow + ", not " + loggable(req.method, 16)));
+                return;
+            }
+        }
         const char* title = res.status == 404 ? "Not found" : res.status == 413 ? "Payload too large" : "Request error";
         send_problem(res, Problem(res.status, res.status == 404 ? "not-found" : "request-error", title,
                                   res.status == 404 ? "no route for " + req.method + " " + req.path : "the request was refused with status " + std::to_string(res.status)));

@@ -5,6 +5,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <string_view>
 
 #include "server/job_service.h"
 
@@ -17,6 +18,14 @@ struct HttpLimits {
     size_t max_upload = 256ull << 20;      // bytes of an uploaded scene
     int http_threads = 16;
 };
+
+// Whether a Content-Type header names JSON: application/json or application/*+json, in any
+// case, with or without parameters.
+bool is_json_media_type(const std::string& header);
+// Request text made safe for a log line: no control characters, at most `max` characters.
+std::string loggable(std::string_view s, size_t max);
+// The methods a path answers to ("GET, HEAD, POST"), or "" for a path no route takes.
+std::string allowed_methods(const std::string& path);
 
 class HttpApi {
 public:

@@ -1,6 +1,7 @@
 #pragma once
 // An error for the HTTP client, rendered as application/problem+json (RFC 9457). Thrown by
 // the service and the routes, caught once in http_api.cpp.
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -12,7 +13,7 @@ struct Problem : std::runtime_error {
     int status;
     std::string slug;      // becomes the type URI /problems/<slug>
     std::string title;
-    std::string field;     // JSON pointer of the offending field, if any
+    std::optional<std::string> field;  // JSON pointer of the offending field ("" for the whole body), if any
     std::string location;  // scene file position, if any
     int retry_after = 0;   // seconds, for 429 and 503
 

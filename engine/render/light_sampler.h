@@ -34,14 +34,31 @@ inline glm::vec3 anchored_difference(const glm::vec3& q_anchor, const glm::vec3&
 template <class Rng>
 bool sample_area_light(const RenderScene& s, const AreaLight& light, const glm::vec3& p_anchor, const glm::vec3& p_local, Rng& rng,
                        LightSample& out) {
-    const float u = rng.next_float();
     const LightTriangle* first = &s.light_triangles[light.first];
     const LightTriangle* last = first + light.count;
-    const LightTriangle* tri = std::lower_bound(first, last, u, [](const LightTriangle& t, float v) { return t.cdf <= v; });
-    if (tri == last) tri = last - 1;
+    auto pick = [&](float u) {
+        const LightTriangle* t = std::lower_bound(first, last, u, [](const LightTriangle& lt, float v) { return lt.cdf <= v; });
+        return t == last ? last - 1 : t;
+    };
+    const LightTriangle* tri = nullptr;
     glm::vec2 uv;
-    if constexpr (std::is_same_v<Rng, Pcg32>) uv = independent_2d(rng);
-    else uv = rng.next_2d();
+    if constexpr (std::is_same_v<Rng, Sampler>) {
+        if (rng.kind() == SamplerKind::sobol) {
+            // One 2-D point picks the triangle (by its first coordinate) and the point on it
+            // (that coordinate stretched back over [0, 1) within the triangle's share):
+            // stratified points then cover the whole light, not each triangle on its own.
+            uv = rng.next_2d();
+            tri = pick(uv.x);
+            const float lo = tri == first ? 0.f : (tri - 1)->cdf;
+            const float width = tri->cdf - lo;
+            uv.x = width > 0.f ? std::clamp((uv.x - lo) / width, 0.f, 0x1.fffffep-1f) : 0.f;
+        }
+    }
+    if (!tri) {
+        tri = pick(rng.next_float());
+        if constexpr (std::is_same_v<Rng, Pcg32>) uv = independent_2d(rng);
+        else uv = rng.next_2d();
+    }
     const glm::vec2 b = sample_triangle(uv.x, uv.y);
     const float b1 = b.y, b2 = 1.f - b.x - b.y;
     const glm::vec3 local = b1 * tri->e1 + b2 * tri->e2;

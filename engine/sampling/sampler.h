@@ -36,13 +36,15 @@ inline uint32_t reverse_bits(uint32_t x) {
     return ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
 }
 
-// Burley's fast approximation of an Owen scramble of reversed bits (after Laine & Karras 2011).
+// A fast approximation of an Owen scramble of reversed bits (Laine & Karras 2011's idea):
+// every output bit depends only on the input bits at or below it. Vegdahl's 2021 constants,
+// which mix better than Burley's 2020 ones (his "Building a Better LK Hash").
 inline uint32_t laine_karras_permutation(uint32_t x, uint32_t seed) {
+    x ^= x * 0x3d20adeau;
     x += seed;
-    x ^= x * 0x6c50b47cu;
-    x ^= x * 0xb82f1e52u;
-    x ^= x * 0xc7afe638u;
-    x ^= x * 0x8d22f6e6u;
+    x *= (seed >> 16) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
     return x;
 }
 
@@ -112,6 +114,8 @@ public:
             base_ = mix64(mix64(seed ^ 0x5851f42d4c957f2dull) ^ mix64(pixel) ^ (sample & 1));
         }
     }
+
+    SamplerKind kind() const { return kind_; }
 
     float next_float() {
         if (kind_ == SamplerKind::independent) return rng_.next_float();

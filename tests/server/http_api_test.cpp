@@ -154,10 +154,74 @@ TEST_F(Server, ErrorsAreProblemJsonNamingTheField) {
     expect_problem(client_->Get("/v1/jobs?limit=0"), 400, "limit");
     expect_problem(client_->Get("/v1/nothing"), 404);
     expect_problem(client_->Delete("/v1/jobs/0123456789abcdef"), 404);
-    // curl's default form content type is taken as JSON.
-    auto r = client_->Post("/v1/jobs", kSmallJob.dump(), "application/x-www-form-urlencoded");
+}
+
+// Errors about the whole body name the whole document, "" (the spec's field for them).
+TEST_F(Server, WholeBodyErrorsNameTheEmptyPointer) {
+    start();
+    for (const std::string body : {"{not json", "[1, 2]", "42"}) {
+        auto r = client_->Post("/v1/jobs", body, "application/json");
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->status, 400) << body;
+        const json p = json::parse(r->body);
+        ASSERT_TRUE(p.contains("field")) << r->body;
+        EXPECT_EQ(p["field"], "") << r->body;
+    }
+}
+
+// Media types are case-insensitive and may carry parameters; anything that is not JSON (curl's
+// form default, text, a look-alike, none at all) is 415, as the spec says.
+TEST_F(Server, OnlyJsonMediaTypesAreTaken) {
+    start();
+    for (const char* ct : {"application/json", "APPLICATION/JSON", "Application/Json; charset=utf-8", "application/merge-patch+json"}) {
+        auto r = client_->Post("/v1/jobs", kSmallJob.dump(), ct);
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->status, 202) << ct << " " << r->body;
+    }
+    for (const char* ct : {"application/x-www-form-urlencoded", "text/plain", "application/jsonx", "json", "application/+json"})
+        expect_problem(client_->Post("/v1/jobs", kSmallJob.dump(), ct), 415);
+    httplib::Headers none;
+    auto r = client_->Post("/v1/jobs", none, kSmallJob.dump(), "");
     ASSERT_TRUE(r);
-    EXPECT_EQ(r->status, 202);
+    EXPECT_EQ(r->status, 415) << r->body;
+}
+
+// A route that exists under other methods answers 405 with Allow; an unknown path stays 404.
+TEST_F(Server, WrongMethodIs405WithAllow) {
+    start();
+    auto r = client_->Put("/v1/jobs", kSmallJob.dump(), "application/json");
+    ASSERT_TRUE(r);
+    expect_problem(r, 405);
+    EXPECT_EQ(r->get_header_value("Allow"), "GET, HEAD, POST");
+    auto d = client_->Delete("/v1/scenes");
+    expect_problem(d, 405);
+    EXPECT_EQ(d->get_header_value("Allow"), "GET, HEAD, POST");
+    auto g = client_->Get("/v1/comparisons");
+    expect_problem(g, 405);
+    EXPECT_EQ(g->get_header_value("Allow"), "POST");
+    auto p = client_->Post("/v1/jobs/0123456789abcdef/image.png", "", "application/json");
+    expect_problem(p, 405);
+    EXPECT_EQ(p->get_header_value("Allow"), "GET, HEAD");
+    expect_problem(client_->Put("/v1/nothing", "", "application/json"), 404);
+}
+
+TEST(HttpText, LogLinesCannotBeForged) {
+    EXPECT_EQ(loggable("/v1/jobs\r\nFAKE 200", 100), "/v1/jobs\\x0d\\x0aFAKE 200");
+    EXPECT_EQ(loggable(std::string("/a\0b", 4), 100), "/a\\x00b");
+    EXPECT_EQ(loggable("\x1b[31mred", 100), "\\x1b[31mred");
+    EXPECT_EQ(loggable("a\\b", 100), "a\\x5cb");  // a backslash cannot fake an escape
+    EXPECT_EQ(loggable(std::string(600, 'x'), 512), std::string(512, 'x') + "...");
+    EXPECT_EQ(loggable("caf\xc3\xa9", 100), "caf\\xc3\\xa9");
+}
+
+TEST(HttpText, JsonMediaTypes) {
+    EXPECT_TRUE(is_json_media_type("application/json"));
+    EXPECT_TRUE(is_json_media_type(" application/JSON ;charset=UTF-8"));
+    EXPECT_TRUE(is_json_media_type("application/problem+json"));
+    EXPECT_FALSE(is_json_media_type(""));
+    EXPECT_FALSE(is_json_media_type("application/jsonx"));
+    EXPECT_FALSE(is_json_media_type("text/json"));
+    EXPECT_FALSE(is_json_media_type("application/x-www-form-urlencoded"));
 }
 
 TEST_F(Server, CancelQueuedAndRunningJobs) {

@@ -44,12 +44,19 @@ TEST(Stability, EmissionSpanningTwelveOrders) {
 }
 
 // Max depth 0 and 100; Russian roulette continuation near 0 and near 1: same expectation.
+// Roulette with continuation probability q multiplies a surviving path by 1/q per bounce: with
+// albedo a the k-th bounce's second moment grows as (a²/q)^k, so for q < a² (0.02 and 0.05
+// here) the variance is unbounded in depth and a sample's standard error says nothing (the
+// mean of 256 spp lands 1–10% off either way, whatever the sampler: measured over seeds). Those
+// cases must stay finite and near; q ≥ a² cases must be exact within their noise.
 TEST(Stability, DepthAndRouletteExtremes) {
-    for (auto [depth, rr] : {std::pair{0, 0.f}, {100, 0.f}, {100, 0.02f}, {100, 0.99f}, {20, 0.05f}}) {
-        const RenderResult r = test::render_desc(furnace_box(0.5f, 1.f), furnace(depth, rr, 24, 24, rr > 0 && rr < 0.1f ? 256 : 16));
+    const float a = 0.5f;
+    for (auto [depth, rr] : {std::pair{0, 0.f}, {100, 0.f}, {100, 0.02f}, {100, 0.3f}, {100, 0.99f}, {20, 0.05f}}) {
+        const RenderResult r = test::render_desc(furnace_box(a, 1.f), furnace(depth, rr, 24, 24, rr > 0 && rr < 0.5f ? 256 : 16));
         expect_finite(r);
         const test::MeanEstimate m = test::iid_pixel_mean(r.image);
-        EXPECT_NEAR(m.mean, series(0.5, depth), 5 * m.se + 1e-5) << "depth " << depth << " rr " << rr;
+        const bool heavy_tailed = rr > 0.f && rr < a * a;
+        EXPECT_NEAR(m.mean, series(a, depth), heavy_tailed ? 0.15 * series(a, depth) : 5 * m.se + 1e-5) << "depth " << depth << " rr " << rr;
     }
 }
 

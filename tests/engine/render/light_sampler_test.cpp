@@ -45,6 +45,36 @@ TEST(LightSampler, InversePdfMeanIsTheSolidAngle) {
     EXPECT_NEAR(mean, exact, 5 * se + 1e-9) << "se " << se;
 }
 
+// The same with Sobol points, whose one 2-D draw both picks the triangle and places the point
+// on it: E[1/pdf] over pixels (independent scrambles) is still the solid angle, and a pixel's
+// 64 points cover the light far more evenly than 64 independent ones (the spread of the
+// per-pixel means is what stratification removes).
+TEST(LightSampler, SobolPointsKeepTheSolidAngleAndStratifyTheLight) {
+    const float a = 0.8f, b = 0.6f, d = 0.7f;
+    const RenderScene s = rectangle_light(a, b, d);
+    const double exact = 4.0 * std::asin(a * b / std::sqrt((a * a + 4 * d * d) * (b * b + 4 * d * d)));
+    const int pixels = 4000 / test::kWorkScale, spp = 64;
+    double spread[2] = {0, 0};
+    for (SamplerKind k : {SamplerKind::sobol, SamplerKind::independent}) {
+        double sum = 0, sum2 = 0;
+        for (int px = 0; px < pixels; ++px) {
+            double pixel = 0;
+            for (int i = 0; i < spp; ++i) {
+                Sampler rng(k, 5, uint64_t(px), uint64_t(i));
+                LightSample ls;
+                ASSERT_TRUE(sample_area_light(s, s.area_lights[0], glm::vec3(0.f), rng, ls));
+                pixel += 1.0 / ls.pdf_w / spp;
+            }
+            sum += pixel;
+            sum2 += pixel * pixel;
+        }
+        const double mean = sum / pixels, sd = std::sqrt(std::max(0.0, sum2 / pixels - mean * mean));
+        EXPECT_NEAR(mean, exact, 5 * sd / std::sqrt(double(pixels)) + 1e-9) << "sobol " << (k == SamplerKind::sobol);
+        spread[k == SamplerKind::sobol ? 0 : 1] = sd;
+    }
+    EXPECT_LT(spread[0], 0.25 * spread[1]) << "Sobol " << spread[0] << ", independent " << spread[1];
+}
+
 // The pdf, evaluated at directions that reach the light, integrates to one over the sphere
 // (estimated with uniform directions: E[4π·pdf] = 1).
 TEST(LightSampler, PdfIntegratesToOne) {
