@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -158,23 +159,31 @@ int bench_bvh(int argc, char** argv) {
 // on a box lit by 32 lamps. Noise is measured as the mean per-pixel variance from two renders
 // with different seeds; efficiency = 1 / (variance × time), higher is better.
 int bench_lights(int argc, char** argv) {
-    int spp = 8, lamps = 32;
-    CLI::App app{"Light selection: every light sampled against one light per sample chosen by power, on a box lit by "
-                 "many lamps; noise, time and efficiency 1/(variance × time).", "bench lights"};
+    int spp = 8, lamps = 32, rays = 4;
+    std::pair<int, int> size{320, 240};
+    bool scattered = false;
+    CLI::App app{"Light selection: every light sampled, one light per sample chosen by power, and one emitting triangle "
+                 "per sample chosen through the light tree, on a box lit by many lamps; noise, time and efficiency "
+                 "1/(variance × time).", "bench lights"};
     app.option_defaults()->always_capture_default();
     app.add_option("--spp", spp, "samples per pixel")->check(CLI::Range(1, 1 << 16));
     app.add_option("--lamps", lamps, "lamps in the box")->check(CLI::Range(1, 4096));
+    app.add_option("--rays", rays, "light rays (per light with 'all', in all otherwise)")->check(CLI::Range(1, 64));
+    app.add_option("-r", size, "image width and height")->type_name("W H")->check(CLI::Range(8, 4096));
+    app.add_flag("--scattered", scattered, "lamps scattered through the box's volume (builtin:scattered_lights), not on its ceiling");
     if (const auto status = parse_args(app, argc, argv)) return *status;
-    const RenderScene scene = build_render_scene(many_lights(lamps), RenderSceneOptions{});
-    std::printf("builtin:many_lights (%d lamps), 320×240, %d spp, 4 light rays, depth 1, light sampling\n\n", lamps, spp);
+    const RenderScene scene = build_render_scene(scattered ? scattered_lights(lamps) : many_lights(lamps), RenderSceneOptions{});
+    std::printf("builtin:%s (%d lamps), %d×%d, %d spp, %d light rays, depth 1, light sampling, independent samples\n\n",
+                scattered ? "scattered_lights" : "many_lights", lamps, size.first, size.second, spp, rays);
     std::printf("| selection | time (s) | shadow rays | mean | per-pixel variance | efficiency 1/(var·s) |\n|---|---:|---:|---:|---:|---:|\n");
     double eff_all = 0;
-    for (LightSelection sel : {LightSelection::all, LightSelection::power}) {
+    for (LightSelection sel : {LightSelection::all, LightSelection::power, LightSelection::tree}) {
         RenderSettings st;
-        st.width = 320;
-        st.height = 240;
+        st.width = size.first;
+        st.height = size.second;
         st.spp = spp;
-        st.light_rays = 4;
+        st.light_rays = rays;
+        st.sampler = SamplerKind::independent;  // the two seeds' difference is then pure noise
         st.max_depth = 1;
         st.light_selection = sel;
         st.seed = 1;
@@ -192,7 +201,8 @@ int bench_lights(int argc, char** argv) {
         const double time = 0.5 * (a.stats.render_seconds + b.stats.render_seconds);
         const double eff = 1.0 / (var * time);
         if (sel == LightSelection::all) eff_all = eff;
-        std::printf("| %s | %.3f | %llu | %.4f | %.3g | %.3g (%.2f×) |\n", sel == LightSelection::all ? "all" : "power", time,
+        std::printf("| %s | %.3f | %llu | %.4f | %.3g | %.3g (%.2f×) |\n",
+                    sel == LightSelection::all ? "all" : sel == LightSelection::power ? "power" : "tree", time,
                     (unsigned long long)a.stats.shadow_rays, mean, var, eff, eff / eff_all);
     }
     return 0;
@@ -207,7 +217,7 @@ struct Kind {
 const Kind kKinds[] = {
     {"bvh", bench_bvh, "the BVH table: build time, render time, speedup, cost per ray"},
     {"figures", bench_figures, "the write-ups' comparison images and tables (docs/figures)"},
-    {"lights", bench_lights, "light selection: every light against one chosen by power"},
+    {"lights", bench_lights, "light selection: every light, by power, and by the light tree"},
     {"server", bench_server, "the HTTP server: request latency, throughput, overhead per job"},
     {"convergence", bench_convergence, "sampling strategies at equal time against a reference"},
     {"leave-out", bench_leave_out, "what leaving out unneeded work saves"},

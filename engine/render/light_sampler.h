@@ -30,6 +30,29 @@ inline glm::vec3 anchored_difference(const glm::vec3& q_anchor, const glm::vec3&
     return (q_anchor - p_anchor) + (q_local - p_local);
 }
 
+// The sample at uv on `tri`: its point, error bound, direction and density per solid angle for
+// a point chosen uniformly over `area` (its light's, or the triangle's own).
+inline bool sample_on_triangle(const LightTriangle& tri, glm::vec2 uv, float area, const glm::vec3& radiance, bool double_sided,
+                               const glm::vec3& p_anchor, const glm::vec3& p_local, LightSample& out) {
+    const glm::vec2 b = sample_triangle(uv.x, uv.y);
+    const float b1 = b.y, b2 = 1.f - b.x - b.y;
+    const glm::vec3 local = b1 * tri.e1 + b2 * tri.e2;
+    out.point = tri.p0 + local;
+    // As the intersector bounds a hit point's error (γ7 over the weighted vertices), with one
+    // more rounding for the stored edges.
+    out.point_err = gamma(8) * (glm::abs(b.x * tri.p0) + glm::abs(b1 * (tri.p0 + tri.e1)) + glm::abs(b2 * (tri.p0 + tri.e2)));
+    out.n = tri.n;
+    const glm::vec3 d = anchored_difference(tri.p0, local, p_anchor, p_local);
+    out.dist2 = glm::dot(d, d);
+    if (!(out.dist2 > 0.f)) return false;
+    out.wi = d * (1.f / std::sqrt(out.dist2));
+    const float cos_l = -glm::dot(tri.n, out.wi);
+    if (cos_l == 0.f || (!double_sided && cos_l < 0.f)) return false;
+    out.pdf_w = out.dist2 / (std::abs(cos_l) * area);
+    out.Le = radiance;
+    return true;
+}
+
 // Rng: Sampler, or Pcg32 (tests).
 template <class Rng>
 bool sample_area_light(const RenderScene& s, const AreaLight& light, const glm::vec3& p_anchor, const glm::vec3& p_local, Rng& rng,
@@ -59,28 +82,21 @@ bool sample_area_light(const RenderScene& s, const AreaLight& light, const glm::
         if constexpr (std::is_same_v<Rng, Pcg32>) uv = independent_2d(rng);
         else uv = rng.next_2d();
     }
-    const glm::vec2 b = sample_triangle(uv.x, uv.y);
-    const float b1 = b.y, b2 = 1.f - b.x - b.y;
-    const glm::vec3 local = b1 * tri->e1 + b2 * tri->e2;
-    out.point = tri->p0 + local;
-    // As the intersector bounds a hit point's error (γ7 over the weighted vertices), with one
-    // more rounding for the stored edges.
-    out.point_err = gamma(8) * (glm::abs(b.x * tri->p0) + glm::abs(b1 * (tri->p0 + tri->e1)) + glm::abs(b2 * (tri->p0 + tri->e2)));
-    out.n = tri->n;
-    const glm::vec3 d = anchored_difference(tri->p0, local, p_anchor, p_local);
-    out.dist2 = glm::dot(d, d);
-    if (!(out.dist2 > 0.f)) return false;
-    out.wi = d * (1.f / std::sqrt(out.dist2));
-    const float cos_l = -glm::dot(tri->n, out.wi);
-    if (cos_l == 0.f || (!light.double_sided && cos_l < 0.f)) return false;
-    out.pdf_w = out.dist2 / (std::abs(cos_l) * light.area);
-    out.Le = light.radiance;
-    return true;
+    return sample_on_triangle(*tri, uv, light.area, light.radiance, light.double_sided, p_anchor, p_local, out);
 }
 
 template <class Rng>
 bool sample_area_light(const RenderScene& s, const AreaLight& light, const glm::vec3& p, Rng& rng, LightSample& out) {
     return sample_area_light(s, light, p, glm::vec3(0.f), rng, out);
+}
+
+// A point on light triangle `index` (picked by the light tree) from the 2-D point uv, with its
+// density per solid angle given the triangle was picked.
+inline bool sample_light_triangle(const RenderScene& s, uint32_t index, glm::vec2 uv, const glm::vec3& p_anchor,
+                                  const glm::vec3& p_local, LightSample& out) {
+    const LightTriangle& tri = s.light_triangles[index];
+    const AreaLight& light = s.area_lights[tri.light];
+    return sample_on_triangle(tri, uv, tri.area, light.radiance, light.double_sided, p_anchor, p_local, out);
 }
 
 // The density sample_area_light gives direction wi that reaches the light at distance `dist`

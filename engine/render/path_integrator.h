@@ -120,10 +120,9 @@ private:
         }
         const bool mis = st_.direct == DirectLighting::mis;
         const bool by_power = st_.light_selection == LightSelection::power && s_.area_lights.size() > 1;
-        // One light sample toward `light`, chosen with probability `pick` among the lights.
-        auto light_sample = [&](const AreaLight& light, float pick) {
-            LightSample ls;
-            if (!sample_area_light(s_, light, si.anchor, si.local, rng, ls)) return;
+        const bool by_tree = st_.light_selection == LightSelection::tree && !s_.light_tree.empty();
+        // A light sample, its light chosen with probability `pick`.
+        auto shade = [&](const LightSample& ls, float pick) {
             const float c = glm::dot(si.ns, ls.wi);
             if (c <= 0.f || glm::dot(si.ng, ls.wi) <= 0.f) return;
             ++stats_.shadow_rays;
@@ -132,7 +131,26 @@ private:
             const float w = mis ? power_heuristic(pdf, cosine_hemisphere_pdf(c)) : 1.f;
             Ld += f * ls.Le * (w * c / (pdf * float(n)));
         };
-        if (by_power) {
+        auto light_sample = [&](const AreaLight& light, float pick) {
+            LightSample ls;
+            if (sample_area_light(s_, light, si.anchor, si.local, rng, ls)) shade(ls, pick);
+        };
+        if (by_tree) {
+            for (int i = 0; i < n; ++i) {
+                // Sobol: one 2-D point walks the tree with its first coordinate (rescaled at each
+                // choice) and then places the point on the triangle, stratified over all lights.
+                const bool one_point = rng.kind() == SamplerKind::sobol;
+                float u = one_point ? 0.f : rng.next_float();
+                glm::vec2 uv = rng.next_2d();
+                if (one_point) u = uv.x;
+                uint32_t lt;
+                float pmf;
+                if (!sample_light_tree(s_.light_tree, si.p, si.ns, u, lt, pmf)) continue;
+                if (one_point) uv.x = u;
+                LightSample ls;
+                if (sample_light_triangle(s_, lt, uv, si.anchor, si.local, ls)) shade(ls, pmf);
+            }
+        } else if (by_power) {
             for (int i = 0; i < n; ++i) {
                 const float u = rng.next_float();
                 const auto it = std::lower_bound(s_.area_lights.begin(), s_.area_lights.end(), u,
@@ -155,8 +173,9 @@ private:
                 ++stats_.shadow_rays;
                 Hit h;
                 if (!intersect(s_, r, h, stats_.traversal) || h.sphere) continue;
-                const uint32_t li = s_.tri_shading[h.prim].light;
-                if (li == kNoLight) continue;
+                const uint32_t lti = s_.tri_shading[h.prim].light;
+                if (lti == kNoLight) continue;
+                const uint32_t li = s_.light_triangles[lti].light;
                 const SurfaceInteraction hs = surface_at(s_, r, h);
                 const glm::vec3 Le = emitted(hs, h, -wi);
                 if (Le == glm::vec3(0.f)) continue;
@@ -170,7 +189,14 @@ private:
                 if (!(dist > 0.f)) continue;
                 const glm::vec3 wp = d / dist;
                 const float pdf_bp = cosine_hemisphere_pdf(std::max(0.f, glm::dot(si.ns, wp)));
-                const float pdf_l = area_light_pdf(hit_light, hs.ng, wp, dist) * (by_power ? hit_light.power_pmf : 1.f);
+                float pdf_l;
+                if (by_tree) {
+                    const LightTriangle& lt = s_.light_triangles[lti];
+                    const float cos_l = std::abs(glm::dot(hs.ng, wp));
+                    pdf_l = cos_l > 0.f ? light_tree_pmf(s_.light_tree, si.p, si.ns, lti) * dist * dist / (cos_l * lt.area) : 0.f;
+                } else {
+                    pdf_l = area_light_pdf(hit_light, hs.ng, wp, dist) * (by_power ? hit_light.power_pmf : 1.f);
+                }
                 Ld += f * Le * (power_heuristic(pdf_bp, pdf_l) * wl.z / (pdf_b * float(n)));
             }
         }

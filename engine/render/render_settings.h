@@ -14,7 +14,7 @@ enum class BounceMode { accumulate, nth };
 // How area lights share the light samples: `all` gives every light `light_rays` samples
 // (CS184); `power` draws `light_rays` samples in all, each from one light chosen with
 // probability proportional to its emitted power (better when there are many lights).
-enum class LightSelection { all, power };
+enum class LightSelection { all, power, tree };
 // Which bounces reach the image (the write-ups' direct-only and indirect-only renders):
 // direct = bounces 0 and 1, indirect = bounces 2 and up.
 enum class LightingOutput { all, direct, indirect };

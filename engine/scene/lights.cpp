@@ -65,7 +65,7 @@ uint32_t add_area_light(const MeshDesc& mesh, const Material& material, RenderSc
         const float a = 0.5f * glm::length(glm::cross(e1, e2));
         if (!(a > 0.f)) continue;  // degenerate triangles cannot be sampled
         al.area += a;
-        s.light_triangles.push_back({p0, e1, e2, glm::normalize(glm::cross(e1, e2)), al.area});
+        s.light_triangles.push_back({p0, e1, e2, glm::normalize(glm::cross(e1, e2)), al.area, uint32_t(s.area_lights.size()), a});
     }
     al.count = uint32_t(s.light_triangles.size()) - al.first;
     if (al.count == 0) return kNoLight;

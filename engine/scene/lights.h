@@ -25,6 +25,8 @@ struct LightTriangle {
     glm::vec3 p0, e1, e2;
     glm::vec3 n;  // unit normal, cross(e1, e2) direction
     float cdf;    // cumulative area fraction within its light, ending at 1
+    uint32_t light;  // its AreaLight
+    float area;
 };
 struct AreaLight {
     uint32_t first, count;  // into RenderScene::light_triangles

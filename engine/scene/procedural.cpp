@@ -89,6 +89,25 @@ SceneDescription many_lights(int lamps) {
     return s;
 }
 
+SceneDescription scattered_lights(int lamps) {
+    SceneDescription s = cornell_spheres();
+    s.source = "builtin:scattered_lights";
+    s.meshes.pop_back();  // the big lamp
+    Pcg32 rng(17, 5);
+    for (int i = 0; i < lamps; ++i) {
+        const glm::vec3 c(-0.9f + 1.8f * rng.next_float(), 0.05f + 1.4f * rng.next_float(), -0.9f + 1.8f * rng.next_float());
+        const float z = 1.f - 2.f * rng.next_float(), phi = 6.2831853f * rng.next_float(), r = std::sqrt(std::max(0.f, 1.f - z * z));
+        const glm::vec3 n(r * std::cos(phi), z, r * std::sin(phi));
+        const glm::vec3 t = glm::normalize(std::abs(n.x) > 0.5f ? glm::cross(n, glm::vec3(0, 1, 0)) : glm::cross(n, glm::vec3(1, 0, 0)));
+        const glm::vec3 b = glm::cross(n, t);
+        const float h = 0.015f, radiance = std::pow(100.f, rng.next_float());  // 1 to 100
+        const int m = add_material(s, "lamp" + std::to_string(i), glm::vec3(0.f), glm::vec3(radiance));
+        s.materials[size_t(m)].double_sided = true;
+        add_quad(s, "lamp" + std::to_string(i), m, c - h * t - h * b, c + h * t - h * b, c + h * t + h * b, c - h * t + h * b);
+    }
+    return s;
+}
+
 SceneDescription furnace_box(float albedo, float emission, float half, glm::vec3 center) {
     SceneDescription s;
     s.source = "builtin:furnace";
@@ -232,7 +251,8 @@ uint64_t displaced_sphere_triangles(const std::string& name) {
     return tris;
 }
 
-const char* const kBuiltins[] = {"builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace", "builtin:many_lights"};
+const char* const kBuiltins[] = {"builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace", "builtin:many_lights",
+                                 "builtin:scattered_lights"};
 
 }  // namespace
 
@@ -249,6 +269,7 @@ SceneDescription builtin_scene(const std::string& name) {
     if (name == "builtin:cornell_spheres") return cornell_spheres();
     if (name == "builtin:furnace") return furnace_box(0.5f, 1.f);
     if (name == "builtin:many_lights") return many_lights();
+    if (name == "builtin:scattered_lights") return scattered_lights();
     return displaced_sphere(displaced_sphere_triangles(name));
 }
 

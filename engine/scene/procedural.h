@@ -16,6 +16,10 @@ SceneDescription cornell_spheres();
 // The Cornell box with spheres lit by `lamps` small ceiling lamps whose radiance spans two
 // orders of magnitude (for light selection by power).
 SceneDescription many_lights(int lamps = 32);
+// The Cornell box with spheres lit only by `lamps` small two-sided square lamps (3 cm) scattered
+// through its volume at random places and orientations, radiance 1 to 100 (a light hierarchy's
+// test: most lamps matter little at any one point).
+SceneDescription scattered_lights(int lamps = 1000);
 // A closed cube of half-size `half` centred at `center` whose walls all emit `emission` and
 // reflect with `albedo` (white furnace); the camera looks from inside.
 SceneDescription furnace_box(float albedo, float emission, float half = 1.f, glm::vec3 center = glm::vec3(0.f));
@@ -25,7 +29,7 @@ SceneDescription furnace_sphere(float albedo, float emission, float radius = 1.f
 // A noisy subdivided sphere with at least `min_triangles` triangles and a directional light.
 SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed = 1);
 
-// "builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace", "builtin:many_lights",
+// "builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace", "builtin:many_lights", "builtin:scattered_lights",
 // "builtin:displaced_sphere?triangles=N" (N ≤ 20 million). Throws SceneError for other names.
 SceneDescription builtin_scene(const std::string& name);
 // Checks a built-in name and its parameters without building the scene; throws SceneError.

@@ -76,10 +76,18 @@ std::vector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& 
         }
         const uint32_t m = mat(mesh.material);
         const uint32_t light = s.materials[m].emissive() ? add_area_light(mesh, s.materials[m], s) : kNoLight;
+        uint32_t next_light_tri = light == kNoLight ? 0 : s.area_lights[light].first;
         for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
             const uint32_t i0 = mesh.indices[i], i1 = mesh.indices[i + 1], i2 = mesh.indices[i + 2];
+            uint32_t light_tri = kNoLight;
+            if (light != kNoLight) {
+                // The same test add_area_light skips degenerate triangles by.
+                const glm::vec3& p0 = mesh.positions[i0];
+                const glm::vec3 e1 = mesh.positions[i1] - p0, e2 = mesh.positions[i2] - p0;
+                if (0.5f * glm::length(glm::cross(e1, e2)) > 0.f) light_tri = next_light_tri++;
+            }
             triangles.push_back({mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]});
-            s.tri_shading.push_back({base + i0, base + i1, base + i2, m, light});
+            s.tri_shading.push_back({base + i0, base + i1, base + i2, m, light_tri});
         }
     }
     return triangles;
@@ -159,6 +167,11 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     for (const MeshDesc& m : lamps) meshes.push_back(&m);
     std::vector<TriangleVerts> triangles = gather_triangles(meshes, default_material, s);
     build_power_table(s.area_lights);
+    if (s.light_triangles.size() > 1) {
+        s.light_tree = build_light_tree(s);
+        s.report.built.push_back("light tree over " + std::to_string(s.light_triangles.size()) +
+                                 " emitting triangles (light_selection tree)");
+    }
     report_lights(desc, s, s.report);
     for (const SphereDesc& sd : desc.spheres)
         s.spheres.push_back({sd.center, sd.radius, sd.material < 0 ? default_material : uint32_t(sd.material)});

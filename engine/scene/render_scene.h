@@ -13,6 +13,7 @@
 #include "engine/camera/camera.h"
 #include "engine/geometry/ray.h"
 #include "engine/geometry/triangle4.h"
+#include "engine/scene/light_tree.h"
 #include "engine/scene/lights.h"
 #include "engine/scene/scene_description.h"
 
@@ -28,6 +29,8 @@ struct Material {
     bool emissive() const { return emission.x > 0.f || emission.y > 0.f || emission.z > 0.f; }
 };
 
+// `light`: the triangle's entry in light_triangles (its AreaLight is that entry's `light`), or
+// kNoLight. Kept here rather than in a side table because the BVH build reorders triangles.
 struct TriangleShading { uint32_t n0, n1, n2; uint32_t material; uint32_t light = kNoLight; };
 struct Sphere { glm::vec3 center; float radius; uint32_t material; };
 
@@ -67,6 +70,7 @@ struct RenderScene {
     std::vector<Material> materials;            // last entry: the default grey
     std::vector<AreaLight> area_lights;
     std::vector<LightTriangle> light_triangles;
+    LightTree light_tree;  // over light_triangles, for light_selection tree (engine/scene/light_tree.h)
     std::vector<DeltaLight> delta_lights;
     glm::vec3 sky{0.f};                         // CS184 ambient light: radiance from the upper hemisphere
     bool has_sky = false;

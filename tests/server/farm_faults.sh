@@ -64,6 +64,16 @@ poison_task)
   id=$(submit api "$job")
   wait_state_on api "$id" 30 running
   while [ "$(tiles_done_on api "$id")" = 0 ] || [ -z "$(tiles_done_on api "$id")" ]; do sleep 0.05; done
+  # Killed while it holds a task (stopped first, then its pending tasks counted in Redis): a
+  # node killed between two tasks leaves nothing to take over.
+  for _ in $(seq 1 200); do
+    kill_node w1 STOP
+    pending=$(redis-cli -p "$redis_port" XPENDING tessera:tasks:0 nodes | head -n 1)
+    [ "${pending:-0}" -gt 0 ] && break
+    kill_node w1 CONT
+    sleep 0.02
+  done
+  [ "${pending:-0}" -gt 0 ] || fail "w1 never held a task"
   kill_node w1 9
   start_worker w2 --max-deliveries 1
   wait_state_on api "$id" 60 failed

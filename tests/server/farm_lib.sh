@@ -70,7 +70,7 @@ kill_node() {  # name [signal]
 }
 farm_cleanup() {
   for p in "${node_pid[@]}"; do kill -CONT "$p" 2> /dev/null; kill -9 "$p" 2> /dev/null; done
-  [ -n "$ref_pid" ] && kill -9 "$ref_pid" 2> /dev/null
+  [ -f "$work/single.pid" ] && kill -9 "$(cat "$work/single.pid")" 2> /dev/null
   [ -n "$redis_pid" ] && kill -9 "$redis_pid" 2> /dev/null
   wait 2> /dev/null
   rm -rf "$work"
@@ -92,18 +92,21 @@ wait_state_on() {  # node id seconds state...
 }
 tiles_done_on() { api "$(url "$1")/v1/jobs/$2" | sed -n 's/.*"tiles_done":\([0-9]*\).*/\1/p' | head -n 1; }
 
-# One-process reference images: the same job on `tessera serve` with SQLite.
-ref_pid=""
-ref_port=""
+# One-process reference images: the same job on `tessera serve` with SQLite. reference runs in
+# a command substitution (a subshell), so the server's pid and port live in files: the next
+# call reuses the server and farm_cleanup stops it.
 reference() {  # json → path of the image.exr
+  local ref_port=""
+  [ -f "$work/single.port" ] && ref_port=$(cat "$work/single.port")
   if [ -z "$ref_port" ]; then
     "$bin" serve --host 127.0.0.1 --port 0 --data-dir "$work/single" --threads 2 > "$work/single.log" 2>&1 &
-    ref_pid=$!
+    echo $! > "$work/single.pid"
     for _ in $(seq 1 100); do
       ref_port=$(grep -o 'listening on http://127.0.0.1:[0-9]*' "$work/single.log" | grep -o '[0-9]*$' || true)
       [ -n "$ref_port" ] && break
       sleep 0.1
     done
+    echo "$ref_port" > "$work/single.port"
   fi
   local id s=""
   id=$(api -X POST -H 'Content-Type: application/json' -d "$1" "http://127.0.0.1:$ref_port/v1/jobs" | field id)

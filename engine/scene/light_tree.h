@@ -1,0 +1,53 @@
+#pragma once
+// A light hierarchy (Conty Estevez & Kulla 2018, as pbrt-v4's BVHLightSampler): a binary tree
+// over every emitting triangle, each node bounding its triangles' positions, normals (a cone)
+// and power. A shading point walks it from the root, choosing each child in proportion to an
+// importance that bounds what the child's lights can send it (power, distance, orientation),
+// so with many lights the samples go where the light comes from; the probability of any
+// triangle is the product of the choices on its path, which MIS evaluates the same way.
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "engine/geometry/aabb.h"
+
+namespace tessera {
+
+struct RenderScene;
+
+struct LightTreeNode {
+    Aabb bounds;
+    glm::vec3 axis{0.f, 0.f, 1.f};  // normals lie within acos(cos_o) of it
+    float cos_o = 1.f;
+    float power = 0.f;              // luminance × area, doubled for two-sided emitters
+    bool two_sided = false;
+    uint32_t child = 0;             // inner: the second child (the first is the next node); leaf: the light triangle
+    bool leaf = false;
+};
+
+struct LightTree {
+    std::vector<LightTreeNode> nodes;  // depth first; the root is nodes[0]
+    // Per light triangle: its path from the root, one bit per level (1 = second child), and depth.
+    std::vector<uint64_t> path;
+    std::vector<uint8_t> depth;
+    bool empty() const { return nodes.empty(); }
+};
+
+// Over s.light_triangles (and their area lights); empty when there are none. Paths deeper than
+// 64 levels are cut by splitting in the middle of the list, which bounds the depth by log₂ n.
+LightTree build_light_tree(const RenderScene& s);
+
+// What a node's lights can send to point p on a surface with normal n (pbrt-v4's
+// LightBounds::Importance): 0 only where none of them can reach p.
+float light_importance(const LightTreeNode& node, const glm::vec3& p, const glm::vec3& n);
+
+// Picks a light triangle for p with probability `pmf`; u in [0, 1) is consumed and returned
+// rescaled (so a stratified u stays stratified for what it samples next). False if no light
+// can reach p.
+bool sample_light_tree(const LightTree& t, const glm::vec3& p, const glm::vec3& n, float& u, uint32_t& light_triangle, float& pmf);
+
+// The probability sample_light_tree gives light triangle `tri` at p.
+float light_tree_pmf(const LightTree& t, const glm::vec3& p, const glm::vec3& n, uint32_t tri);
+
+}  // namespace tessera
