@@ -255,41 +255,44 @@ TEST(PathIntegrator, LightSelectionByPowerIsUnbiased) {
 namespace tessera {
 namespace {
 
-// Sobol points and independent numbers estimate the same image: the Cornell box with spheres,
-// MIS, three bounces, averaged over the image, over six seeds each (the seeds' spread gives the
-// standard error).
-TEST(PathIntegrator, SobolAndIndependentSamplingAgree) {
-    const RenderScene scene = build_render_scene(cornell_spheres(), {});
-    double mean[2] = {0, 0}, var[2] = {0, 0};
+// The whole image's mean over six seeds, with its standard error from the seeds' spread: for
+// equal-mean tests between two ways of rendering the same image.
+test::MeanEstimate mean_over_seeds(const RenderScene& scene, RenderSettings s) {
     const int seeds = 6;
-    for (int k = 0; k < 2; ++k) {
-        std::vector<double> m;
-        for (int seed = 1; seed <= seeds; ++seed) {
-            RenderSettings s;
-            s.width = 40;
-            s.height = 30;
-            s.spp = 8;
-            s.max_depth = 3;
-            s.direct = DirectLighting::mis;
-            s.sampler = k ? SamplerKind::sobol : SamplerKind::independent;
-            s.seed = uint64_t(seed);
-            const Image img = render(scene, s).image;
-            double sum = 0;
-            for (float v : img.rgb) sum += v;
-            m.push_back(sum / double(img.rgb.size()));
-        }
-        for (double x : m) mean[k] += x / seeds;
-        for (double x : m) var[k] += (x - mean[k]) * (x - mean[k]) / (seeds - 1);
+    std::vector<double> m;
+    for (int seed = 1; seed <= seeds; ++seed) {
+        s.seed = uint64_t(seed);
+        const Image img = render(scene, s).image;
+        double sum = 0;
+        for (float v : img.rgb) sum += v;
+        m.push_back(sum / double(img.rgb.size()));
     }
-    const double se = std::sqrt(var[0] / seeds + var[1] / seeds);
-    EXPECT_NEAR(mean[1], mean[0], 4.5 * se + 1e-6) << "independent " << mean[0] << ", Sobol " << mean[1] << ", se " << se;
+    double mean = 0, var = 0;
+    for (double x : m) mean += x / seeds;
+    for (double x : m) var += (x - mean) * (x - mean) / (seeds - 1);
+    return {mean, std::sqrt(var / seeds)};
 }
 
-}  // namespace
-}  // namespace tessera
+void expect_equal_means(const test::MeanEstimate& a, const test::MeanEstimate& b, const char* what) {
+    const double se = std::sqrt(a.se * a.se + b.se * b.se);
+    EXPECT_NEAR(a.mean, b.mean, 4.5 * se + 1e-6) << what << ": " << a.mean << " against " << b.mean << ", se " << se;
+}
 
-namespace tessera {
-namespace {
+// Sobol points and independent numbers estimate the same image: the Cornell box with spheres,
+// MIS, three bounces.
+TEST(PathIntegrator, SobolAndIndependentSamplingAgree) {
+    const RenderScene scene = build_render_scene(cornell_spheres(), {});
+    RenderSettings s;
+    s.width = 40;
+    s.height = 30;
+    s.spp = 8;
+    s.max_depth = 3;
+    s.direct = DirectLighting::mis;
+    s.sampler = SamplerKind::independent;
+    const test::MeanEstimate independent = mean_over_seeds(scene, s);
+    s.sampler = SamplerKind::sobol;
+    expect_equal_means(independent, mean_over_seeds(scene, s), "independent against Sobol");
+}
 
 // Light selection by the light tree is unbiased: the furnace sphere (128 emitting triangles)
 // stays exact with light sampling and with MIS, and on the scattered-lights box the tree and
@@ -307,30 +310,17 @@ TEST(PathIntegrator, LightTreeKeepsTheFurnaceExact) {
 
 TEST(PathIntegrator, LightTreeAndEveryLightAgree) {
     const RenderScene scene = build_render_scene(scattered_lights(60), {});
-    double mean[2] = {0, 0}, var[2] = {0, 0};
-    const int seeds = 6;
-    for (int k = 0; k < 2; ++k) {
-        std::vector<double> m;
-        for (int seed = 1; seed <= seeds; ++seed) {
-            RenderSettings s;
-            s.width = 32;
-            s.height = 24;
-            s.spp = 8;
-            s.max_depth = 2;
-            s.light_rays = 2;
-            s.direct = DirectLighting::mis;
-            s.light_selection = k ? LightSelection::tree : LightSelection::all;
-            s.seed = uint64_t(seed);
-            const Image img = render(scene, s).image;
-            double sum = 0;
-            for (float v : img.rgb) sum += v;
-            m.push_back(sum / double(img.rgb.size()));
-        }
-        for (double x : m) mean[k] += x / seeds;
-        for (double x : m) var[k] += (x - mean[k]) * (x - mean[k]) / (seeds - 1);
-    }
-    const double se = std::sqrt(var[0] / seeds + var[1] / seeds);
-    EXPECT_NEAR(mean[1], mean[0], 4.5 * se + 1e-6) << "all " << mean[0] << ", tree " << mean[1] << ", se " << se;
+    RenderSettings s;
+    s.width = 32;
+    s.height = 24;
+    s.spp = 8;
+    s.max_depth = 2;
+    s.light_rays = 2;
+    s.direct = DirectLighting::mis;
+    s.light_selection = LightSelection::all;
+    const test::MeanEstimate all = mean_over_seeds(scene, s);
+    s.light_selection = LightSelection::tree;
+    expect_equal_means(all, mean_over_seeds(scene, s), "every light against the tree");
 }
 
 }  // namespace
