@@ -3,6 +3,7 @@
 #include "api/job_fields.h"
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 namespace tessera::api {
@@ -63,10 +64,21 @@ json check_value(const Field<Job>& f, const json& v, const ParseContext& ctx) {
         }
         case FieldKind::text: {
             if (!v.is_string()) throw InvalidJob(ptr, ptr + " must be a string, not " + describe_type(v));
-            const size_t n = v.get_ref<const std::string&>().size();
-            if (int64_t(n) < f.min_int || int64_t(n) > f.max_int)
-                throw InvalidJob(ptr, ptr + " must be a non-empty name of at most " + std::to_string(f.max_int) +
-                                          " characters");
+            const std::string& t = v.get_ref<const std::string&>();
+            if (int64_t(t.size()) < f.min_int) throw InvalidJob(ptr, ptr + " must not be empty");
+            if (int64_t(t.size()) > f.max_int)
+                throw InvalidJob(ptr, ptr + " is " + std::to_string(t.size()) + " characters long; at most " +
+                                          std::to_string(f.max_int) + " are allowed");
+            // A name with a NUL or a line break would cut or forge whatever later prints it.
+            for (size_t i = 0; i < t.size(); ++i) {
+                const unsigned char c = static_cast<unsigned char>(t[i]);
+                if (c < 0x20 || c == 0x7f) {
+                    char code[8];
+                    std::snprintf(code, sizeof code, "0x%02x", c);
+                    throw InvalidJob(ptr, ptr + " must not contain control characters (" + code + " at offset " +
+                                              std::to_string(i) + ")");
+                }
+            }
             return v;
         }
         case FieldKind::choice: {

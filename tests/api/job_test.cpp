@@ -79,6 +79,25 @@ TEST(RenderJob, StoredJobsReadBackWithoutLimits) {
     EXPECT_EQ(std::get<RenderJob>(back).render.spp, 64);
 }
 
+// Names: each way to be wrong says which, and a name with a NUL or a line break is refused
+// whole rather than cut short in the message that echoes it.
+TEST(RenderJob, SceneNamesSayWhatIsWrong) {
+    auto message = [](const json& body) -> std::string {
+        try {
+            parse_render_job(body);
+        } catch (const InvalidJob& e) {
+            EXPECT_EQ(e.pointer(), "/scene");
+            return e.what();
+        }
+        return "accepted";
+    };
+    EXPECT_EQ(message({{"scene", ""}}), "/scene must not be empty");
+    EXPECT_EQ(message({{"scene", std::string(4097, 'a')}}), "/scene is 4097 characters long; at most 4096 are allowed");
+    EXPECT_EQ(message({{"scene", std::string("box\0evil", 8)}}), "/scene must not contain control characters (0x00 at offset 3)");
+    EXPECT_EQ(message({{"scene", "box\r\nX"}}), "/scene must not contain control characters (0x0d at offset 3)");
+    EXPECT_EQ(message({{"scene", std::string(4096, 'a')}}), "accepted");
+}
+
 TEST(RenderJob, SeedCoversInt64AndNoMore) {
     EXPECT_EQ(parse_render_job(json::parse(R"({"scene":"a","seed":9223372036854775807})")).render.seed,
               9223372036854775807ull);
