@@ -108,8 +108,11 @@ inline glm::vec2 independent_2d(Pcg32& rng) {
 class Sampler {
 public:
     Sampler(SamplerKind kind, uint64_t seed, uint64_t pixel, uint64_t sample)
-        : kind_(kind), rng_(sample_rng(seed, pixel, sample)) {
-        if (kind_ == SamplerKind::sobol) {
+        : kind_(kind) {
+        // Only the kind in use is seeded: this runs once per pixel sample.
+        if (kind_ == SamplerKind::independent) {
+            rng_ = sample_rng(seed, pixel, sample);
+        } else {
             index_ = uint32_t(sample >> 1);
             base_ = mix64(mix64(seed ^ 0x5851f42d4c957f2dull) ^ mix64(pixel) ^ (sample & 1));
         }

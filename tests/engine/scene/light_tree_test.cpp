@@ -70,7 +70,6 @@ TEST(LightTree, NeverRulesOutALightThatReaches) {
         const glm::vec3 p(-0.95f + 1.9f * r.next_float(), 0.02f + 1.45f * r.next_float(), -0.95f + 1.9f * r.next_float());
         const glm::vec3 n = random_direction(r);
         for (uint32_t i = 0; i < s.light_triangles.size(); ++i) {
-            const LightTriangle& lt = s.light_triangles[i];
             for (int j = 0; j < 4; ++j) {
                 LightSample ls;
                 const glm::vec2 uv(r.next_float(), r.next_float());
@@ -78,7 +77,6 @@ TEST(LightTree, NeverRulesOutALightThatReaches) {
                 if (glm::dot(n, ls.wi) <= 0.f) continue;
                 ++reaching;
                 ASSERT_GT(light_tree_pmf(s.light_tree, p, n, i), 0.f) << "point " << k << " triangle " << i;
-                (void)lt;
             }
         }
     }
