@@ -1,6 +1,12 @@
 // `tessera bench server`: an in-process server on a free port, driven by client threads over
-// loopback: status-poll and submit latency (p50/p99) and throughput, and the server's overhead
-// on a small job against rendering the same job directly.
+// loopback: status-poll and submit latency (p50/p99) and throughput, health-check latency under
+// slow and many clients, and the server's overhead on a small job against rendering the same
+// job directly.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -45,6 +51,12 @@ int bench_server(int argc, char** argv) {
                  "throughput, and the server's overhead on a small job.", "bench server"};
     app.option_defaults()->always_capture_default();
     app.add_option("--clients", clients, "client threads")->check(CLI::Range(1, 512));
+    int slow_clients = 32, crowd = 200;
+    app.add_option("--slow-clients", slow_clients, "hostile phase: clients trickling a request head (0 with --crowd 0 skips it)")->check(CLI::Range(0, 1000));
+    int crowd_pause_ms = 1000;
+    app.add_option("--crowd", crowd, "hostile phase: keep-alive clients looping GET /healthz")->check(CLI::Range(0, 1000));
+    app.add_option("--crowd-pause-ms", crowd_pause_ms, "hostile phase: each crowd client's idle time on its open connection between requests")
+        ->check(CLI::Range(0, 60000));
     // A phase much shorter than a tenth of a second measures thread start-up, not requests.
     app.add_option("--seconds", seconds, "length of each phase")->type_name("S")->check(CLI::Range(0.1, 600.0));
     if (const auto status = parse_args(app, argc, argv)) return *status;
@@ -57,7 +69,7 @@ int bench_server(int argc, char** argv) {
     cfg.max_queued = 1'000'000;
     server::JobService service(cfg);
     server::HttpLimits limits;
-    limits.http_threads = clients + 4;
+    limits.connections.header_timeout_s = 2;  // the hostile phase's slow clients are cut within its length
     server::HttpApi api(service, limits, (dir / "none.yaml").string());
     const int port = api.bind("127.0.0.1", 0);
     std::thread serving([&] { api.serve(); });
@@ -104,6 +116,64 @@ int bench_server(int argc, char** argv) {
         auto res = cc.Post("/v1/jobs", j.dump(), "application/json");
         return res && res->status == 202;
     });
+    // 3. Hostile load: clients that send a header line every 200 ms (cut by the header
+    //    deadline, then back again), a crowd of keep-alive clients, and a prober that opens a
+    //    fresh connection for each GET /healthz, as a monitoring system would.
+    std::vector<double> probes;
+    int probe_failures = 0, crowd_failures = 0;
+    size_t crowd_requests = 0;
+    if (slow_clients + crowd > 0) {
+        std::atomic<bool> go{true};
+        std::atomic<size_t> crowd_done{0};
+        std::atomic<int> crowd_bad{0};
+        std::vector<std::thread> ts;
+        for (int k = 0; k < slow_clients; ++k)
+            ts.emplace_back([&] {
+                while (go) {
+                    httplib::Client cc("127.0.0.1", port);
+                    // httplib's client cannot trickle a head; a raw socket can.
+                    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+                    sockaddr_in a{};
+                    a.sin_family = AF_INET;
+                    a.sin_port = htons(uint16_t(port));
+                    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+                    if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0) {
+                        std::string line = "GET /healthz HTTP/1.1\r\n";
+                        while (go && ::send(fd, line.data(), line.size(), MSG_NOSIGNAL) > 0) {
+                            std::this_thread::sleep_for(std::chrono::milliseconds(200));
+                            line = "X-Slow: 1\r\n";
+                        }
+                    }
+                    ::close(fd);
+                }
+            });
+        for (int k = 0; k < crowd; ++k)
+            ts.emplace_back([&] {
+                httplib::Client cc("127.0.0.1", port);
+                cc.set_keep_alive(true);
+                cc.set_read_timeout(30, 0);
+                while (go) {
+                    auto res = cc.Get("/healthz");
+                    if (res && res->status == 200) ++crowd_done; else ++crowd_bad;
+                    for (int ms = 0; go && ms < crowd_pause_ms; ms += 50) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+                }
+            });
+        std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the crowd connected
+        const auto until = Clock::now() + std::chrono::duration<double>(seconds);
+        while (Clock::now() < until) {
+            httplib::Client cc("127.0.0.1", port);
+            cc.set_read_timeout(5, 0);
+            const auto a = Clock::now();
+            auto res = cc.Get("/healthz");
+            if (res && res->status == 200) probes.push_back(std::chrono::duration<double, std::milli>(Clock::now() - a).count());
+            else ++probe_failures;
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+        go = false;
+        for (auto& t : ts) t.join();
+        crowd_requests = crowd_done;
+        crowd_failures = crowd_bad;
+    }
     service.shutdown();  // cancel-free stop: the queued submissions stay queued and are dropped with the directory
 
     std::printf("Server on 127.0.0.1, %d client threads (keep-alive), %.0f s each phase, this machine's 2 cores shared by "
@@ -111,6 +181,14 @@ int bench_server(int argc, char** argv) {
     std::printf("| request | requests | throughput (/s) | p50 (ms) | p99 (ms) |\n|---|---:|---:|---:|---:|\n");
     std::printf("| GET /v1/jobs/{id} | %zu | %.0f | %.3f | %.3f |\n", polls.size(), double(polls.size()) / poll_wall, pct(polls, 0.5), pct(polls, 0.99));
     std::printf("| POST /v1/jobs | %zu | %.0f | %.3f | %.3f |\n", subs.size(), double(subs.size()) / sub_wall, pct(subs, 0.5), pct(subs, 0.99));
+    if (slow_clients + crowd > 0) {
+        std::printf("\nHostile load for %.0f s: %d clients sending a header line every 200 ms (reconnecting when cut), %d keep-alive "
+                    "clients each sending GET /healthz then idling %d ms on the connection (%zu answered, %d failed), and a prober opening a fresh connection for each GET /healthz:\n\n",
+                    seconds, slow_clients, crowd, crowd_pause_ms, crowd_requests, crowd_failures);
+        std::printf("| prober | probes | failed | p50 (ms) | p99 (ms) | max (ms) |\n|---|---:|---:|---:|---:|---:|\n");
+        std::printf("| GET /healthz | %zu | %d | %.3f | %.3f | %.3f |\n", probes.size(), probe_failures, pct(probes, 0.5), pct(probes, 0.99),
+                    probes.empty() ? 0.0 : *std::max_element(probes.begin(), probes.end()));
+    }
     api.stop();
     serving.join();
     std::filesystem::remove_all(dir);

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <regex>
 #include <utility>
 #include <vector>
@@ -125,10 +126,39 @@ json parse_body(const httplib::Request& req) {
 
 }  // namespace
 
+// httplib's own processing of an accepted socket, a private virtual of httplib::Server, called
+// by its exported symbol (not virtually) from the override below: the library has no other
+// hook between accept and the first read, where a connection's deadline has to start. The
+// symbol is resolved at link time against Debian's libcpp-httplib 0.11.
+bool httplib_process_and_close_socket(httplib::Server* server, int sock) __asm__("_ZN7httplib6Server24process_and_close_socketEi");
+
+namespace {
+
+class GuardedServer final : public httplib::Server {
+public:
+    explicit GuardedServer(ConnectionGuard& guard) : guard_(guard) {}
+
+private:
+    bool process_and_close_socket(int sock) override {
+        return guard_.run(sock, [](void* server, int fd) {
+            return httplib_process_and_close_socket(static_cast<httplib::Server*>(server), fd);
+        }, static_cast<httplib::Server*>(this));
+    }
+    ConnectionGuard& guard_;
+};
+
+uint64_t content_length(const httplib::Request& req) {
+    const std::string v = req.get_header_value("Content-Length");
+    if (v.empty() || v.size() > 19 || v.find_first_not_of("0123456789") != std::string::npos) return 0;
+    return std::stoull(v);
+}
+
+}  // namespace
+
 HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_path)
-    : service_(service), limits_(limits), openapi_path_(std::move(openapi_path)), server_(std::make_unique<httplib::Server>()) {
-    const int threads = std::max(2, limits_.http_threads);
-    server_->new_task_queue = [threads] { return new httplib::ThreadPool(size_t(threads)); };
+    : service_(service), limits_(limits), openapi_path_(std::move(openapi_path)),
+      guard_(std::make_unique<ConnectionGuard>(limits_.connections)), server_(std::make_unique<GuardedServer>(*guard_)) {
+    server_->new_task_queue = [this] { return guard_->new_task_queue(); };
     server_->set_payload_max_length(std::max(limits_.max_upload, limits_.max_job_body));
     // Small JSON responses must not wait for Nagle's algorithm and the client's delayed ACK
     // (measured: 43 ms per status poll without this, 0.1 ms of work).
@@ -136,14 +166,38 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
     // httplib closes a connection after 5 requests by default: pollers would reconnect all the
     // time. Idle connections still close after the keep-alive timeout.
     server_->set_keep_alive_max_count(10000);
-    server_->set_keep_alive_timeout(5);
-    server_->set_pre_routing_handler([](const httplib::Request&, httplib::Response&) {
+    server_->set_keep_alive_timeout(std::max<time_t>(1, time_t(limits_.connections.keep_alive_s)));
+    server_->set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
         request_start = std::chrono::steady_clock::now();
-        return httplib::Server::HandlerResponse::Unhandled;
+        guard_->request_head_read(content_length(req));
+        // Refused before the body is read: httplib would otherwise wait for a body it then
+        // discards (5 s for one never sent), and read "-5" as a huge unsigned length (413).
+        const std::string cl = req.get_header_value("Content-Length");
+        std::optional<Problem> refusal;
+        if (!cl.empty() && (cl.size() > 19 || cl.find_first_not_of("0123456789") != std::string::npos))
+            refusal = Problem(400, "invalid-content-length", "Invalid Content-Length",
+                              "Content-Length must be a non-negative whole number, not \"" + loggable(cl, 40) + "\"").with_field("");
+        else if (content_length(req) > std::max(limits_.max_upload, limits_.max_job_body))
+            refusal = Problem(413, "payload-too-large", "Payload too large",
+                              "a request body may be at most " + std::to_string(std::max(limits_.max_upload, limits_.max_job_body)) + " bytes");
+        if (!refusal) return httplib::Server::HandlerResponse::Unhandled;
+        send_problem(res, *refusal);
+        // The unread body must not be taken for the next request.
+        res.set_header("Connection", "close");
+        guard_->close_after_response();
+        return httplib::Server::HandlerResponse::Handled;
+    });
+    server_->set_post_routing_handler([this](const httplib::Request&, httplib::Response& res) {
+        guard_->response_started(res.body.size());
     });
     server_->set_logger([this](const httplib::Request& req, const httplib::Response& res) {
-        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - request_start).count();
-        spdlog::info("{} {} {} {:.2f} ms", loggable(req.method, 16), loggable(req.path, 512), res.status, ms);
+        // A request httplib refused before routing (a broken request line, a cut connection)
+        // has no start time.
+        const bool timed = request_start != std::chrono::steady_clock::time_point{};
+        const double ms = timed ? std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - request_start).count() : 0;
+        spdlog::info("{} {} {} {}", loggable(req.method, 16), loggable(req.path, 512), res.status, timed ? fmt::format("{:.2f} ms", ms) : "-");
+        request_start = {};
+        guard_->response_sent();
         std::lock_guard<std::mutex> lock(status_mutex_);
         ++responses_by_status_[res.status];
     });
@@ -213,7 +267,12 @@ int HttpApi::bind(const std::string& host, int port) {
 }
 
 void HttpApi::serve() { server_->listen_after_bind(); }
-void HttpApi::stop() { if (server_) server_->stop(); }
+void HttpApi::stop() {
+    if (!server_) return;
+    server_->stop();
+    // Connections waiting for their next request would hold stop() for their keep-alive time.
+    guard_->close_idle();
+}
 bool HttpApi::ready() const { return service_.accepting(); }
 
 void HttpApi::routes() {
@@ -341,6 +400,14 @@ std::string HttpApi::metrics_text() {
     m << "# HELP tessera_http_requests_total HTTP responses by status.\n# TYPE tessera_http_requests_total counter\n";
     std::lock_guard<std::mutex> lock(status_mutex_);
     for (const auto& [status, n] : responses_by_status_) m << "tessera_http_requests_total{status=\"" << status << "\"} " << n << "\n";
+    m << "# HELP tessera_http_connections Open HTTP connections.\n# TYPE tessera_http_connections gauge\n"
+      << "tessera_http_connections " << guard_->open() << "\n"
+      << "# HELP tessera_http_connections_refused_total Connections answered 503 past the --max-connections bound.\n"
+      << "# TYPE tessera_http_connections_refused_total counter\n"
+      << "tessera_http_connections_refused_total " << guard_->refused() << "\n"
+      << "# HELP tessera_http_connections_timed_out_total Connections closed when a request's headers, body or response ran past its deadline.\n"
+      << "# TYPE tessera_http_connections_timed_out_total counter\n"
+      << "tessera_http_connections_timed_out_total " << guard_->timed_out() << "\n";
     return m.str();
 }
 

@@ -7,6 +7,7 @@
 #include <string>
 #include <string_view>
 
+#include "server/connection_guard.h"
 #include "server/job_service.h"
 
 namespace httplib { class Server; }
@@ -16,7 +17,7 @@ namespace tessera::server {
 struct HttpLimits {
     size_t max_job_body = 1 << 20;         // bytes of a job's JSON
     size_t max_upload = 256ull << 20;      // bytes of an uploaded scene
-    int http_threads = 16;
+    ConnectionLimits connections;          // bound, deadlines and spare threads (connection_guard.h)
 };
 
 // Whether a Content-Type header names JSON: application/json or application/*+json, in any
@@ -45,6 +46,8 @@ private:
     JobService& service_;
     HttpLimits limits_;
     std::string openapi_path_;
+    // Before server_: the guard outlives the connection threads that report to it.
+    std::unique_ptr<ConnectionGuard> guard_;
     std::unique_ptr<httplib::Server> server_;
     std::mutex status_mutex_;
     std::map<int, uint64_t> responses_by_status_;

@@ -67,6 +67,14 @@ int serve_command(int argc, char** argv) {
     option("max-queued", o.service.max_queued, "queued jobs before 429")->check(CLI::Range(1, 10'000'000));
     option("max-body", o.http.max_job_body, "bytes of a job request body")->type_name("BYTES")->check(CLI::Range(256LL, 1LL << 30));
     option("max-upload", o.http.max_upload, "bytes of a scene upload")->type_name("BYTES")->check(CLI::Range(1024LL, 1LL << 34));
+    option("max-connections", o.http.connections.max_connections, "open HTTP connections; one more is answered 503 and closed")
+        ->check(CLI::Range(4, 100000));
+    option("header-timeout", o.http.connections.header_timeout_s,
+           "seconds for a request's line and headers to arrive, from the connection's start or the end of the keep-alive wait")
+        ->type_name("SECONDS")->check(CLI::Range(0.1, 3600.0));
+    option("body-timeout", o.http.connections.body_timeout_s,
+           "seconds for a request's body (and its handling) or a response, plus its size at 64 KiB/s")
+        ->type_name("SECONDS")->check(CLI::Range(0.1, 3600.0));
     option("max-pixels", lim.max_pixels, "width × height of a job")->check(CLI::Range(1LL, 1LL << 32));
     option("max-spp", lim.max_spp, "samples per pixel of a job")->check(CLI::Range(1, 1 << 24));
     option("max-depth", lim.max_depth, "bounce depth of a job")->check(CLI::Range(0, 100000));

@@ -5,6 +5,13 @@
 #include <gtest/gtest.h>
 #include <httplib.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -40,10 +47,7 @@ protected:
         cfg.max_store_bytes = max_store_bytes;
         service_ = std::make_unique<JobService>(cfg);
         std::ofstream(dir_ / "openapi.yaml") << "openapi: 3.0.3\n";
-        HttpLimits limits;
-        limits.max_job_body = 4096;
-        limits.max_upload = 1 << 20;
-        api_ = std::make_unique<HttpApi>(*service_, limits, (dir_ / "openapi.yaml").string());
+        api_ = std::make_unique<HttpApi>(*service_, limits_, (dir_ / "openapi.yaml").string());
         port_ = api_->bind("127.0.0.1", 0);
         thread_ = std::thread([this] { api_->serve(); });
         client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
@@ -96,6 +100,14 @@ protected:
         }
     }
 
+    static HttpLimits test_limits() {
+        HttpLimits limits;
+        limits.max_job_body = 4096;
+        limits.max_upload = 1 << 20;
+        return limits;
+    }
+
+    HttpLimits limits_ = test_limits();  // a test may change them before start()
     fs::path dir_;
     std::unique_ptr<JobService> service_;
     std::unique_ptr<HttpApi> api_;
@@ -547,6 +559,193 @@ TEST_F(Server, ComparisonInOneRequest) {
     expect_problem(client_->Post("/v1/comparisons", json{{"scene", "builtin:cornell_box"}, {"configs", json::array({{{"label", "x"}, {"spp", 4}}})}}.dump(), "application/json"), 400, "/configs/0/spp");
     expect_problem(client_->Post("/v1/comparisons", json{{"scene", "builtin:cornell_box"}, {"configs", json::array({{{"label", "x"}, {"bvh", "kd"}}})}}.dump(), "application/json"), 400, "/configs/0/bvh");
     expect_problem(client_->Post("/v1/comparisons", json{{"reps", 2}}.dump(), "application/json"), 400, "/scene");
+}
+
+}  // namespace
+}  // namespace tessera::server
+
+namespace tessera::server {
+namespace {
+
+// A raw loopback connection: slow and hostile clients cannot be written with httplib's client.
+int connect_loopback(int port) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(uint16_t(port));
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+        ::close(fd);
+        return -1;
+    }
+    return fd;
+}
+
+bool send_all(int fd, const std::string& s) { return ::send(fd, s.data(), s.size(), MSG_NOSIGNAL) == ssize_t(s.size()); }
+
+// Everything the server sends until it closes (or `timeout_ms` of silence).
+std::string read_until_close(int fd, int timeout_ms) {
+    std::string out;
+    char buf[4096];
+    pollfd p{fd, POLLIN, 0};
+    while (::poll(&p, 1, timeout_ms) > 0) {
+        const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+        if (n <= 0) break;
+        out.append(buf, size_t(n));
+    }
+    return out;
+}
+
+// Sends a request's head a line at a time, one line per `interval`, until the server closes the
+// connection; returns the seconds that took (or a large value if it never closed).
+double slow_headers(int port, std::chrono::milliseconds interval, double give_up_s) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const int fd = connect_loopback(port);
+    if (fd < 0) return -1;
+    auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+    bool ok = send_all(fd, "GET /healthz HTTP/1.1\r\nHost: 127.0.0.1\r\n");
+    while (ok && elapsed() < give_up_s) {
+        pollfd p{fd, POLLIN, 0};
+        if (::poll(&p, 1, int(interval.count())) > 0) {
+            char c;
+            if (::recv(fd, &c, 1, MSG_PEEK) <= 0) break;  // closed by the server
+            break;                                          // an answer to a head never finished: wrong too, but closed
+        }
+        ok = send_all(fd, "X-Slow: 1\r\n");
+    }
+    const double t = elapsed();
+    ::close(fd);
+    return t;
+}
+
+// 32 clients that send a header line every 200 ms hold no thread for long (the header deadline
+// cuts them), while 200 keep-alive clients and a prober all get answers. The latency the
+// prober sees is measured by `tessera bench server --hostile`, not asserted here.
+TEST_F(Server, SlowHeaderClientsAreCutWhileManyClientsAreServed) {
+    limits_.connections.header_timeout_s = 1;
+    start();
+    std::vector<double> slow_cut(32);
+    std::vector<std::thread> threads;
+    for (size_t i = 0; i < slow_cut.size(); ++i)
+        threads.emplace_back([&, i] { slow_cut[i] = slow_headers(port_, std::chrono::milliseconds(200), 20); });
+    std::atomic<int> crowd_ok{0}, crowd_failed{0};
+    for (int i = 0; i < 200; ++i)
+        threads.emplace_back([&, i] {
+            httplib::Client c("127.0.0.1", port_);
+            c.set_keep_alive(true);
+            c.set_read_timeout(20, 0);
+            c.set_connection_timeout(20, 0);
+            bool ok = true;
+            for (int k = 0; k < 3 && ok; ++k) {
+                auto r = c.Get(k == 1 ? "/v1/jobs?limit=1" : "/healthz");
+                ok = r && r->status == 200;
+            }
+            // Keep the connection open and idle for a while, then use it again.
+            std::this_thread::sleep_for(std::chrono::milliseconds(1500 + 5 * i));
+            auto r = c.Get("/healthz");
+            ok = ok && r && r->status == 200;
+            (ok ? crowd_ok : crowd_failed)++;
+        });
+    std::atomic<bool> probing{true};
+    std::atomic<int> probes_ok{0}, probes_failed{0};
+    double worst_ms = 0;
+    std::thread prober([&] {
+        while (probing) {
+            httplib::Client c("127.0.0.1", port_);
+            c.set_read_timeout(5, 0);
+            const auto a = std::chrono::steady_clock::now();
+            auto r = c.Get("/healthz");
+            worst_ms = std::max(worst_ms, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - a).count());
+            (r && r->status == 200 ? probes_ok : probes_failed)++;
+            std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        }
+    });
+    for (auto& t : threads) t.join();
+    probing = false;
+    prober.join();
+    EXPECT_EQ(crowd_ok.load(), 200);
+    EXPECT_EQ(crowd_failed.load(), 0);
+    EXPECT_GT(probes_ok.load(), 10);
+    EXPECT_EQ(probes_failed.load(), 0);
+    std::printf("health probes: %d, slowest %.1f ms\n", probes_ok.load(), worst_ms);
+    for (double t : slow_cut) {
+        EXPECT_GT(t, 0.5) << "cut before its deadline";
+        EXPECT_LT(t, 6.0) << "a slow client was not cut near the 1 s header deadline";
+    }
+    auto m = client_->Get("/metrics");
+    ASSERT_TRUE(m);
+    EXPECT_NE(m->body.find("tessera_http_connections_timed_out_total 3"), std::string::npos) << "32 or more expected";
+}
+
+// A body that trickles in is cut at its deadline; a Content-Length that is not a number is a
+// 400 and one past the bound a 413, both at once rather than after waiting for the body.
+TEST_F(Server, SlowBodiesAndBadLengthsAreRefused) {
+    limits_.connections.body_timeout_s = 1;
+    start();
+    const int fd = connect_loopback(port_);
+    ASSERT_GE(fd, 0);
+    const auto t0 = std::chrono::steady_clock::now();
+    ASSERT_TRUE(send_all(fd, "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: 200\r\n\r\n{"));
+    double cut = 0;
+    for (int i = 0; i < 100; ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        pollfd p{fd, POLLIN, 0};
+        if (::poll(&p, 1, 0) > 0 || !send_all(fd, " ")) {
+            cut = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            break;
+        }
+    }
+    ::close(fd);
+    EXPECT_GT(cut, 0.5);
+    EXPECT_LT(cut, 6.0) << "a trickling body was not cut near its deadline";
+
+    for (const auto& [length, status] : std::vector<std::pair<std::string, int>>{{"-5", 400}, {"12abc", 400}, {"99999999999", 413}}) {
+        SCOPED_TRACE(length);
+        const int c = connect_loopback(port_);
+        ASSERT_GE(c, 0);
+        const auto a = std::chrono::steady_clock::now();
+        ASSERT_TRUE(send_all(c, "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: " + length + "\r\n\r\n"));
+        const std::string answer = read_until_close(c, 4000);
+        ::close(c);
+        EXPECT_EQ(answer.rfind("HTTP/1.1 " + std::to_string(status), 0), 0u) << answer;
+        EXPECT_NE(answer.find("application/problem+json"), std::string::npos) << answer;
+        EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count(), 3.0) << "answered only after waiting for the body";
+    }
+    auto r = client_->Get("/healthz");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 200);
+}
+
+// Past --max-connections a client is answered 503 with a problem body and Retry-After, and
+// closed; when connections go away new ones are served again.
+TEST_F(Server, ConnectionsPastTheBoundGet503) {
+    limits_.connections.max_connections = 8;
+    start();
+    client_.reset();  // its keep-alive connection would count
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    std::vector<int> held;
+    for (int i = 0; i < 8; ++i) held.push_back(connect_loopback(port_));
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    const int extra = connect_loopback(port_);
+    ASSERT_GE(extra, 0);
+    send_all(extra, "GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n");
+    const std::string answer = read_until_close(extra, 4000);
+    ::close(extra);
+    EXPECT_EQ(answer.rfind("HTTP/1.1 503", 0), 0u) << answer;
+    EXPECT_NE(answer.find("Retry-After: 1"), std::string::npos) << answer;
+    const size_t body = answer.find("\r\n\r\n");
+    ASSERT_NE(body, std::string::npos);
+    const json problem = json::parse(answer.substr(body + 4), nullptr, false);
+    ASSERT_TRUE(problem.is_object()) << answer;
+    EXPECT_EQ(problem["type"], "/problems/too-many-connections");
+    EXPECT_EQ(problem["status"], 503);
+    for (int fd : held) ::close(fd);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    httplib::Client c("127.0.0.1", port_);
+    auto r = c.Get("/metrics");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 200);
+    EXPECT_NE(r->body.find("tessera_http_connections_refused_total 1\n"), std::string::npos) << r->body;
 }
 
 }  // namespace

@@ -1,0 +1,274 @@
+#include "server/connection_guard.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <condition_variable>
+#include <deque>
+#include <functional>
+
+#include <httplib.h>
+#include <spdlog/spdlog.h>
+
+namespace tessera::server {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+enum Phase : int { kHead, kBody, kResponse };
+const char* const kPhaseName[] = {"request headers", "request body", "response"};
+
+int64_t now_ns() { return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count(); }
+
+// Set by the thread that answers connections past the bound.
+thread_local bool t_refusing = false;
+
+std::string peer_of(int fd) {
+    sockaddr_storage addr{};
+    socklen_t len = sizeof addr;
+    if (getpeername(fd, reinterpret_cast<sockaddr*>(&addr), &len) != 0) return "?";
+    char host[INET6_ADDRSTRLEN] = "?";
+    int port = 0;
+    if (addr.ss_family == AF_INET) {
+        const auto* a = reinterpret_cast<const sockaddr_in*>(&addr);
+        inet_ntop(AF_INET, &a->sin_addr, host, sizeof host);
+        port = ntohs(a->sin_port);
+    } else if (addr.ss_family == AF_INET6) {
+        const auto* a = reinterpret_cast<const sockaddr_in6*>(&addr);
+        inet_ntop(AF_INET6, &a->sin6_addr, host, sizeof host);
+        port = ntohs(a->sin6_port);
+    }
+    return std::string(host) + ":" + std::to_string(port);
+}
+
+}  // namespace
+
+struct ConnectionGuard::Connection {
+    // A duplicate of httplib's descriptor: shutdown() acts on the socket, and the duplicate
+    // keeps naming this socket even after httplib closes its own and the number is reused.
+    int fd = -1;
+    std::string peer;
+    std::atomic<int64_t> deadline_ns{0};
+    std::atomic<int> phase{kHead};
+    bool cut = false;
+    bool close_after = false;  // only its own thread touches it
+};
+
+namespace {
+thread_local ConnectionGuard::Connection* t_connection = nullptr;
+}
+
+// A thread per connection, kept for the next one while few are idle. httplib's ThreadPool has
+// a fixed size, so its threads are all taken by as many keep-alive or slow clients.
+class ConnectionThreads final : public httplib::TaskQueue {
+public:
+    explicit ConnectionThreads(ConnectionGuard& guard) : guard_(guard) {}
+    ~ConnectionThreads() override { shutdown(); }
+
+    void enqueue(std::function<void()> fn) override {
+        std::unique_lock<std::mutex> lock(mutex_);
+        if (guard_.queued_.load() >= guard_.limits_.max_connections) {
+            refusals_.push_back(std::move(fn));
+            if (!refuser_running_) {
+                refuser_running_ = true;
+                ++live_;
+                std::thread([this] { refuse_loop(); }).detach();
+            }
+            refuse_cv_.notify_one();
+            return;
+        }
+        ++guard_.queued_;
+        tasks_.push_back(std::move(fn));
+        // Each idle thread takes one task: a new thread when tasks outnumber them.
+        if (int(tasks_.size()) <= idle_) {
+            cv_.notify_one();
+        } else {
+            ++live_;
+            std::thread([this] { work_loop(); }).detach();
+        }
+    }
+
+    void shutdown() override {
+        std::unique_lock<std::mutex> lock(mutex_);
+        stop_ = true;
+        cv_.notify_all();
+        refuse_cv_.notify_all();
+        done_.wait(lock, [&] { return live_ == 0; });
+    }
+
+private:
+    void work_loop() {
+        std::unique_lock<std::mutex> lock(mutex_);
+        for (;;) {
+            ++idle_;
+            cv_.wait_for(lock, std::chrono::seconds(30), [&] { return stop_ || !tasks_.empty(); });
+            --idle_;
+            if (tasks_.empty()) {
+                if (stop_ || idle_ >= guard_.limits_.spare_threads) break;
+                continue;
+            }
+            std::function<void()> fn = std::move(tasks_.front());
+            tasks_.pop_front();
+            lock.unlock();
+            fn();
+            fn = nullptr;
+            --guard_.queued_;
+            lock.lock();
+            if (idle_ >= guard_.limits_.spare_threads && tasks_.empty()) break;
+        }
+        if (--live_ == 0) done_.notify_all();
+    }
+
+    void refuse_loop() {
+        t_refusing = true;
+        std::unique_lock<std::mutex> lock(mutex_);
+        for (;;) {
+            refuse_cv_.wait_for(lock, std::chrono::seconds(5), [&] { return stop_ || !refusals_.empty(); });
+            if (refusals_.empty()) break;
+            std::function<void()> fn = std::move(refusals_.front());
+            refusals_.pop_front();
+            lock.unlock();
+            fn();
+            fn = nullptr;
+            lock.lock();
+        }
+        refuser_running_ = false;
+        if (--live_ == 0) done_.notify_all();
+    }
+
+    ConnectionGuard& guard_;
+    std::mutex mutex_;
+    std::condition_variable cv_, refuse_cv_, done_;
+    std::deque<std::function<void()>> tasks_, refusals_;
+    int idle_ = 0;
+    int live_ = 0;
+    bool stop_ = false;
+    bool refuser_running_ = false;
+};
+
+ConnectionGuard::ConnectionGuard(ConnectionLimits limits) : limits_(limits) {
+    watchdog_ = std::thread([this] { watch(); });
+}
+
+ConnectionGuard::~ConnectionGuard() {
+    stopping_ = true;
+    if (watchdog_.joinable()) watchdog_.join();
+}
+
+httplib::TaskQueue* ConnectionGuard::new_task_queue() { return new ConnectionThreads(*this); }
+
+bool ConnectionGuard::run(int fd, bool (*serve)(void*, int), void* server) {
+    if (t_refusing) {
+        refuse(fd);
+        return false;
+    }
+    auto conn = std::make_unique<Connection>();
+    conn->fd = ::dup(fd);
+    conn->peer = peer_of(fd);
+    Connection* c = conn.get();
+    c->deadline_ns = now_ns() + int64_t(limits_.header_timeout_s * 1e9);
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        connections_.insert(c);
+    }
+    ++open_;
+    t_connection = c;
+    const bool ok = serve(server, fd);
+    t_connection = nullptr;
+    --open_;
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        connections_.erase(c);
+    }
+    if (c->fd >= 0) ::close(c->fd);
+    return ok;
+}
+
+void ConnectionGuard::set_deadline(double seconds, int phase) {
+    Connection* c = t_connection;
+    if (!c) return;
+    c->phase = phase;
+    c->deadline_ns = now_ns() + int64_t(seconds * 1e9);
+}
+
+void ConnectionGuard::request_head_read(uint64_t content_length) {
+    set_deadline(limits_.body_timeout_s + double(content_length) / limits_.min_rate, kBody);
+}
+
+void ConnectionGuard::response_started(uint64_t body_bytes) {
+    set_deadline(limits_.body_timeout_s + double(body_bytes) / limits_.min_rate, kResponse);
+}
+
+void ConnectionGuard::close_after_response() {
+    if (t_connection) t_connection->close_after = true;
+}
+
+void ConnectionGuard::response_sent() {
+    if (t_connection && t_connection->close_after) {
+        // End our side after the answer; whatever the client still sends is read and dropped
+        // by httplib until it closes, so the client sees the answer rather than a reset.
+        ::shutdown(t_connection->fd, SHUT_WR);
+        set_deadline(1.0, kHead);
+        return;
+    }
+    // httplib waits up to the keep-alive time for the next request's first byte; its headers
+    // then have the header timeout.
+    set_deadline(limits_.keep_alive_s + limits_.header_timeout_s, kHead);
+}
+
+void ConnectionGuard::close_idle() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (Connection* c : connections_)
+        if (c->phase == kHead && !c->cut) {
+            c->cut = true;
+            ::shutdown(c->fd, SHUT_RDWR);
+        }
+}
+
+void ConnectionGuard::watch() {
+    while (!stopping_) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        const int64_t now = now_ns();
+        std::lock_guard<std::mutex> lock(mutex_);
+        for (Connection* c : connections_) {
+            if (c->cut || now < c->deadline_ns.load()) continue;
+            c->cut = true;
+            ::shutdown(c->fd, SHUT_RDWR);
+            ++timed_out_;
+            // The peer is an address we formatted: nothing the client sent reaches the log.
+            spdlog::warn("closed the connection from {}: its {} took longer than allowed", c->peer, kPhaseName[c->phase.load()]);
+        }
+    }
+}
+
+void ConnectionGuard::refuse(int fd) {
+    ++refused_;
+    const std::string body = "{\"type\":\"/problems/too-many-connections\",\"title\":\"Too many connections\",\"status\":503,"
+                             "\"detail\":\"the server holds " + std::to_string(limits_.max_connections) +
+                             " open connections, its bound (tessera serve --max-connections); retry shortly\"}";
+    const std::string response = "HTTP/1.1 503 Service Unavailable\r\nContent-Type: application/problem+json\r\n"
+                                 "Retry-After: 1\r\nConnection: close\r\nContent-Length: " + std::to_string(body.size()) +
+                                 "\r\n\r\n" + body;
+    // A refused client must read the answer, not a reset: send it, end our side, and read what
+    // the client had sent for a moment before closing (closing on unread data sends RST).
+    const std::string peer = peer_of(fd);
+    timeval tv{0, 200'000};
+    setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+    (void)!::send(fd, response.data(), response.size(), MSG_NOSIGNAL);
+    ::shutdown(fd, SHUT_WR);
+    char sink[4096];
+    pollfd p{fd, POLLIN, 0};
+    const auto until = Clock::now() + std::chrono::milliseconds(200);
+    while (Clock::now() < until && ::poll(&p, 1, 50) > 0) {
+        const ssize_t n = ::recv(fd, sink, sizeof sink, MSG_DONTWAIT);
+        if (n <= 0) break;
+    }
+    spdlog::warn("refused a connection from {}: {} connections are open", peer, limits_.max_connections);
+    ::close(fd);
+}
+
+}  // namespace tessera::server
