@@ -1,7 +1,11 @@
 #!/usr/bin/env bash
 # Installs what Tessera needs to build and test, from Debian 12's packages only.
 # Idempotent: packages already present are left alone. Runs as root or through sudo.
+# `setup.sh --build`: only what building needs (the container image's build stage): no Node,
+# no contract tools.
 set -euo pipefail
+build_only=0
+[ "${1:-}" = "--build" ] && build_only=1
 
 packages=(
   # toolchain
@@ -32,18 +36,35 @@ for p in "${packages[@]}"; do
   fi
 done
 
-if [ ${#missing[@]} -eq 0 ]; then
-  echo "setup: all ${#packages[@]} packages already installed"
-  exit 0
+# The contract tests' outside tools (Spectral, ajv) run on Node, and npm fetches them. Debian's
+# nodejs and npm, unless a node and npm are already there (another build of Node ships its own
+# npm, which Debian's npm package would conflict with).
+if [ "$build_only" = 0 ]; then
+  command -v node > /dev/null || missing+=(nodejs)
+  command -v npm > /dev/null || missing+=(npm)
 fi
 
-sudo=""
-if [ "$(id -u)" -ne 0 ]; then
-  command -v sudo >/dev/null || { echo "setup: need root or sudo to install: ${missing[*]}" >&2; exit 1; }
-  sudo="sudo"
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} packages already installed"
+else
+  sudo=""
+  if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null || { echo "setup: need root or sudo to install: ${missing[*]}" >&2; exit 1; }
+    sudo="sudo"
+  fi
+  echo "setup: installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  $sudo apt-get update -qq
+  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
-echo "setup: installing ${missing[*]}"
-export DEBIAN_FRONTEND=noninteractive
-$sudo apt-get update -qq
-$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+
+# The contract tools at the versions tests/contract/package-lock.json pins, into
+# tests/contract/node_modules (not committed); again only when the lock file changed.
+contract="$(cd "$(dirname "$0")/.." && pwd)/tests/contract"
+if [ "$build_only" = 1 ]; then
+  :
+elif [ ! -f "$contract/node_modules/.package-lock.json" ] || [ "$contract/package-lock.json" -nt "$contract/node_modules/.package-lock.json" ]; then
+  echo "setup: installing the contract tools (npm ci in tests/contract)"
+  (cd "$contract" && npm ci --no-audit --no-fund --loglevel=error)
+fi
 echo "setup: done"

@@ -55,7 +55,8 @@ struct ConnectionGuard::Connection {
     std::atomic<int64_t> deadline_ns{0};
     std::atomic<int> phase{kHead};
     bool cut = false;
-    bool close_after = false;  // only its own thread touches it
+    bool close_after = false;  // only its own thread touches these two
+    bool drained = false;
 };
 
 namespace {
@@ -207,11 +208,14 @@ void ConnectionGuard::close_after_response() {
     if (t_connection) t_connection->close_after = true;
 }
 
+bool ConnectionGuard::draining() const { return t_connection && t_connection->drained; }
+
 void ConnectionGuard::response_sent() {
     if (t_connection && t_connection->close_after) {
         // End our side after the answer; whatever the client still sends is read and dropped
         // by httplib until it closes, so the client sees the answer rather than a reset.
         ::shutdown(t_connection->fd, SHUT_WR);
+        t_connection->drained = true;
         set_deadline(1.0, kHead);
         return;
     }

@@ -49,6 +49,8 @@ public:
     void response_sent();
     // The connection ends after this response: its request's body was not read.
     void close_after_response();
+    // After such a response: what httplib still reads is the unread body, not requests.
+    bool draining() const;
 
     // On stop: close the connections that wait for a request, so that stop does not wait out
     // their keep-alive; requests in progress finish.

@@ -147,6 +147,16 @@ private:
     ConnectionGuard& guard_;
 };
 
+}  // namespace
+
+// Health and readiness stay open for probes; everything under /v1 needs a token, and the
+// metrics unless they are declared open.
+bool HttpApi::needs_token(const std::string& path) const {
+    return path.rfind("/v1/", 0) == 0 || path == "/v1" || (path == "/metrics" && !limits_.metrics_open);
+}
+
+namespace {
+
 uint64_t content_length(const httplib::Request& req) {
     const std::string v = req.get_header_value("Content-Length");
     if (v.empty() || v.size() > 19 || v.find_first_not_of("0123456789") != std::string::npos) return 0;
@@ -170,6 +180,20 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
     server_->set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
         request_start = std::chrono::steady_clock::now();
         guard_->request_head_read(content_length(req));
+        const bool has_body = content_length(req) > 0 || req.has_header("Transfer-Encoding");
+        if (limits_.auth.enabled() && needs_token(req.path) && !limits_.auth.allows(req.get_header_value("Authorization"))) {
+            const bool presented = req.has_header("Authorization");
+            send_problem(res, Problem(401, "unauthorized", "Unauthorized",
+                                      presented ? "the bearer token is not one this server accepts"
+                                                : "this server needs a bearer token: send Authorization: Bearer <token>"));
+            res.set_header("WWW-Authenticate", presented ? R"(Bearer realm="tessera", error="invalid_token")" : R"(Bearer realm="tessera")");
+            if (has_body) {
+                // Not read, so it must not be taken for the next request.
+                res.set_header("Connection", "close");
+                guard_->close_after_response();
+            }
+            return httplib::Server::HandlerResponse::Handled;
+        }
         // Refused before the body is read: httplib would otherwise wait for a body it then
         // discards (5 s for one never sent), and read "-5" as a huge unsigned length (413).
         const std::string cl = req.get_header_value("Content-Length");
@@ -191,6 +215,7 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
         guard_->response_started(res.body.size());
     });
     server_->set_logger([this](const httplib::Request& req, const httplib::Response& res) {
+        if (guard_->draining()) return;  // the rest of a refused body parsed as a request: not one
         // A request httplib refused before routing (a broken request line, a cut connection)
         // has no start time.
         const bool timed = request_start != std::chrono::steady_clock::time_point{};

@@ -7,6 +7,7 @@
 #include <string>
 #include <string_view>
 
+#include "server/bearer_auth.h"
 #include "server/connection_guard.h"
 #include "server/job_service.h"
 
@@ -18,6 +19,10 @@ struct HttpLimits {
     size_t max_job_body = 1 << 20;         // bytes of a job's JSON
     size_t max_upload = 256ull << 20;      // bytes of an uploaded scene
     ConnectionLimits connections;          // bound, deadlines and spare threads (connection_guard.h)
+    // Who may use it: with tokens, every /v1 route (and /metrics unless metrics_open) needs
+    // one; /healthz and /readyz stay open.
+    BearerAuth auth;
+    bool metrics_open = false;
 };
 
 // Whether a Content-Type header names JSON: application/json or application/*+json, in any
@@ -42,6 +47,7 @@ public:
 private:
     void routes();
     std::string metrics_text();
+    bool needs_token(const std::string& path) const;
 
     JobService& service_;
     HttpLimits limits_;

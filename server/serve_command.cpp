@@ -75,6 +75,17 @@ int serve_command(int argc, char** argv) {
     option("body-timeout", o.http.connections.body_timeout_s,
            "seconds for a request's body (and its handling) or a response, plus its size at 64 KiB/s")
         ->type_name("SECONDS")->check(CLI::Range(0.1, 3600.0));
+    std::string token_file;
+    option("token-file", token_file,
+           "bearer tokens, one per line: every /v1 route (and /metrics) then needs 'Authorization: Bearer <token>'. "
+           "TESSERA_TOKENS may hold tokens too (comma-separated); never pass a token as a flag")
+        ->type_name("FILE");
+    bool allow_anonymous = false;
+    app.add_flag("--allow-anonymous", allow_anonymous,
+                 "serve without tokens on an address other than loopback (anyone who reaches it may submit jobs)")
+        ->envname("TESSERA_ALLOW_ANONYMOUS");
+    app.add_flag("--metrics-open", o.http.metrics_open, "with tokens: serve /metrics without one (for a scraper)")
+        ->envname("TESSERA_METRICS_OPEN");
     option("max-pixels", lim.max_pixels, "width × height of a job")->check(CLI::Range(1LL, 1LL << 32));
     option("max-spp", lim.max_spp, "samples per pixel of a job")->check(CLI::Range(1, 1 << 24));
     option("max-depth", lim.max_depth, "bounce depth of a job")->check(CLI::Range(0, 100000));
@@ -104,6 +115,26 @@ int serve_command(int argc, char** argv) {
             std::fprintf(stderr, "tessera serve: --redis: %s\n", e.what());
             return 2;
         }
+    }
+    try {
+        std::vector<std::string> tokens;
+        if (!token_file.empty()) tokens = BearerAuth::read_token_file(token_file);
+        if (const char* env = std::getenv("TESSERA_TOKENS")) {
+            const auto more = BearerAuth::parse_token_list(env);
+            tokens.insert(tokens.end(), more.begin(), more.end());
+        }
+        o.http.auth = BearerAuth(std::move(tokens));
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "tessera serve: %s\n", e.what());
+        return 2;
+    }
+    if (!o.http.auth.enabled() && !is_loopback_host(o.host) && !allow_anonymous) {
+        std::fprintf(stderr,
+                     "tessera serve: refusing to listen on %s without tokens: anyone who reaches it could submit jobs and "
+                     "upload files. Give tokens (--token-file FILE or TESSERA_TOKENS), or say --allow-anonymous "
+                     "(TESSERA_ALLOW_ANONYMOUS=1) if the network in front does the access control\n",
+                     o.host.c_str());
+        return 2;
     }
     o.service.max_store_bytes = store_mb << 20;
     if (max_triangles->count() > 0) o.service.load_limits.max_vertices = o.service.load_limits.max_triangles * 3;
@@ -143,6 +174,11 @@ int serve_command(int argc, char** argv) {
         std::fprintf(stderr, "tessera serve: %s\n", e.what());
         return 1;
     }
+    if (o.http.auth.enabled())
+        spdlog::info("access: {} bearer token{}; /healthz, /readyz{} open", o.http.auth.size(), o.http.auth.size() == 1 ? "" : "s",
+                     o.http.metrics_open ? ", /metrics" : "");
+    else if (!is_loopback_host(o.host))
+        spdlog::warn("access: no tokens on {} (--allow-anonymous): anyone who reaches it may submit jobs and upload files", o.host);
     spdlog::info("listening on http://{}:{} (data in {}, {} render threads{})", o.host, port, o.service.data_dir,
                  o.service.render_threads ? std::to_string(o.service.render_threads) : std::string("all"),
                  o.service.redis_url.empty() ? std::string()

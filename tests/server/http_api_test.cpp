@@ -750,3 +750,56 @@ TEST_F(Server, ConnectionsPastTheBoundGet503) {
 
 }  // namespace
 }  // namespace tessera::server
+
+namespace tessera::server {
+namespace {
+
+// With tokens, /v1 and /metrics need one (401 with WWW-Authenticate otherwise, before any
+// body is read), health and readiness do not; with metrics declared open, /metrics does not.
+TEST_F(Server, BearerTokensGuardTheApi) {
+    const std::string token = "test-token-0123456789abcdef";
+    limits_.auth = BearerAuth({token});
+    start();
+    for (const char* open : {"/healthz", "/readyz"}) {
+        auto r = client_->Get(open);
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->status, 200) << open;
+    }
+    auto none = client_->Get("/v1/jobs");
+    expect_problem(none, 401);
+    EXPECT_EQ(none->get_header_value("WWW-Authenticate"), "Bearer realm=\"tessera\"");
+    auto wrong = client_->Post("/v1/jobs", {{"Authorization", "Bearer test-token-0123456789abcdeX"}}, kSmallJob.dump(), "application/json");
+    expect_problem(wrong, 401);
+    EXPECT_NE(wrong->get_header_value("WWW-Authenticate").find("invalid_token"), std::string::npos);
+    expect_problem(client_->Get("/metrics"), 401);
+    expect_problem(client_->Get("/v1/openapi.yaml"), 401);
+
+    httplib::Client authed("127.0.0.1", port_);
+    authed.set_bearer_token_auth(token.c_str());
+    auto ok = authed.Post("/v1/jobs", kSmallJob.dump(), "application/json");
+    ASSERT_TRUE(ok);
+    EXPECT_EQ(ok->status, 202) << ok->body;
+    const std::string id = json::parse(ok->body)["id"];
+    expect_problem(client_->Get("/v1/jobs/" + id), 401);
+    auto status = authed.Get("/v1/jobs/" + id);
+    ASSERT_TRUE(status);
+    EXPECT_EQ(status->status, 200);
+    auto metrics = authed.Get("/metrics");
+    ASSERT_TRUE(metrics);
+    EXPECT_EQ(metrics->status, 200);
+    EXPECT_NE(metrics->body.find("tessera_http_requests_total{status=\"401\"}"), std::string::npos);
+    EXPECT_EQ(metrics->body.find(token), std::string::npos);
+}
+
+TEST_F(Server, MetricsCanBeOpenWithTokens) {
+    limits_.auth = BearerAuth({"test-token-0123456789abcdef"});
+    limits_.metrics_open = true;
+    start();
+    auto r = client_->Get("/metrics");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 200);
+    expect_problem(client_->Get("/v1/scenes"), 401);
+}
+
+}  // namespace
+}  // namespace tessera::server
