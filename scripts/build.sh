@@ -1,11 +1,15 @@
 #!/usr/bin/env bash
 # Configures and builds one CMake preset (release by default: build/release/cli/tessera).
+# `build.sh PRESET TARGET...` builds only those targets (the container image: tessera).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 preset="${1:-release}"
+shift || true
+targets=()
+[ $# -gt 0 ] && targets=(--target "$@")
 jobs="${TESSERA_BUILD_JOBS:-$(nproc)}"
 # TESSERA_NATIVE=OFF builds for any x86-64 (the container image); the default tunes for this CPU.
 if [ ! -f "build/$preset/CMakeCache.txt" ]; then
   cmake --preset "$preset" -DTESSERA_NATIVE="${TESSERA_NATIVE:-ON}" >/dev/null
 fi
-cmake --build --preset "$preset" -j "$jobs"
+cmake --build --preset "$preset" -j "$jobs" "${targets[@]}"

@@ -27,6 +27,10 @@ packages=(
   clang libclang-rt-14-dev
   # the end-to-end scripts
   curl
+  # the container test (tests/container): podman with runc, CNI networking with container names
+  # resolved (compose), debootstrap for the debian:12 base image, podman-compose
+  podman runc containernetworking-plugins golang-github-containernetworking-plugin-dnsname iptables
+  debootstrap podman-compose
 )
 
 missing=()

@@ -13,6 +13,9 @@ namespace {
 void check_token(const std::string& token, const std::string& where) {
     if (token.size() < 16)
         throw std::runtime_error(where + ": a token must have at least 16 characters (e.g. `openssl rand -hex 32`)");
+    // A compose file or shell that did not expand a variable hands over "${TOKENS}" itself.
+    if (token.find("${") != std::string::npos || token.find("$(") != std::string::npos)
+        throw std::runtime_error(where + ": a token holds \"${\" or \"$(\": a variable or command that was not expanded?");
     for (char c : token)
         if (static_cast<unsigned char>(c) <= 0x20 || static_cast<unsigned char>(c) >= 0x7f)
             throw std::runtime_error(where + ": a token may hold only printable ASCII without spaces");

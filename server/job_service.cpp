@@ -248,8 +248,9 @@ json JobService::status_json(const JobRecord& rec) {
     if (redis_store_) {
         try {
             if (rec.state == JobState::queued) {
+                // Not in the run order any more: taken meanwhile, starting (see below).
                 const long long pos = redis_store_->queue_position(rec.id);
-                if (pos >= 0) st.queue_position = size_t(pos);
+                st.queue_position = pos >= 0 ? size_t(pos) : 0;
             } else if (rec.state == JobState::running) {
                 if (const auto p = redis_store_->live_progress(rec.id)) {
                     const json& cfg = st.settings;
@@ -264,6 +265,9 @@ json JobService::status_json(const JobRecord& rec) {
     } else {
         std::lock_guard<std::mutex> lock(mutex_);
         if (rec.state == JobState::queued) {
+            // The record was read before the lock: a job not in the queue any more was taken
+            // from its head meanwhile (it is starting), so its position is 0, never null.
+            st.queue_position = 0;
             size_t pos = 0;
             for (const auto& k : queue_) {
                 if (k.id == rec.id) { st.queue_position = pos; break; }

@@ -55,6 +55,7 @@ TEST(BearerAuth, TokenFilesAndLists) {
     EXPECT_TRUE(BearerAuth::parse_token_list("").empty());
     EXPECT_THROW(BearerAuth::parse_token_list(kToken + ",tiny"), std::runtime_error);
     EXPECT_THROW(BearerAuth::parse_token_list("0123456789abcdef\x7f"), std::runtime_error);
+    EXPECT_THROW(BearerAuth::parse_token_list("${TESSERA_TOKENS:-}"), std::runtime_error);  // not expanded
 }
 
 TEST(BearerAuth, LoopbackHosts) {

@@ -803,3 +803,46 @@ TEST_F(Server, MetricsCanBeOpenWithTokens) {
 
 }  // namespace
 }  // namespace tessera::server
+
+namespace tessera::server {
+namespace {
+
+// A job read as queued always has its place in the run order, also in the instant a worker
+// takes it from the head (the record then says queued, the queue no longer holds it).
+TEST_F(Server, QueuedJobsAlwaysHaveAPosition) {
+    start();
+    std::vector<std::string> ids;
+    for (int i = 0; i < 120; ++i) {  // with the fix undone, 40 jobs caught it once in three runs
+        json j = kSmallJob;
+        j["seed"] = i;
+        j["spp"] = 1;
+        ids.push_back(submit(j));
+    }
+    std::atomic<int> queued_reads{0}, without_position{0};
+    std::vector<std::thread> pollers;
+    for (int t = 0; t < 2; ++t)
+        pollers.emplace_back([&] {
+            httplib::Client c("127.0.0.1", port_);
+            for (bool open = true; open;) {
+                open = false;
+                for (const auto& id : ids) {
+                    auto r = c.Get("/v1/jobs/" + id);
+                    if (!r || r->status != 200) continue;
+                    const json s = json::parse(r->body);
+                    if (s["state"] == "queued") {
+                        open = true;
+                        ++queued_reads;
+                        if (!s["queue_position"].is_number_unsigned()) ++without_position;
+                    } else if (s["state"] == "running") {
+                        open = true;
+                    }
+                }
+            }
+        });
+    for (auto& t : pollers) t.join();
+    EXPECT_GT(queued_reads.load(), 0);
+    EXPECT_EQ(without_position.load(), 0) << "of " << queued_reads.load() << " reads of queued jobs";
+}
+
+}  // namespace
+}  // namespace tessera::server
