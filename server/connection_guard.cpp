@@ -64,91 +64,100 @@ thread_local ConnectionGuard::Connection* t_connection = nullptr;
 }
 
 // A thread per connection, kept for the next one while few are idle. httplib's ThreadPool has
-// a fixed size, so its threads are all taken by as many keep-alive or slow clients.
+// a fixed size, so its threads are all taken by as many keep-alive or slow clients. The
+// threads are detached and share the pool's state: the last of them may still be leaving
+// (unlocking its mutex) when shutdown() has returned and httplib deletes the queue.
 class ConnectionThreads final : public httplib::TaskQueue {
 public:
-    explicit ConnectionThreads(ConnectionGuard& guard) : guard_(guard) {}
+    explicit ConnectionThreads(ConnectionGuard& guard) : pool_(std::make_shared<Pool>(guard)) {}
     ~ConnectionThreads() override { shutdown(); }
 
     void enqueue(std::function<void()> fn) override {
-        std::unique_lock<std::mutex> lock(mutex_);
-        if (guard_.queued_.load() >= guard_.limits_.max_connections) {
-            refusals_.push_back(std::move(fn));
-            if (!refuser_running_) {
-                refuser_running_ = true;
-                ++live_;
-                std::thread([this] { refuse_loop(); }).detach();
+        Pool& p = *pool_;
+        std::unique_lock<std::mutex> lock(p.mutex);
+        if (p.guard.queued_.load() >= p.guard.limits_.max_connections) {
+            p.refusals.push_back(std::move(fn));
+            if (!p.refuser_running) {
+                p.refuser_running = true;
+                ++p.live;
+                std::thread([pool = pool_] { refuse_loop(*pool); }).detach();
             }
-            refuse_cv_.notify_one();
+            p.refuse_cv.notify_one();
             return;
         }
-        ++guard_.queued_;
-        tasks_.push_back(std::move(fn));
+        ++p.guard.queued_;
+        p.tasks.push_back(std::move(fn));
         // Each idle thread takes one task: a new thread when tasks outnumber them.
-        if (int(tasks_.size()) <= idle_) {
-            cv_.notify_one();
+        if (int(p.tasks.size()) <= p.idle) {
+            p.cv.notify_one();
         } else {
-            ++live_;
-            std::thread([this] { work_loop(); }).detach();
+            ++p.live;
+            std::thread([pool = pool_] { work_loop(*pool); }).detach();
         }
     }
 
     void shutdown() override {
-        std::unique_lock<std::mutex> lock(mutex_);
-        stop_ = true;
-        cv_.notify_all();
-        refuse_cv_.notify_all();
-        done_.wait(lock, [&] { return live_ == 0; });
+        Pool& p = *pool_;
+        std::unique_lock<std::mutex> lock(p.mutex);
+        p.stop = true;
+        p.cv.notify_all();
+        p.refuse_cv.notify_all();
+        p.done.wait(lock, [&] { return p.live == 0; });
     }
 
 private:
-    void work_loop() {
-        std::unique_lock<std::mutex> lock(mutex_);
+    struct Pool {
+        explicit Pool(ConnectionGuard& g) : guard(g) {}
+        ConnectionGuard& guard;  // outlives the connections: HttpApi destroys it after the server
+        std::mutex mutex;
+        std::condition_variable cv, refuse_cv, done;
+        std::deque<std::function<void()>> tasks, refusals;
+        int idle = 0;
+        int live = 0;
+        bool stop = false;
+        bool refuser_running = false;
+    };
+
+    static void work_loop(Pool& p) {
+        std::unique_lock<std::mutex> lock(p.mutex);
         for (;;) {
-            ++idle_;
-            cv_.wait_for(lock, std::chrono::seconds(30), [&] { return stop_ || !tasks_.empty(); });
-            --idle_;
-            if (tasks_.empty()) {
-                if (stop_ || idle_ >= guard_.limits_.spare_threads) break;
+            ++p.idle;
+            p.cv.wait_for(lock, std::chrono::seconds(30), [&] { return p.stop || !p.tasks.empty(); });
+            --p.idle;
+            if (p.tasks.empty()) {
+                if (p.stop || p.idle >= p.guard.limits_.spare_threads) break;
                 continue;
             }
-            std::function<void()> fn = std::move(tasks_.front());
-            tasks_.pop_front();
+            std::function<void()> fn = std::move(p.tasks.front());
+            p.tasks.pop_front();
             lock.unlock();
             fn();
             fn = nullptr;
-            --guard_.queued_;
+            --p.guard.queued_;
             lock.lock();
-            if (idle_ >= guard_.limits_.spare_threads && tasks_.empty()) break;
+            if (p.idle >= p.guard.limits_.spare_threads && p.tasks.empty()) break;
         }
-        if (--live_ == 0) done_.notify_all();
+        if (--p.live == 0) p.done.notify_all();
     }
 
-    void refuse_loop() {
+    static void refuse_loop(Pool& p) {
         t_refusing = true;
-        std::unique_lock<std::mutex> lock(mutex_);
+        std::unique_lock<std::mutex> lock(p.mutex);
         for (;;) {
-            refuse_cv_.wait_for(lock, std::chrono::seconds(5), [&] { return stop_ || !refusals_.empty(); });
-            if (refusals_.empty()) break;
-            std::function<void()> fn = std::move(refusals_.front());
-            refusals_.pop_front();
+            p.refuse_cv.wait_for(lock, std::chrono::seconds(5), [&] { return p.stop || !p.refusals.empty(); });
+            if (p.refusals.empty()) break;
+            std::function<void()> fn = std::move(p.refusals.front());
+            p.refusals.pop_front();
             lock.unlock();
             fn();
             fn = nullptr;
             lock.lock();
         }
-        refuser_running_ = false;
-        if (--live_ == 0) done_.notify_all();
+        p.refuser_running = false;
+        if (--p.live == 0) p.done.notify_all();
     }
 
-    ConnectionGuard& guard_;
-    std::mutex mutex_;
-    std::condition_variable cv_, refuse_cv_, done_;
-    std::deque<std::function<void()>> tasks_, refusals_;
-    int idle_ = 0;
-    int live_ = 0;
-    bool stop_ = false;
-    bool refuser_running_ = false;
+    std::shared_ptr<Pool> pool_;
 };
 
 ConnectionGuard::ConnectionGuard(ConnectionLimits limits) : limits_(limits) {
