@@ -5,6 +5,7 @@
 // the same image whoever runs it.
 #include <atomic>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -14,8 +15,23 @@
 #include "api/report.h"
 #include "engine/io/image_io.h"
 #include "engine/io/scene_loader.h"
+#include "engine/scene/render_scene.h"
 
 namespace tessera::api {
+
+// A scene loaded and built for rendering; a cache shares one between jobs (read-only).
+struct PreparedScene {
+    RenderScene scene;
+    double load_s = 0, build_s = 0;
+    size_t bytes = 0;  // estimated memory
+};
+// Loads and builds a scene (a file path, or builtin:NAME[?params]). Throws SceneError.
+std::shared_ptr<PreparedScene> prepare_scene(const std::string& source, const LoadLimits& limits, const RenderSceneOptions& options);
+
+// Where a runner's scenes come from when it keeps them between jobs: the scene for `source`
+// built with `options`, and whether it was there already (a hit).
+using ScenePreparer =
+    std::function<std::pair<std::shared_ptr<const PreparedScene>, bool>(const std::string& source, const RenderSceneOptions& options)>;
 
 // How this runner runs the job: not part of the job (the same job gives the same image with
 // any of these).
@@ -26,6 +42,7 @@ struct RunOptions {
     std::string job_id;             // names the job in metadata and plot titles; "" for none
     std::string reference_image;    // the reference job's EXR (RenderJob::reference, resolved)
     bool record_convergence = true; // keep the half buffers and report the estimated error
+    ScenePreparer prepare;          // a server's cache of prepared scenes; unset: prepared for this job
 };
 
 // Where the results go; an empty path is not written.
@@ -61,6 +78,7 @@ struct FinishedRender {
     double before_write_s = 0;       // from the job's start to the end of rendering
     size_t tiles_done = 0, tiles_total = 0;
     std::vector<NodeShare> nodes;
+    SceneCacheUse scene_cache;
 };
 JobOutcome write_render(const FinishedRender& done, const RunOptions& options, const RunOutputs& outputs);
 

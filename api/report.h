@@ -23,6 +23,14 @@ struct NodeShare {
     double seconds = 0;
 };
 
+// How a job got its scene: from a server's cache of prepared scenes (a hit: prepared before,
+// by this job's scene bytes and build options) or prepared for it; what preparing it cost.
+struct SceneCacheUse {
+    bool used = false;  // the runner keeps prepared scenes
+    bool hit = false;
+    double load_s = 0, build_s = 0;  // when it was prepared
+};
+
 struct RenderReport {
     RenderJob job;
     JobTimings timings;
@@ -39,6 +47,7 @@ struct RenderReport {
     double mean_radiance = 0;  // of the linear image, over pixels and channels
     size_t tiles_done = 0, tiles_total = 0;
     std::vector<NodeShare> nodes;  // a farm's render nodes; empty for one process
+    SceneCacheUse scene_cache;
 };
 
 // report.json: settings, timings, statistics, scene, convergence, render, progress.

@@ -395,6 +395,10 @@ std::string HttpApi::metrics_text() {
       << "tessera_jobs_submitted_total " << service_.metrics().jobs_submitted.load() << "\n";
     m << "# HELP tessera_store_errors_total Writes the job store refused (full or unavailable).\n"
       << "# TYPE tessera_store_errors_total counter\ntessera_store_errors_total " << service_.metrics().store_errors.load() << "\n";
+    m << "# HELP tessera_scene_cache_hits_total Jobs that found their scene prepared (loaded and built) by an earlier job.\n"
+      << "# TYPE tessera_scene_cache_hits_total counter\ntessera_scene_cache_hits_total " << service_.scene_cache().hits() << "\n"
+      << "# HELP tessera_scene_cache_misses_total Jobs that prepared their scene.\n"
+      << "# TYPE tessera_scene_cache_misses_total counter\ntessera_scene_cache_misses_total " << service_.scene_cache().misses() << "\n";
     // A farm's render nodes, from their last heartbeat in Redis (any API node shows them all).
     try {
         auto nodes = service_.render_nodes();

@@ -62,7 +62,8 @@ std::string writable_data_dir(const std::string& dir) {
 
 JobService::JobService(ServiceConfig config)
     : config_(std::move(config)),
-      catalog_(config_.project_scenes, config_.scene_dirs, (fs::path(writable_data_dir(config_.data_dir)) / "uploads").string()) {
+      catalog_(config_.project_scenes, config_.scene_dirs, (fs::path(writable_data_dir(config_.data_dir)) / "uploads").string()),
+      scenes_("", config_.node.scene_cache_mb << 20, config_.load_limits) {
     if (!config_.redis_url.empty()) {
         // A farm: no queue in this process; render nodes (maybe one here) take the tiles.
         const RedisUrl url = RedisUrl::parse(config_.redis_url);
@@ -447,6 +448,7 @@ void JobService::run(const JobRecord& rec, Running& running) {
         opt.load_limits = config_.load_limits;
         opt.threads = config_.render_threads;
         opt.job_id = rec.id;
+        opt.prepare = [this](const std::string& source, const RenderSceneOptions& options) { return scenes_.get_local(source, options); };
         if (const auto* r = std::get_if<api::RenderJob>(&job)) {
             running.sample_budget = double(r->render.spp) * r->render.width * r->render.height;
             if (!r->reference.empty()) opt.reference_image = (fs::path(job_dir(r->reference)) / "image.exr").string();

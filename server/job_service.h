@@ -23,6 +23,7 @@
 #include "server/job_store.h"
 #include "server/redis_job_store.h"
 #include "server/render_node.h"
+#include "server/scene_cache.h"
 #include "server/scene_catalog.h"
 
 namespace tessera::server {
@@ -76,6 +77,7 @@ public:
     size_t queue_depth();
     std::map<std::string, size_t> counts_by_state();
     ServiceMetrics& metrics() { return metrics_; }
+    const SceneCache& scene_cache() const { return scenes_; }
     JobStore& store() { return *store_; }
     bool farm() const { return redis_store_ != nullptr; }
     // A farm's render nodes and their last heartbeat's metrics (JSON text); empty for one process.
@@ -117,6 +119,8 @@ private:
     RedisJobStore* redis_store_ = nullptr;  // store_, when it is Redis
     std::unique_ptr<RenderNode> node_;      // serve --redis … --render
     SceneCatalog catalog_;
+    // Prepared scenes kept between this process's jobs (bounded by node.scene_cache_mb).
+    SceneCache scenes_;
     ServiceMetrics metrics_;
     std::mutex mutex_;
     std::condition_variable cv_;        // a job was queued, or the service stops

@@ -19,7 +19,8 @@ inline void add_node_options(CLI::App& app, NodeConfig& node) {
     app.add_option("--max-deliveries", node.max_deliveries, "a task delivered more often fails its job with that reason")
         ->envname("TESSERA_MAX_DELIVERIES")
         ->check(CLI::Range(1, 1000));
-    app.add_option("--scene-cache-mb", node.scene_cache_mb, "memory for prepared scenes kept between tiles and jobs, in MiB")
+    app.add_option("--scene-cache-mb", node.scene_cache_mb, "memory for prepared (loaded and built) scenes kept between jobs and tiles, in MiB; "
+                   "least recently used go first")
         ->envname("TESSERA_SCENE_CACHE_MB")
         ->check(CLI::Range(int64_t{1}, int64_t{1} << 24));
 }

@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "server/cluster_keys.h"
@@ -76,40 +77,53 @@ std::string SceneCache::file_for(Redis& redis, const SceneRef& ref) {
     return cached.string();
 }
 
-std::shared_ptr<const PreparedScene> SceneCache::get(Redis& redis, const SceneRef& ref, const RenderSceneOptions& options) {
-    const std::string key = (ref.hash.empty() ? ref.source : ref.hash) + "|" + options_key(options);
-    {
-        std::lock_guard lock(mu_);
-        for (auto it = lru_.begin(); it != lru_.end(); ++it)
-            if (it->key == key) {
-                lru_.splice(lru_.begin(), lru_, it);
-                ++hits_;
-                return it->scene;
-            }
-        ++misses_;
-    }
-    // Loaded outside the lock: two threads may both load a scene they both miss, and the
-    // second copy is dropped; tiles of other scenes are not held up meanwhile.
-    const std::string path = file_for(redis, ref);
-    auto p = std::make_shared<PreparedScene>();
-    const auto t0 = Clock::now();
-    const SceneDescription desc = load_scene(path, limits_);
-    const auto t1 = Clock::now();
-    p->scene = build_render_scene(desc, options);
-    p->load_s = std::chrono::duration<double>(t1 - t0).count();
-    p->build_s = std::chrono::duration<double>(Clock::now() - t1).count();
-    p->bytes = p->scene.triangle_accel_bytes() + p->scene.triangle_count() * 160 + p->scene.spheres.size() * 64 + 4096;
+std::shared_ptr<const PreparedScene> SceneCache::find(const std::string& key) {
+    std::lock_guard lock(mu_);
+    for (auto it = lru_.begin(); it != lru_.end(); ++it)
+        if (it->key == key) {
+            lru_.splice(lru_.begin(), lru_, it);
+            ++hits_;
+            return it->scene;
+        }
+    ++misses_;
+    return nullptr;
+}
+
+// Two threads may both have prepared a scene they both missed: the first kept wins.
+std::shared_ptr<const PreparedScene> SceneCache::keep(const std::string& key, std::shared_ptr<const PreparedScene> scene) {
     std::lock_guard lock(mu_);
     for (const Entry& e : lru_)
         if (e.key == key) return e.scene;
-    lru_.push_front({key, p});
+    lru_.push_front({key, scene});
     int64_t total = 0;
     for (const Entry& e : lru_) total += int64_t(e.scene->bytes);
     while (lru_.size() > 1 && total > max_bytes_) {
         total -= int64_t(lru_.back().scene->bytes);
         lru_.pop_back();
     }
-    return p;
+    return scene;
+}
+
+std::shared_ptr<const PreparedScene> SceneCache::get(Redis& redis, const SceneRef& ref, const RenderSceneOptions& options) {
+    const std::string key = (ref.hash.empty() ? ref.source : ref.hash) + "|" + options_key(options);
+    if (auto hit = find(key)) return hit;
+    // Prepared outside the lock: jobs on other scenes are not held up meanwhile.
+    return keep(key, api::prepare_scene(file_for(redis, ref), limits_, options));
+}
+
+std::pair<std::shared_ptr<const PreparedScene>, bool> SceneCache::get_local(const std::string& source, const RenderSceneOptions& options) {
+    std::string identity = source;
+    if (source.rfind("builtin:", 0) != 0) {
+        // The file as it is now: its path, inode, size and modification time. A file edited
+        // or replaced (an upload under the same name, a scene folder synced anew) is another key.
+        struct stat st {};
+        if (::stat(source.c_str(), &st) == 0)
+            identity = fs::weakly_canonical(source).string() + "#" + std::to_string(st.st_ino) + ":" + std::to_string(st.st_size) + ":" +
+                       std::to_string(st.st_mtim.tv_sec) + "." + std::to_string(st.st_mtim.tv_nsec);
+    }
+    const std::string key = identity + "|" + options_key(options);
+    if (auto hit = find(key)) return {hit, true};
+    return {keep(key, api::prepare_scene(source, limits_, options)), false};
 }
 
 }  // namespace tessera::server

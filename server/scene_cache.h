@@ -1,14 +1,16 @@
 #pragma once
-// A render node's prepared scenes: loaded and built once, then reused by every tile and every
-// job that names the same scene bytes with the same build options. Least recently used scenes
-// go first when the estimated memory passes the bound (a scene in use stays alive until its
-// tiles finish: entries are shared pointers).
+// Prepared scenes, loaded and built once, then reused by every job (and a render node's every
+// tile) that names the same scene bytes with the same build options: a render node's, and the
+// one-process server's. Least recently used scenes go first when the estimated memory passes
+// the bound (a scene in use stays alive until its jobs finish: entries are shared pointers).
+#include <atomic>
 #include <cstdint>
 #include <list>
 #include <memory>
 #include <mutex>
 #include <string>
 
+#include "api/job_runner.h"
 #include "engine/io/scene_loader.h"
 #include "engine/scene/render_scene.h"
 #include "server/redis_client.h"
@@ -25,11 +27,7 @@ struct SceneRef {
     static SceneRef decode(const std::string& s);
 };
 
-struct PreparedScene {
-    RenderScene scene;
-    double load_s = 0, build_s = 0;
-    size_t bytes = 0;  // estimated memory
-};
+using api::PreparedScene;
 
 class SceneCache {
 public:
@@ -38,10 +36,16 @@ public:
     std::shared_ptr<const PreparedScene> get(Redis& redis, const SceneRef& ref, const RenderSceneOptions& options);
     // The job's scene as a file on this node (a built-in's name as is); throws std::runtime_error.
     std::string file_for(Redis& redis, const SceneRef& ref);
+    // A scene this process reads itself: a file path (keyed by its identity, so an edited or
+    // replaced file is a new scene) or builtin:NAME[?params]. Throws SceneError. The second
+    // value says whether it was prepared before.
+    std::pair<std::shared_ptr<const PreparedScene>, bool> get_local(const std::string& source, const RenderSceneOptions& options);
     uint64_t hits() const { return hits_; }
     uint64_t misses() const { return misses_; }
 
 private:
+    std::shared_ptr<const PreparedScene> find(const std::string& key);
+    std::shared_ptr<const PreparedScene> keep(const std::string& key, std::shared_ptr<const PreparedScene> scene);
     struct Entry {
         std::string key;
         std::shared_ptr<const PreparedScene> scene;
@@ -51,7 +55,7 @@ private:
     LoadLimits limits_;
     std::mutex mu_;
     std::list<Entry> lru_;  // most recent first
-    uint64_t hits_ = 0, misses_ = 0;
+    std::atomic<uint64_t> hits_{0}, misses_{0};  // read by /metrics without the lock
 };
 
 }  // namespace tessera::server

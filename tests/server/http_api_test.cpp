@@ -45,6 +45,7 @@ protected:
         cfg.render_threads = 2;
         cfg.max_queued = max_queued;
         cfg.max_store_bytes = max_store_bytes;
+        cfg.scene_dirs = scene_dirs_;
         service_ = std::make_unique<JobService>(cfg);
         std::ofstream(dir_ / "openapi.yaml") << "openapi: 3.0.3\n";
         api_ = std::make_unique<HttpApi>(*service_, limits_, (dir_ / "openapi.yaml").string());
@@ -108,6 +109,7 @@ protected:
     }
 
     HttpLimits limits_ = test_limits();  // a test may change them before start()
+    std::vector<std::string> scene_dirs_;
     fs::path dir_;
     std::unique_ptr<JobService> service_;
     std::unique_ptr<HttpApi> api_;
@@ -842,6 +844,60 @@ TEST_F(Server, QueuedJobsAlwaysHaveAPosition) {
     for (auto& t : pollers) t.join();
     EXPECT_GT(queued_reads.load(), 0);
     EXPECT_EQ(without_position.load(), 0) << "of " << queued_reads.load() << " reads of queued jobs";
+}
+
+}  // namespace
+}  // namespace tessera::server
+
+#include "engine/io/image_io.h"
+
+namespace tessera::server {
+namespace {
+
+// The second job on a scene finds it prepared: the report says so, and the image is the same
+// pixel for pixel. Other build options, or the file edited, prepare it again.
+TEST_F(Server, PreparedScenesAreKeptAcrossJobs) {
+    const fs::path scenes = fs::temp_directory_path() / ("tessera_cache_scenes_" + std::to_string(::getpid()));
+    fs::remove_all(scenes);
+    fs::create_directories(scenes);
+    write_gltf((scenes / "box.gltf").string(), cornell_box());
+    scene_dirs_ = {scenes.string()};
+    start();
+    json job = kSmallJob;
+    job["scene"] = "box";
+    auto run = [&](const json& j) {
+        const std::string id = submit(j);
+        EXPECT_EQ(wait_state(id, {"succeeded", "failed"})["state"], "succeeded");
+        auto r = client_->Get("/v1/jobs/" + id + "/report.json");
+        EXPECT_TRUE(r && r->status == 200);
+        const json report = json::parse(r->body);
+        const Image image = read_image((dir_ / "jobs" / id / "image.exr").string());
+        return std::pair{report["scene"]["cache"], image.rgb};
+    };
+    const auto [first, first_rgb] = run(job);
+    EXPECT_EQ(first["hit"], false) << first;
+    EXPECT_GT(first["load_s"].get<double>() + first["build_s"].get<double>(), 0.0);
+    const auto [second, second_rgb] = run(job);
+    EXPECT_EQ(second["hit"], true) << second;
+    EXPECT_EQ(second["build_s"], first["build_s"]) << "the cost of the preparation it reused";
+    EXPECT_EQ(first_rgb, second_rgb) << "a cached scene must render the same image";
+
+    json other_bvh = job;
+    other_bvh["bvh"] = "median";
+    EXPECT_EQ(run(other_bvh).first["hit"], false) << "another BVH is another preparation";
+
+    // Edited in place (a new size and modification time): prepared anew, the new scene rendered.
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    write_gltf((scenes / "box.gltf").string(), cornell_spheres());
+    const auto [edited, edited_rgb] = run(job);
+    EXPECT_EQ(edited["hit"], false) << "a changed file was served from the cache";
+    EXPECT_NE(edited_rgb, first_rgb);
+
+    auto m = client_->Get("/metrics");
+    ASSERT_TRUE(m);
+    EXPECT_NE(m->body.find("tessera_scene_cache_hits_total 1\n"), std::string::npos) << m->body;
+    EXPECT_NE(m->body.find("tessera_scene_cache_misses_total 3\n"), std::string::npos) << m->body;
+    fs::remove_all(scenes);
 }
 
 }  // namespace
