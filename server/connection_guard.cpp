@@ -2,6 +2,7 @@
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
+#include <fcntl.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -24,8 +25,10 @@ const char* const kPhaseName[] = {"request headers", "request body", "response"}
 
 int64_t now_ns() { return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count(); }
 
-// Set by the thread that answers connections past the bound.
+// Set by the thread that answers connections past the bound; t_refuse_fast while many wait
+// for it (then they are answered without the moment of reading that avoids a reset).
 thread_local bool t_refusing = false;
+thread_local bool t_refuse_fast = false;
 
 std::string peer_of(int fd) {
     sockaddr_storage addr{};
@@ -148,6 +151,7 @@ private:
             if (p.refusals.empty()) break;
             std::function<void()> fn = std::move(p.refusals.front());
             p.refusals.pop_front();
+            t_refuse_fast = p.refusals.size() >= 8;
             lock.unlock();
             fn();
             fn = nullptr;
@@ -177,7 +181,12 @@ bool ConnectionGuard::run(int fd, bool (*serve)(void*, int), void* server) {
         return false;
     }
     auto conn = std::make_unique<Connection>();
-    conn->fd = ::dup(fd);
+    conn->fd = ::fcntl(fd, F_DUPFD_CLOEXEC, 0);
+    if (conn->fd < 0) {
+        // Out of descriptors: a connection the watchdog could not cut is not served.
+        refuse(fd);
+        return false;
+    }
     conn->peer = peer_of(fd);
     Connection* c = conn.get();
     c->deadline_ns = now_ns() + int64_t(limits_.header_timeout_s * 1e9);
@@ -275,7 +284,7 @@ void ConnectionGuard::refuse(int fd) {
     ::shutdown(fd, SHUT_WR);
     char sink[4096];
     pollfd p{fd, POLLIN, 0};
-    const auto until = Clock::now() + std::chrono::milliseconds(200);
+    const auto until = Clock::now() + std::chrono::milliseconds(t_refuse_fast ? 0 : 200);
     while (Clock::now() < until && ::poll(&p, 1, 50) > 0) {
         const ssize_t n = ::recv(fd, sink, sizeof sink, MSG_DONTWAIT);
         if (n <= 0) break;

@@ -178,38 +178,19 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
     server_->set_keep_alive_max_count(10000);
     server_->set_keep_alive_timeout(std::max<time_t>(1, time_t(limits_.connections.keep_alive_s)));
     server_->set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-        request_start = std::chrono::steady_clock::now();
-        guard_->request_head_read(content_length(req));
-        const bool has_body = content_length(req) > 0 || req.has_header("Transfer-Encoding");
-        if (limits_.auth.enabled() && needs_token(req.path) && !limits_.auth.allows(req.get_header_value("Authorization"))) {
-            const bool presented = req.has_header("Authorization");
-            send_problem(res, Problem(401, "unauthorized", "Unauthorized",
-                                      presented ? "the bearer token is not one this server accepts"
-                                                : "this server needs a bearer token: send Authorization: Bearer <token>"));
-            res.set_header("WWW-Authenticate", presented ? R"(Bearer realm="tessera", error="invalid_token")" : R"(Bearer realm="tessera")");
-            if (has_body) {
-                // Not read, so it must not be taken for the next request.
-                res.set_header("Connection", "close");
-                guard_->close_after_response();
-            }
+        // The rest of a refused body that httplib parsed as a request: never routed.
+        if (guard_->draining()) {
+            res.status = 400;
             return httplib::Server::HandlerResponse::Handled;
         }
-        // Refused before the body is read: httplib would otherwise wait for a body it then
-        // discards (5 s for one never sent), and read "-5" as a huge unsigned length (413).
-        const std::string cl = req.get_header_value("Content-Length");
-        std::optional<Problem> refusal;
-        if (!cl.empty() && (cl.size() > 19 || cl.find_first_not_of("0123456789") != std::string::npos))
-            refusal = Problem(400, "invalid-content-length", "Invalid Content-Length",
-                              "Content-Length must be a non-negative whole number, not \"" + loggable(cl, 40) + "\"").with_field("");
-        else if (content_length(req) > std::max(limits_.max_upload, limits_.max_job_body))
-            refusal = Problem(413, "payload-too-large", "Payload too large",
-                              "a request body may be at most " + std::to_string(std::max(limits_.max_upload, limits_.max_job_body)) + " bytes");
-        if (!refusal) return httplib::Server::HandlerResponse::Unhandled;
-        send_problem(res, *refusal);
-        // The unread body must not be taken for the next request.
-        res.set_header("Connection", "close");
-        guard_->close_after_response();
-        return httplib::Server::HandlerResponse::Handled;
+        request_start = std::chrono::steady_clock::now();
+        // A chunked body has no length up front: it gets its route's whole bound.
+        guard_->request_head_read(req.has_header("Transfer-Encoding") ? body_limit(req) : content_length(req));
+        return refuse_before_body(req, res) ? httplib::Server::HandlerResponse::Handled : httplib::Server::HandlerResponse::Unhandled;
+    });
+    // curl sends a large body only after "100 Continue": the same refusals, before it sends it.
+    server_->set_expect_100_continue_handler([this](const httplib::Request& req, httplib::Response& res) {
+        return refuse_before_body(req, res) ? res.status : 100;
     });
     server_->set_post_routing_handler([this](const httplib::Request&, httplib::Response& res) {
         guard_->response_started(res.body.size());
@@ -299,6 +280,59 @@ void HttpApi::stop() {
     guard_->close_idle();
 }
 bool HttpApi::ready() const { return service_.accepting(); }
+
+size_t HttpApi::body_limit(const httplib::Request& req) const {
+    if (req.method != "POST") return 0;
+    if (req.path == "/v1/jobs" || req.path == "/v1/comparisons") return limits_.max_job_body;
+    if (req.path == "/v1/scenes") return limits_.max_upload;
+    return 0;
+}
+
+// Refusals decided from the head alone, so that no body is read for them: no token (401), a
+// Content-Length that is no number (httplib would read "-5" as a huge unsigned length), a body
+// where the route takes none or over the route's bound (413; httplib would read it whole before
+// answering). The unread body must not be parsed as the next request, so the connection ends.
+bool HttpApi::refuse_before_body(const httplib::Request& req, httplib::Response& res) {
+    const std::string cl = req.get_header_value("Content-Length");
+    const bool chunked = req.has_header("Transfer-Encoding");
+    const bool has_body = chunked || (req.has_header("Content-Length") && cl != "0");
+    std::optional<Problem> refusal;
+    std::string authenticate;
+    if (limits_.auth.enabled() && needs_token(req.path) && !limits_.auth.allows(req.get_header_value("Authorization"))) {
+        const bool presented = req.has_header("Authorization");
+        refusal = Problem(401, "unauthorized", "Unauthorized",
+                          presented ? "the bearer token is not one this server accepts"
+                                    : "this server needs a bearer token: send Authorization: Bearer <token>");
+        authenticate = presented ? R"(Bearer realm="tessera", error="invalid_token")" : R"(Bearer realm="tessera")";
+    } else if (!cl.empty() && (cl.size() > 19 || cl.find_first_not_of("0123456789") != std::string::npos)) {
+        refusal = Problem(400, "invalid-content-length", "Invalid Content-Length",
+                          "Content-Length must be a non-negative whole number, not \"" + loggable(cl, 40) + "\"").with_field("");
+    } else if (has_body && body_limit(req) == 0) {
+        // What routing would answer, but without reading the body first.
+        const std::string allow = allowed_methods(req.path);
+        const bool method_known = (", " + allow + ",").find(", " + req.method + ",") != std::string::npos;
+        if (allow.empty()) {
+            refusal = Problem(404, "not-found", "Not found", "no route for " + loggable(req.method, 16) + " " + loggable(req.path, 200));
+        } else if (!method_known) {
+            res.set_header("Allow", allow);
+            refusal = Problem(405, "method-not-allowed", "Method not allowed",
+                              req.path + " takes " + allow + ", not " + loggable(req.method, 16));
+        } else {
+            refusal = Problem(413, "payload-too-large", "Payload too large", loggable(req.method, 16) + " " + loggable(req.path, 200) + " takes no request body");
+        }
+    } else if (content_length(req) > body_limit(req)) {
+        refusal = Problem(413, "payload-too-large", "Payload too large",
+                          "a request body for " + req.path + " may be at most " + std::to_string(body_limit(req)) + " bytes");
+    }
+    if (!refusal) return false;
+    send_problem(res, *refusal);
+    if (!authenticate.empty()) res.set_header("WWW-Authenticate", authenticate);
+    if (has_body) {
+        res.set_header("Connection", "close");
+        guard_->close_after_response();
+    }
+    return true;
+}
 
 void HttpApi::routes() {
     auto& s = *server_;

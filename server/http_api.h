@@ -11,7 +11,11 @@
 #include "server/connection_guard.h"
 #include "server/job_service.h"
 
-namespace httplib { class Server; }
+namespace httplib {
+class Server;
+struct Request;
+struct Response;
+}
 
 namespace tessera::server {
 
@@ -48,6 +52,9 @@ private:
     void routes();
     std::string metrics_text();
     bool needs_token(const std::string& path) const;
+    size_t body_limit(const httplib::Request& req) const;
+    // Answers a request from its head alone when it must be refused (true): no body is read.
+    bool refuse_before_body(const httplib::Request& req, httplib::Response& res);
 
     JobService& service_;
     HttpLimits limits_;

@@ -1,11 +1,14 @@
 #include "server/scene_cache.h"
 
+#include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 #include <sys/stat.h>
 #include <unistd.h>
@@ -111,19 +114,55 @@ std::shared_ptr<const PreparedScene> SceneCache::get(Redis& redis, const SceneRe
     return keep(key, api::prepare_scene(file_for(redis, ref), limits_, options));
 }
 
-std::pair<std::shared_ptr<const PreparedScene>, bool> SceneCache::get_local(const std::string& source, const RenderSceneOptions& options) {
-    std::string identity = source;
-    if (source.rfind("builtin:", 0) != 0) {
-        // The file as it is now: its path, inode, size and modification time. A file edited
-        // or replaced (an upload under the same name, a scene folder synced anew) is another key.
-        struct stat st {};
-        if (::stat(source.c_str(), &st) == 0)
-            identity = fs::weakly_canonical(source).string() + "#" + std::to_string(st.st_ino) + ":" + std::to_string(st.st_size) + ":" +
-                       std::to_string(st.st_mtim.tv_sec) + "." + std::to_string(st.st_mtim.tv_nsec);
+namespace {
+
+// A file as it is now: device, inode, size, and modification and change times (ctime cannot
+// be set back by tools that restore mtime, cp -p or rsync -t). "" when it cannot be read.
+std::string file_identity(const std::string& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) return {};
+    return std::to_string(st.st_dev) + ":" + std::to_string(st.st_ino) + ":" + std::to_string(st.st_size) + ":" +
+           std::to_string(st.st_mtim.tv_sec) + "." + std::to_string(st.st_mtim.tv_nsec) + ":" +
+           std::to_string(st.st_ctim.tv_sec) + "." + std::to_string(st.st_ctim.tv_nsec);
+}
+
+// What a scene file's preparation reads: the file, and for a .gltf the buffers beside it
+// (external .bin files). "" when the file cannot be read: nothing is kept then.
+std::string scene_identity(const std::string& source) {
+    std::string id = file_identity(source);
+    if (id.empty()) return {};
+    std::error_code ec;
+    id = fs::weakly_canonical(source, ec).string() + "#" + id;
+    fs::path p(source);
+    std::string ext = p.extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (ext == ".gltf") {
+        std::vector<std::string> beside;
+        for (const auto& e : fs::directory_iterator(p.parent_path().empty() ? fs::path(".") : p.parent_path(), ec))
+            if (e.path().extension() == ".bin") beside.push_back(e.path().filename().string() + "#" + file_identity(e.path().string()));
+        std::sort(beside.begin(), beside.end());
+        for (const auto& b : beside) id += "|" + b;
     }
-    const std::string key = identity + "|" + options_key(options);
-    if (auto hit = find(key)) return {hit, true};
-    return {keep(key, api::prepare_scene(source, limits_, options)), false};
+    return id;
+}
+
+}  // namespace
+
+std::pair<std::shared_ptr<const PreparedScene>, bool> SceneCache::get_local(const std::string& source, const RenderSceneOptions& options) {
+    if (source.rfind("builtin:", 0) == 0) {
+        const std::string key = source + "|" + options_key(options);
+        if (auto hit = find(key)) return {hit, true};
+        return {keep(key, api::prepare_scene(source, limits_, options)), false};
+    }
+    // A file edited or replaced (an upload under the same name, a folder synced anew) is
+    // another key; one that changed while it was being prepared is rendered but not kept.
+    const std::string before = scene_identity(source);
+    const std::string key = before + "|" + options_key(options);
+    if (!before.empty())
+        if (auto hit = find(key)) return {hit, true};
+    auto prepared = api::prepare_scene(source, limits_, options);
+    if (before.empty() || scene_identity(source) != before) return {prepared, false};
+    return {keep(key, prepared), false};
 }
 
 }  // namespace tessera::server

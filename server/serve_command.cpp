@@ -1,5 +1,7 @@
 // `tessera serve`: the HTTP render server. Every flag also reads TESSERA_<FLAG> from the
 // environment (TESSERA_PORT, TESSERA_DATA_DIR, ...); a flag given on the command line wins.
+#include <sys/resource.h>
+
 #include <cctype>
 #include <csignal>
 #include <cstdio>
@@ -86,6 +88,9 @@ int serve_command(int argc, char** argv) {
         ->envname("TESSERA_ALLOW_ANONYMOUS");
     app.add_flag("--metrics-open", o.http.metrics_open, "with tokens: serve /metrics without one (for a scraper)")
         ->envname("TESSERA_METRICS_OPEN");
+    option("min-rate", o.http.connections.min_rate,
+           "bytes per second a client must keep up on a long request body or response (the deadline grows by size / rate)")
+        ->type_name("BYTES/S")->check(CLI::Range(1.0, 1e12));
     option("max-pixels", lim.max_pixels, "width × height of a job")->check(CLI::Range(1LL, 1LL << 32));
     option("max-spp", lim.max_spp, "samples per pixel of a job")->check(CLI::Range(1, 1 << 24));
     option("max-depth", lim.max_depth, "bounce depth of a job")->check(CLI::Range(0, 100000));
@@ -156,6 +161,20 @@ int serve_command(int argc, char** argv) {
     }
     spdlog::set_level(level);
 
+    // A connection holds two descriptors (httplib's and the guard's), jobs and the store more:
+    // the usual soft limit of 1,024 would run out first. Raised to the hard limit, and the
+    // connection bound checked against it.
+    if (rlimit nofile{}; getrlimit(RLIMIT_NOFILE, &nofile) == 0) {
+        if (nofile.rlim_cur < nofile.rlim_max) {
+            nofile.rlim_cur = nofile.rlim_max;
+            setrlimit(RLIMIT_NOFILE, &nofile);
+            getrlimit(RLIMIT_NOFILE, &nofile);
+        }
+        const rlim_t needed = rlim_t(o.http.connections.max_connections) * 2 + 256;
+        if (nofile.rlim_cur != RLIM_INFINITY && nofile.rlim_cur < needed)
+            spdlog::warn("{} open files allowed (ulimit -n): fewer than --max-connections {} needs ({}); connections past "
+                         "that are refused", uint64_t(nofile.rlim_cur), o.http.connections.max_connections, uint64_t(needed));
+    }
     sigset_t signals = block_stop_signals();
 
     const std::string openapi = (std::filesystem::path(o.service.data_dir) / "openapi.yaml").string();

@@ -713,6 +713,18 @@ TEST_F(Server, SlowBodiesAndBadLengthsAreRefused) {
         EXPECT_NE(answer.find("application/problem+json"), std::string::npos) << answer;
         EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count(), 3.0) << "answered only after waiting for the body";
     }
+    // A body where the route takes none is refused from the head, before it is read.
+    {
+        const int c = connect_loopback(port_);
+        ASSERT_GE(c, 0);
+        const auto a = std::chrono::steady_clock::now();
+        ASSERT_TRUE(send_all(c, "GET /healthz HTTP/1.1\r\nHost: x\r\nContent-Length: 100000000\r\n\r\n"));
+        const std::string answer = read_until_close(c, 4000);
+        ::close(c);
+        EXPECT_EQ(answer.rfind("HTTP/1.1 413", 0), 0u) << answer;
+        EXPECT_NE(answer.find("takes no request body"), std::string::npos) << answer;
+        EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count(), 3.0);
+    }
     auto r = client_->Get("/healthz");
     ASSERT_TRUE(r);
     EXPECT_EQ(r->status, 200);
@@ -791,6 +803,44 @@ TEST_F(Server, BearerTokensGuardTheApi) {
     EXPECT_EQ(metrics->status, 200);
     EXPECT_NE(metrics->body.find("tessera_http_requests_total{status=\"401\"}"), std::string::npos);
     EXPECT_EQ(metrics->body.find(token), std::string::npos);
+}
+
+// What follows a refused request on its connection is its unread body, never a request: a
+// request smuggled in the body of a 401 is not run, whatever token it carries. A client that
+// asks "Expect: 100-continue" without a token is answered 401 before it sends the body.
+TEST_F(Server, RefusedBodiesAreNeverRequests) {
+    const std::string token = "test-token-0123456789abcdef";
+    limits_.auth = BearerAuth({token});
+    start();
+    httplib::Client authed("127.0.0.1", port_);
+    authed.set_bearer_token_auth(token.c_str());
+    json long_job = kLongJob;
+    auto posted = authed.Post("/v1/jobs", long_job.dump(), "application/json");
+    ASSERT_TRUE(posted && posted->status == 202);
+    const std::string id = json::parse(posted->body)["id"];
+    const std::string smuggled = "DELETE /v1/jobs/" + id + " HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer " + token + "\r\n\r\n";
+    const int c = connect_loopback(port_);
+    ASSERT_GE(c, 0);
+    ASSERT_TRUE(send_all(c, "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: " +
+                                std::to_string(smuggled.size()) + "\r\n\r\n" + smuggled));
+    const std::string answer = read_until_close(c, 3000);
+    ::close(c);
+    EXPECT_EQ(answer.rfind("HTTP/1.1 401", 0), 0u) << answer;
+    EXPECT_EQ(answer.find("HTTP/1.1 200"), std::string::npos) << "the smuggled request was answered: " << answer;
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    auto st = authed.Get("/v1/jobs/" + id);
+    ASSERT_TRUE(st);
+    const std::string state = json::parse(st->body)["state"];
+    EXPECT_TRUE(state == "queued" || state == "running") << "the smuggled DELETE ran: " << state;
+    authed.Delete("/v1/jobs/" + id);
+
+    const int e = connect_loopback(port_);
+    ASSERT_GE(e, 0);
+    ASSERT_TRUE(send_all(e, "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: 50\r\n"
+                            "Expect: 100-continue\r\n\r\n"));
+    const std::string expect_answer = read_until_close(e, 3000);
+    ::close(e);
+    EXPECT_EQ(expect_answer.rfind("HTTP/1.1 401", 0), 0u) << expect_answer;
 }
 
 TEST_F(Server, MetricsCanBeOpenWithTokens) {
