@@ -72,6 +72,19 @@ start_container() {
 }
 api() { curl -sS --noproxy '*' -H "Authorization: Bearer $token" "$@"; }
 field() { sed -n "s/.*\"$1\":\"\{0,1\}\([^,\"}]*\).*/\1/p" | head -n 1; }
+# render_job BODY: submits a job to the server on $port, waits for it, sets id; fails unless it
+# succeeds.
+render_job() {
+  id=$(api -X POST "http://127.0.0.1:$port/v1/jobs" -H 'Content-Type: application/json' -d "$1" | field id || true)
+  [ -n "$id" ] || fail "no job id for $1"
+  local state=""
+  for _ in $(seq 1 300); do
+    state=$(api "http://127.0.0.1:$port/v1/jobs/$id" | field state || true)
+    [ "$state" = succeeded ] || [ "$state" = failed ] && break
+    sleep 0.2
+  done
+  [ "$state" = succeeded ] || { compose logs 2>&1 | tail -n 30; fail "job $id ended '$state'"; }
+}
 
 echo "== run"
 start_container
@@ -81,16 +94,7 @@ user=$(podman exec "$name" id -u)
 code=$(curl -s -o /dev/null -w '%{http_code}' --noproxy '*' "http://127.0.0.1:$port/v1/jobs" || true)
 [ "$code" = 401 ] || fail "without a token /v1/jobs answered $code, not 401"
 
-id=$(api -X POST "http://127.0.0.1:$port/v1/jobs" -H 'Content-Type: application/json' \
-       -d '{"scene": "cornell_box", "width": 64, "height": 48, "spp": 4, "max_depth": 2}' | field id || true)
-[ -n "$id" ] || fail "no job id"
-state=""
-for _ in $(seq 1 300); do
-  state=$(api "http://127.0.0.1:$port/v1/jobs/$id" | field state || true)
-  [ "$state" = succeeded ] || [ "$state" = failed ] && break
-  sleep 0.2
-done
-[ "$state" = succeeded ] || fail "job $id ended '$state'"
+render_job '{"scene": "cornell_box", "width": 64, "height": 48, "spp": 4, "max_depth": 2}'
 api -o "$podman_conf_dir/image.png" "http://127.0.0.1:$port/v1/jobs/$id/image.png"
 api -o "$podman_conf_dir/image.exr" "http://127.0.0.1:$port/v1/jobs/$id/image.exr"
 [ "$(od -An -N4 -tx1 "$podman_conf_dir/image.png" | tr -d ' ')" = 89504e47 ] || fail "image.png is not a PNG"
@@ -133,16 +137,7 @@ for _ in $(seq 1 150); do
   sleep 0.2
 done
 [ "$healthy" = 1 ] || { compose logs 2>&1 | tail -n 30; fail "the farm's API node does not answer"; }
-id=$(api -X POST "http://127.0.0.1:$port/v1/jobs" -H 'Content-Type: application/json' \
-       -d '{"scene": "cornell_box", "width": 64, "height": 48, "spp": 8, "max_depth": 2, "tile_size": 16}' | field id || true)
-[ -n "$id" ] || fail "the farm took no job"
-state=""
-for _ in $(seq 1 300); do
-  state=$(api "http://127.0.0.1:$port/v1/jobs/$id" | field state || true)
-  [ "$state" = succeeded ] || [ "$state" = failed ] && break
-  sleep 0.2
-done
-[ "$state" = succeeded ] || { compose logs 2>&1 | tail -n 30; fail "the farm's job ended '$state'"; }
+render_job '{"scene": "cornell_box", "width": 64, "height": 48, "spp": 8, "max_depth": 2, "tile_size": 16}'
 nodes=$( (api "http://127.0.0.1:$port/v1/jobs/$id/report.json" || true) | grep -o '"tiles":[0-9]*' | grep -vc '"tiles":0' || true)
 [ "$nodes" -ge 1 ] || fail "the report names no render node with tiles"
 api -o "$podman_conf_dir/farm.png" "http://127.0.0.1:$port/v1/jobs/$id/image.png"
