@@ -90,7 +90,16 @@ sigstop_node)
   id=$(submit api "$job")
   wait_state_on api "$id" 30 running
   while [ "$(tiles_done_on api "$id")" = 0 ] || [ -z "$(tiles_done_on api "$id")" ]; do sleep 0.05; done
-  kill_node w1 STOP
+  # Stopped while it holds a task (stopped first, then its own pending tasks counted in Redis):
+  # a node stopped between two batches leaves nothing to take over.
+  for _ in $(seq 1 200); do
+    kill_node w1 STOP
+    pending=$(redis-cli -p "$redis_port" XPENDING tessera:tasks:0 nodes - + 10 w1/0 | grep -c . || true)
+    [ "${pending:-0}" -gt 0 ] && break
+    kill_node w1 CONT
+    sleep 0.02
+  done
+  [ "${pending:-0}" -gt 0 ] || fail "w1 never held a task"
   echo "stopped w1 (SIGSTOP) for twice the visibility timeout"
   sleep $(( (visibility_ms * 2 + 999) / 1000 ))
   kill_node w1 CONT
