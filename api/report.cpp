@@ -49,6 +49,9 @@ json to_json(const RenderReport& r) {
     report["scene"] = {{"name", r.job.scene}, {"triangles", r.triangles}, {"spheres", r.spheres},
                        {"built", r.scene_build.built}, {"left_out", r.scene_build.left_out},
                        {"warnings", r.scene_build.warnings}, {"build_s", r.scene_build.seconds}};
+    json stages = json::array();
+    for (const BuildStage& st : r.scene_build.stages) stages.push_back({{"stage", st.name}, {"seconds", st.seconds}});
+    report["scene"]["build_stages"] = stages;
     if (r.scene_cache.used)
         report["scene"]["cache"] = {{"hit", r.scene_cache.hit}, {"load_s", r.scene_cache.load_s}, {"build_s", r.scene_cache.build_s}};
     json points = json::array();

@@ -40,6 +40,11 @@ void print_report(const api::RenderReport& r, const std::string& output) {
     std::printf("timings: load %.3f s, BVH build %.3f s (%s, %zu nodes, depth %d, SAH cost %.2f), render %.3f s (%d threads), write %.3f s\n",
                 r.timings.load_s, r.scene_build.seconds, to_string(job.scene_options.bvh.type), r.bvh.node_count,
                 r.bvh.depth, r.bvh.sah_cost, st.render_seconds, st.threads, r.timings.write_s);
+    if (!r.scene_build.stages.empty()) {
+        std::printf("preparation:");
+        for (const auto& stage : r.scene_build.stages) std::printf(" %s %.3f s;", stage.name.c_str(), stage.seconds);
+        std::printf("\n");
+    }
     if (r.bvh.node_count) {
         const auto& hist = r.bvh.leaf_size_histogram;
         std::printf("BVH leaves: %zu; by size:", r.bvh.leaf_count);

@@ -4,10 +4,12 @@
 // `offset`. The BVH knows nothing of triangles or spheres; traversal takes the primitive test
 // as a template argument, so the hot path has no virtual or indirect call.
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "engine/core/large_vector.h"
 #include "engine/geometry/aabb.h"
 
 namespace tessera {
@@ -60,8 +62,8 @@ struct BvhBuildStats {
 };
 
 struct Bvh {
-    std::vector<BvhNode> nodes;
-    std::vector<uint32_t> prim_index;  // primitive ids in leaf order
+    LargeVector<BvhNode> nodes;
+    LargeVector<uint32_t> prim_index;  // primitive ids in leaf order
     BvhBuildStats stats;
     bool empty() const { return nodes.empty(); }
 };
@@ -71,6 +73,9 @@ struct Bvh {
 inline constexpr int kMaxBvhDepth = 128;
 
 Bvh build_bvh(std::span<const Aabb> prim_bounds, const BvhBuildOptions& options);
+// The same, with each primitive's bounds computed as the build reads them (called once per
+// primitive, from several threads), so a large mesh needs no array of bounds.
+Bvh build_bvh(size_t count, const std::function<Aabb(size_t)>& bounds_of, const BvhBuildOptions& options);
 
 // Expected traversal cost of a built tree under the SAH model (the same figure as stats.sah_cost).
 double sah_cost(const Bvh& bvh, float traversal_cost, float intersection_cost, int leaf_block = 1);

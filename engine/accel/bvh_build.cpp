@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "engine/accel/bvh.h"
+#include "engine/core/parallel.h"
 
 namespace tessera {
 
@@ -30,16 +31,20 @@ bool parse_bvh_type(const std::string& s, BvhType& out) {
 
 namespace {
 
+// 32 bytes, two to a cache line (Embree's PrimRef): the centroid is recomputed where it is
+// read, which costs less than carrying it through every partition.
 struct PrimRef {
     Aabb bounds;
-    glm::vec3 centroid;
     uint32_t id;
+    uint32_t pad;
+    glm::vec3 centroid() const { return bounds.centroid(); }
 };
+static_assert(sizeof(PrimRef) == 32);
 
 struct Builder {
     const BvhBuildOptions& opt;
-    std::vector<PrimRef>& refs;
-    std::vector<BvhNode>& nodes;
+    LargeVector<PrimRef>& refs;
+    LargeVector<BvhNode>& nodes;
     int max_depth_seen = 0;
     // Scratch reused across nodes, so that a build allocates O(1) times, not once per node.
     struct Bin { Aabb b; uint32_t n = 0; };
@@ -60,8 +65,8 @@ struct Builder {
     size_t partition_with_bounds(size_t begin, size_t end, Pred goes_left, Split& s) {
         size_t i = begin, j = end;
         for (;;) {
-            while (i < j && goes_left(refs[i])) { s.lb.expand(refs[i].bounds); s.lcb.expand(refs[i].centroid); ++i; }
-            while (i < j && !goes_left(refs[j - 1])) { s.rb.expand(refs[j - 1].bounds); s.rcb.expand(refs[j - 1].centroid); --j; }
+            while (i < j && goes_left(refs[i])) { s.lb.expand(refs[i].bounds); s.lcb.expand(refs[i].centroid()); ++i; }
+            while (i < j && !goes_left(refs[j - 1])) { s.rb.expand(refs[j - 1].bounds); s.rcb.expand(refs[j - 1].centroid()); --j; }
             if (i >= j) break;
             std::swap(refs[i], refs[j - 1]);
         }
@@ -76,14 +81,14 @@ struct Builder {
     size_t median_split(size_t begin, size_t end, int axis) {
         const size_t mid = begin + (end - begin) / 2;
         std::nth_element(refs.begin() + begin, refs.begin() + mid, refs.begin() + end,
-                         [axis](const PrimRef& a, const PrimRef& b) { return a.centroid[axis] < b.centroid[axis]; });
+                         [axis](const PrimRef& a, const PrimRef& b) { return a.centroid()[axis] < b.centroid()[axis]; });
         return mid;
     }
 
     size_t midpoint_split(size_t begin, size_t end, int axis, const Aabb& cb) {
         const float plane = 0.5f * (cb.lo[axis] + cb.hi[axis]);
         auto it = std::partition(refs.begin() + begin, refs.begin() + end,
-                                 [axis, plane](const PrimRef& r) { return r.centroid[axis] < plane; });
+                                 [axis, plane](const PrimRef& r) { return r.centroid()[axis] < plane; });
         size_t mid = size_t(it - refs.begin());
         if (mid == begin || mid == end) mid = median_split(begin, end, axis);
         return mid;
@@ -100,8 +105,9 @@ struct Builder {
         for (int a = 0; a < 3; ++a) scale[a] = ext[a] > 0.f ? float(nbins) * (1.f - 1e-6f) / ext[a] : 0.f;
         for (size_t i = begin; i < end; ++i) {
             const PrimRef& r = refs[i];
+            const glm::vec3 c = r.centroid();
             for (int a = 0; a < 3; ++a) {
-                int k = std::min(nbins - 1, int((r.centroid[a] - cb.lo[a]) * scale[a]));
+                int k = std::min(nbins - 1, int((c[a] - cb.lo[a]) * scale[a]));
                 Bin& bin = bins[size_t(a) * nbins + k];
                 bin.b.expand(r.bounds);
                 ++bin.n;
@@ -139,7 +145,7 @@ struct Builder {
         Split split;
         split.axis = axis;
         split.mid = partition_with_bounds(begin, end, [&](const PrimRef& r) {
-            return std::min(nbins - 1, int((r.centroid[axis] - lo) * sc)) <= best_bin;
+            return std::min(nbins - 1, int((r.centroid()[axis] - lo) * sc)) <= best_bin;
         }, split);
         if (split.mid == begin || split.mid == end) {
             split.mid = median_split(begin, end, axis);
@@ -151,7 +157,7 @@ struct Builder {
     void bounds_of(size_t begin, size_t end, Aabb& b, Aabb& cb) const {
         b = Aabb{};
         cb = Aabb{};
-        for (size_t i = begin; i < end; ++i) { b.expand(refs[i].bounds); cb.expand(refs[i].centroid); }
+        for (size_t i = begin; i < end; ++i) { b.expand(refs[i].bounds); cb.expand(refs[i].centroid()); }
     }
 
     // Chooses how refs[begin, end) (bounds b, centroid bounds cb) is split: false when
@@ -215,7 +221,7 @@ constexpr size_t kParallelMin = 4096;
 // spliced in the sequential builder's depth-first order, so the tree is the same whatever
 // the thread count: both halves touch disjoint ranges of refs, and every split is decided
 // by the same code on the same primitives.
-void build_subtree(const BvhBuildOptions& opt, std::vector<PrimRef>& refs, std::vector<BvhNode>& out, size_t begin,
+void build_subtree(const BvhBuildOptions& opt, LargeVector<PrimRef>& refs, LargeVector<BvhNode>& out, size_t begin,
                    size_t end, int depth, const Aabb& b, const Aabb& cb, int spawn, int& max_depth) {
     out.emplace_back();
     Builder builder{opt, refs, out, 0, {}, {}, {}};
@@ -227,13 +233,13 @@ void build_subtree(const BvhBuildOptions& opt, std::vector<PrimRef>& refs, std::
     Builder::Split split;
     size_t mid = 0;
     if (!builder.choose(0, begin, end, depth, b, cb, split, mid)) { max_depth = depth; return; }
-    std::vector<BvhNode> left, right;
+    LargeVector<BvhNode> left, right;
     int left_depth = depth, right_depth = depth;
     std::thread worker([&] { build_subtree(opt, refs, left, begin, mid, depth + 1, split.lb, split.lcb, spawn - 1, left_depth); });
     build_subtree(opt, refs, right, mid, end, depth + 1, split.rb, split.rcb, spawn - 1, right_depth);
     worker.join();
     max_depth = std::max(left_depth, right_depth);
-    auto append = [&out](const std::vector<BvhNode>& part) {
+    auto append = [&out](const LargeVector<BvhNode>& part) {
         const uint32_t base = uint32_t(out.size());
         for (BvhNode n : part) {
             if (!n.is_leaf()) n.offset += base;  // leaves name refs, whose indices are global
@@ -261,21 +267,36 @@ double sah_cost(const Bvh& bvh, float traversal_cost, float intersection_cost, i
 }
 
 Bvh build_bvh(std::span<const Aabb> prim_bounds, const BvhBuildOptions& options) {
+    return build_bvh(prim_bounds.size(), [prim_bounds](size_t i) { return prim_bounds[i]; }, options);
+}
+
+Bvh build_bvh(size_t count, const std::function<Aabb(size_t)>& bounds_of, const BvhBuildOptions& options) {
     const auto t0 = std::chrono::steady_clock::now();
     Bvh bvh;
-    if (prim_bounds.empty()) return bvh;
-    std::vector<PrimRef> refs(prim_bounds.size());
-    for (size_t i = 0; i < prim_bounds.size(); ++i)
-        refs[i] = PrimRef{prim_bounds[i], prim_bounds[i].centroid(), uint32_t(i)};
-    Aabb b, cb;
-    for (const PrimRef& r : refs) { b.expand(r.bounds); cb.expand(r.centroid); }
+    if (count == 0) return bvh;
     const int threads = options.build_threads > 0 ? options.build_threads : int(std::max(1u, std::thread::hardware_concurrency()));
+    LargeVector<PrimRef> refs(count);
+    // Each range's bounds apart, merged in range order: the union is the same whatever the split.
+    const int ref_threads = pass_threads(count, threads);
+    std::vector<Aabb> part_b(static_cast<size_t>(ref_threads)), part_cb(static_cast<size_t>(ref_threads));
+    parallel_ranges(count, ref_threads, [&](size_t begin, size_t end, int part) {
+        Aabb pb, pcb;
+        for (size_t i = begin; i < end; ++i) {
+            const Aabb bi = bounds_of(i);
+            refs[i] = PrimRef{bi, uint32_t(i), 0};
+            pb.expand(bi);
+            pcb.expand(bi.centroid());
+        }
+        part_b[size_t(part)] = pb;
+        part_cb[size_t(part)] = pcb;
+    });
+    Aabb b, cb;
+    for (int t = 0; t < ref_threads; ++t) { b.expand(part_b[size_t(t)]); cb.expand(part_cb[size_t(t)]); }
     // Levels of two-way splits: enough for every thread, plus two so that lopsided splits
     // (a ground plane beside a building) still leave none idle for long. One thread: none.
     const int spawn = threads > 1 ? std::bit_width(unsigned(threads - 1)) + 2 : 0;
     int max_depth = 0;
     build_subtree(options, refs, bvh.nodes, 0, refs.size(), 0, b, cb, spawn, max_depth);
-    bvh.nodes.shrink_to_fit();
     bvh.prim_index.resize(refs.size());
     for (size_t i = 0; i < refs.size(); ++i) bvh.prim_index[i] = refs[i].id;
 

@@ -2,7 +2,9 @@
 
 #include <atomic>
 #include <chrono>
+#include <algorithm>
 #include <cstdlib>
+#include <map>
 #include <mutex>
 #include <stdexcept>
 #include <string>
@@ -43,16 +45,22 @@ struct EmbreeAccel {
 
 namespace {
 
-// One device for the process (it owns Embree's thread pool), created on first use.
-// TESSERA_EMBREE_CONFIG passes Embree's device configuration for diagnosis (e.g. "verbose=2"
-// prints its BVH's shape and the kernels it chose; "isa=avx2" pins the kernels).
-RTCDevice device() {
-    static RTCDevice dev = nullptr;
-    static std::once_flag once;
-    std::call_once(once, [] {
-        dev = rtcNewDevice(std::getenv("TESSERA_EMBREE_CONFIG"));
+// One device per thread count for the process (a device owns Embree's thread pool; 0: one
+// thread per core), created on first use. TESSERA_EMBREE_CONFIG passes Embree's device
+// configuration for diagnosis (e.g. "verbose=2" prints its BVH's shape and the kernels it
+// chose; "isa=avx2" pins the kernels).
+RTCDevice device(int threads) {
+    static std::mutex lock;
+    static std::map<int, RTCDevice> devices;
+    std::lock_guard guard(lock);
+    RTCDevice& dev = devices[std::max(0, threads)];
+    if (!dev) {
+        std::string config = threads > 0 ? "threads=" + std::to_string(threads) : "";
+        if (const char* extra = std::getenv("TESSERA_EMBREE_CONFIG"); extra && *extra)
+            config += (config.empty() ? "" : ",") + std::string(extra);
+        dev = rtcNewDevice(config.c_str());
         if (dev) rtcSetDeviceMemoryMonitorFunction(dev, count_bytes, nullptr);
-    });
+    }
     if (!dev) throw std::runtime_error("Embree: rtcNewDevice failed");
     return dev;
 }
@@ -61,8 +69,9 @@ RTCDevice device() {
 
 bool embree_available() { return true; }
 
-std::shared_ptr<EmbreeAccel> build_embree(const std::vector<TriangleVerts>& tris, EmbreeQuality quality, double& build_seconds) {
-    RTCDevice dev = device();
+std::shared_ptr<EmbreeAccel> build_embree(std::span<const TriangleVerts> tris, EmbreeQuality quality, double& build_seconds,
+                                          int threads) {
+    RTCDevice dev = device(threads);
     std::lock_guard lock(g_embree_build);
     const int64_t before = g_embree_bytes;
     const auto t0 = std::chrono::steady_clock::now();
@@ -141,7 +150,7 @@ struct EmbreeAccel {};
 
 bool embree_available() { return false; }
 
-std::shared_ptr<EmbreeAccel> build_embree(const std::vector<TriangleVerts>&, EmbreeQuality, double&) {
+std::shared_ptr<EmbreeAccel> build_embree(std::span<const TriangleVerts>, EmbreeQuality, double&, int) {
     throw std::runtime_error("this build of tessera has no Embree (install libembree-dev and rebuild)");
 }
 size_t embree_memory_bytes(const EmbreeAccel&) { return 0; }

@@ -4,13 +4,14 @@
 // (a sphere list or BVH next to Embree's triangles). Optional: without Embree at build time,
 // embree_available() is false and asking for it is an error.
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "engine/geometry/ray.h"
+#include "engine/geometry/triangle.h"
 
 namespace tessera {
 
-struct TriangleVerts;
 struct EmbreeAccel;
 
 enum class EmbreeQuality { low, medium, high };
@@ -19,8 +20,9 @@ bool embree_available();
 
 // Builds Embree's BVH over `tris` (primitive ids are indices into `tris`); throws
 // std::runtime_error when Embree is missing or fails. `build_seconds` receives the build time.
-std::shared_ptr<EmbreeAccel> build_embree(const std::vector<TriangleVerts>& tris, EmbreeQuality quality,
-                                          double& build_seconds);
+// `threads`: Embree's thread pool (0: one thread per core).
+std::shared_ptr<EmbreeAccel> build_embree(std::span<const TriangleVerts> tris, EmbreeQuality quality,
+                                          double& build_seconds, int threads = 0);
 
 // What Embree holds for this scene (its memory monitor's count: BVH, primitive blocks and the
 // geometry buffers it was given).

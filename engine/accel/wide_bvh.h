@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "engine/accel/bvh.h"
+#include "engine/core/large_vector.h"
 
 namespace tessera {
 
@@ -30,7 +31,7 @@ struct alignas(64) WideNode {
 static_assert(sizeof(WideNode) == 32 * kBvhWidth, "whole cache lines per node");
 
 struct WideBvh {
-    std::vector<WideNode> nodes;  // nodes[0] is the root
+    LargeVector<WideNode> nodes;  // nodes[0] is the root
     // A tree that is one leaf (fewer primitives than a split is worth) keeps it here.
     uint32_t root_leaf_count = 0;
     bool empty() const { return nodes.empty() && root_leaf_count == 0; }

@@ -1,13 +1,31 @@
 #include "engine/scene/render_scene.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <span>
 
 #include "engine/accel/triangle4_leaves.h"
+#include "engine/core/parallel.h"
 #include "engine/geometry/triangle.h"
 
 namespace tessera {
 namespace {
+
+// Records each stage's time into the report as the preparation passes it.
+class StageClock {
+public:
+    explicit StageClock(BuildReport& report) : report_(report), last_(std::chrono::steady_clock::now()) {}
+    void lap(const char* stage) {
+        const auto now = std::chrono::steady_clock::now();
+        report_.stages.push_back({stage, std::chrono::duration<double>(now - last_).count()});
+        last_ = now;
+    }
+
+private:
+    BuildReport& report_;
+    std::chrono::steady_clock::time_point last_;
+};
 
 Aabb triangle_bounds(const TriangleVerts& t) {
     Aabb b;
@@ -18,7 +36,7 @@ Aabb triangle_bounds(const TriangleVerts& t) {
 Aabb sphere_bounds(const Sphere& s) { return Aabb{s.center - glm::vec3(s.radius), s.center + glm::vec3(s.radius)}; }
 
 template <class T>
-void permute(std::vector<T>& items, const std::vector<uint32_t>& order) {
+void permute(std::vector<T>& items, std::span<const uint32_t> order) {
     std::vector<T> ordered(items.size());
     for (size_t i = 0; i < items.size(); ++i) ordered[i] = items[order[i]];
     items.swap(ordered);
@@ -44,65 +62,95 @@ BvhBuildOptions options_for(size_t n, const RenderSceneOptions& o, const char* w
     return b;
 }
 
-// Triangles of every mesh in one list, with their shading records; area-weighted vertex
-// normals where the file gave none (as CS184 does); each emissive mesh becomes an area light.
-std::vector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& meshes, uint32_t default_material,
-                                            RenderScene& s) {
+// Triangles of every mesh in one list, in input order (which the shading records keep), with
+// their shading records; area-weighted vertex normals where the file gave none (as CS184 does);
+// each emissive mesh becomes an area light. Expands s.bounds by the triangles. The per-triangle
+// passes run on `threads` threads over disjoint ranges, so the result is the same for any count.
+LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& meshes, uint32_t default_material,
+                                            int threads, RenderScene& s) {
     auto mat = [&](int m) { return m < 0 ? default_material : uint32_t(m); };
-    size_t ntri = 0;
-    for (const MeshDesc* m : meshes) ntri += m->indices.size() / 3;
-    std::vector<TriangleVerts> triangles;
-    triangles.reserve(ntri);
-    s.tri_shading.reserve(ntri);
-    for (const MeshDesc* mp : meshes) {
-        const MeshDesc& mesh = *mp;
-        const uint32_t base = uint32_t(s.normals.size());
+    std::vector<size_t> first_tri(meshes.size() + 1, 0), first_vertex(meshes.size() + 1, 0);
+    for (size_t k = 0; k < meshes.size(); ++k) {
+        first_tri[k + 1] = first_tri[k] + meshes[k]->indices.size() / 3;
+        first_vertex[k + 1] = first_vertex[k] + meshes[k]->positions.size();
+    }
+    const size_t ntri = first_tri.back();
+
+    s.normals.resize(first_vertex.back(), glm::vec3(0.f));  // zero: use the face normal
+    for (size_t k = 0; k < meshes.size(); ++k) {
+        const MeshDesc& mesh = *meshes[k];
+        glm::vec3* normals = s.normals.data() + first_vertex[k];
         if (!mesh.normals.empty()) {
-            s.normals.insert(s.normals.end(), mesh.normals.begin(), mesh.normals.end());
-        } else if (mesh.flat_normals) {
-            s.normals.resize(base + mesh.positions.size(), glm::vec3(0.f));  // zero: use the face normal
-        } else {
-            s.normals.resize(base + mesh.positions.size(), glm::vec3(0.f));
+            std::copy(mesh.normals.begin(), mesh.normals.end(), normals);
+        } else if (!mesh.flat_normals) {
             for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
                 const glm::vec3 &a = mesh.positions[mesh.indices[i]], &b = mesh.positions[mesh.indices[i + 1]],
                                 &c = mesh.positions[mesh.indices[i + 2]];
                 const glm::vec3 n = glm::cross(b - a, c - a);  // length = 2 × area: the weight
-                for (int k = 0; k < 3; ++k) s.normals[base + mesh.indices[i + k]] += n;
+                for (int j = 0; j < 3; ++j) normals[mesh.indices[i + j]] += n;
             }
         }
-        for (size_t i = base; i < s.normals.size(); ++i) {
+    }
+    parallel_ranges(s.normals.size(), pass_threads(s.normals.size(), threads), [&](size_t begin, size_t end, int) {
+        for (size_t i = begin; i < end; ++i) {
             const float len = glm::length(s.normals[i]);
             s.normals[i] = len > 0.f && std::isfinite(len) ? s.normals[i] / len : glm::vec3(0.f);  // zero: face normal
         }
-        const uint32_t m = mat(mesh.material);
-        const uint32_t light = s.materials[m].emissive() ? add_area_light(mesh, s.materials[m], s) : kNoLight;
-        uint32_t next_light_tri = light == kNoLight ? 0 : s.area_lights[light].first;
-        for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
+    });
+
+    std::vector<uint32_t> mesh_light(meshes.size(), kNoLight);
+    for (size_t k = 0; k < meshes.size(); ++k) {
+        const uint32_t m = mat(meshes[k]->material);
+        if (s.materials[m].emissive()) mesh_light[k] = add_area_light(*meshes[k], s.materials[m], s);
+    }
+
+    LargeVector<TriangleVerts> triangles(ntri);
+    s.tri_shading.resize(ntri);
+    const int parts = pass_threads(ntri, threads);
+    std::vector<Aabb> part_bounds(static_cast<size_t>(parts));
+    parallel_ranges(ntri, parts, [&](size_t begin, size_t end, int part) {
+        Aabb box;
+        size_t k = size_t(std::upper_bound(first_tri.begin(), first_tri.end(), begin) - first_tri.begin()) - 1;
+        for (size_t t = begin; t < end; ++t) {
+            while (t >= first_tri[k + 1]) ++k;
+            const MeshDesc& mesh = *meshes[k];
+            const size_t i = 3 * (t - first_tri[k]);
             const uint32_t i0 = mesh.indices[i], i1 = mesh.indices[i + 1], i2 = mesh.indices[i + 2];
-            uint32_t light_tri = kNoLight;
-            if (light != kNoLight) {
-                // The same test add_area_light skips degenerate triangles by.
-                const glm::vec3& p0 = mesh.positions[i0];
-                const glm::vec3 e1 = mesh.positions[i1] - p0, e2 = mesh.positions[i2] - p0;
-                if (0.5f * glm::length(glm::cross(e1, e2)) > 0.f) light_tri = next_light_tri++;
-            }
-            triangles.push_back({mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]});
-            s.tri_shading.push_back({base + i0, base + i1, base + i2, m, light_tri});
+            triangles[t] = {mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]};
+            box.expand(triangles[t].p0); box.expand(triangles[t].p1); box.expand(triangles[t].p2);
+            const uint32_t base = uint32_t(first_vertex[k]);
+            s.tri_shading[t] = {base + i0, base + i1, base + i2, mat(mesh.material), kNoLight};
+        }
+        part_bounds[size_t(part)] = box;
+    });
+    for (const Aabb& b : part_bounds) s.bounds.expand(b);
+
+    // Each emitting triangle's entry in light_triangles: add_area_light skipped the degenerate
+    // ones, by the same test.
+    for (size_t k = 0; k < meshes.size(); ++k) {
+        if (mesh_light[k] == kNoLight) continue;
+        uint32_t next = s.area_lights[mesh_light[k]].first;
+        for (size_t t = first_tri[k]; t < first_tri[k + 1]; ++t) {
+            const TriangleVerts& v = triangles[t];
+            if (0.5f * glm::length(glm::cross(v.p1 - v.p0, v.p2 - v.p0)) > 0.f) s.tri_shading[t].light = next++;
         }
     }
     return triangles;
 }
 
 // The triangles' acceleration structure (ours, or Embree's), with the triangles packed in the
-// order traversal reads them.
-void build_triangle_accel(std::vector<TriangleVerts>& triangles, const std::vector<Aabb>& bounds,
-                          const RenderSceneOptions& options, RenderScene& s) {
+// order traversal reads them. Lanes name triangles by input index, as tri_shading is kept.
+void build_triangle_accel(std::span<const TriangleVerts> triangles, const RenderSceneOptions& options, RenderScene& s,
+                          StageClock& clock) {
+    const int threads = options.bvh.build_threads;
     if (triangles.empty()) {
         options_for(0, options, "triangles", s.report);
     } else if (options.bvh.type == BvhType::embree) {
-        s.embree = build_embree(triangles, options.embree_quality, s.embree_build_seconds);
+        s.embree = build_embree(triangles, options.embree_quality, s.embree_build_seconds, threads);
+        clock.lap("embree build");
         s.tri_build_seconds = s.embree_build_seconds;
-        s.tri_blocks = pack_triangle4_in_order(triangles);  // where surface_at finds Embree's hits
+        s.tri_blocks = pack_triangle4_in_order(triangles, threads);  // where surface_at finds Embree's hits
+        clock.lap("pack blocks");
         s.report.built.push_back("triangle BVH (Embree " + std::string(options.embree_quality == EmbreeQuality::low ? "low"
                                  : options.embree_quality == EmbreeQuality::high ? "high" : "medium") +
                                  " quality): " + std::to_string(triangles.size()) + " triangles");
@@ -119,11 +167,13 @@ void build_triangle_accel(std::vector<TriangleVerts>& triangles, const std::vect
             co = {bo.max_leaf_size, bo.traversal_cost, bo.intersection_cost, bo.leaf_block};
             bo.max_leaf_size = std::min(bo.max_leaf_size, std::max(1, bo.leaf_block));
         }
-        Bvh bvh = build_bvh(bounds, bo);
-        to_leaf_order(bvh, triangles, s.tri_shading);
+        const Bvh bvh = build_bvh(triangles.size(), [triangles](size_t i) { return triangle_bounds(triangles[i]); }, bo);
+        clock.lap("bvh build");
         s.tri_bvh_stats = bvh.stats;
         s.tri_wide = collapse_to_wide(bvh, co);
-        s.tri_blocks = pack_triangle4_leaves(s.tri_wide, triangles);
+        clock.lap("collapse");
+        s.tri_blocks = pack_triangle4_leaves(s.tri_wide, triangles, bvh.prim_index, threads);
+        clock.lap("pack blocks");
         s.tri_build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tb).count();
         s.report.built.push_back("triangle BVH (" + std::string(to_string(options.bvh.type)) + "): " +
                                  std::to_string(triangles.size()) + " triangles in " +
@@ -152,6 +202,7 @@ void build_sphere_accel(const std::vector<Aabb>& bounds, const RenderSceneOption
 RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOptions& options) {
     const auto t0 = std::chrono::steady_clock::now();
     RenderScene s;
+    StageClock clock(s.report);
     s.triangle_test = options.triangle_test;
     s.report.warnings = desc.warnings;
 
@@ -165,7 +216,8 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     std::vector<const MeshDesc*> meshes;
     for (const MeshDesc& m : desc.meshes) meshes.push_back(&m);
     for (const MeshDesc& m : lamps) meshes.push_back(&m);
-    std::vector<TriangleVerts> triangles = gather_triangles(meshes, default_material, s);
+    const LargeVector<TriangleVerts> triangles = gather_triangles(meshes, default_material, options.bvh.build_threads, s);
+    clock.lap("gather");
     build_power_table(s.area_lights);
     if (s.light_triangles.size() > 1) {
         s.light_tree = build_light_tree(s);
@@ -173,18 +225,19 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
                                  " emitting triangles (light_selection tree)");
     }
     report_lights(desc, s, s.report);
+    clock.lap("lights");
     for (const SphereDesc& sd : desc.spheres)
         s.spheres.push_back({sd.center, sd.radius, sd.material < 0 ? default_material : uint32_t(sd.material)});
 
-    std::vector<Aabb> bounds(triangles.size());
-    for (size_t i = 0; i < triangles.size(); ++i) { bounds[i] = triangle_bounds(triangles[i]); s.bounds.expand(bounds[i]); }
-    build_triangle_accel(triangles, bounds, options, s);
-    bounds.resize(s.spheres.size());
+    build_triangle_accel(triangles, options, s, clock);
+    std::vector<Aabb> bounds(s.spheres.size());
     for (size_t i = 0; i < s.spheres.size(); ++i) { bounds[i] = sphere_bounds(s.spheres[i]); s.bounds.expand(bounds[i]); }
     build_sphere_accel(bounds, options, s);
+    clock.lap("spheres");
 
     if (frame_camera(desc.camera, s.bounds, s.camera))
         s.report.built.push_back("default camera framing the scene (the scene has none)");
+    clock.lap("camera");
     s.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return s;
 }

@@ -35,11 +35,16 @@ struct TriangleShading { uint32_t n0, n1, n2; uint32_t material; uint32_t light 
 struct Sphere { glm::vec3 center; float radius; uint32_t material; };
 
 // What building the render scene did and left out, and what it cost (reported per job).
+struct BuildStage {
+    std::string name;
+    double seconds = 0.0;
+};
 struct BuildReport {
     std::vector<std::string> built;
     std::vector<std::string> left_out;
     std::vector<std::string> warnings;
     double seconds = 0.0;
+    std::vector<BuildStage> stages;  // where `seconds` went, in order (tessera bench prepare)
 };
 
 struct RenderSceneOptions {
@@ -56,10 +61,10 @@ struct RenderSceneOptions {
 struct RenderScene {
     // Triangles as traversal reads them: four to a block, blocks in BVH leaf order. The binary
     // tree they were built with is not kept (its statistics are).
-    std::vector<Triangle4> tri_blocks;
+    LargeVector<Triangle4> tri_blocks;
     size_t triangle_count() const { return tri_shading.size(); }
-    std::vector<TriangleShading> tri_shading;   // indexed by Triangle4::prim
-    std::vector<glm::vec3> normals;             // shared vertex normals
+    LargeVector<TriangleShading> tri_shading;   // input order, indexed by Triangle4::prim
+    LargeVector<glm::vec3> normals;             // shared vertex normals
     BvhBuildStats tri_bvh_stats;                // the binary tree as built
     WideBvh tri_wide;                           // that tree collapsed kBvhWidth-wide; leaves name blocks
     double tri_build_seconds = 0;               // build, collapse and packing (or Embree's build)

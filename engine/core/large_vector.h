@@ -1,0 +1,53 @@
+#pragma once
+// A std::vector for the scene's large arrays (triangles, blocks, nodes, build scratch), whose
+// big allocations ask the kernel for transparent huge pages. A scene build writes hundreds of
+// megabytes of fresh memory, and with 4 KiB pages the page faults cost more than the build:
+// 1M triangles took 110k faults, 0.8 s of a 1.8 s preparation on a 2-core VM. In 2 MiB pages
+// the same memory takes a few hundred, and traversal misses the TLB less. Embree allocates
+// its BVH the same way (its os_malloc advises huge pages on Linux).
+#include <cstddef>
+#include <cstdlib>
+#include <new>
+#include <vector>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
+namespace tessera {
+
+// Allocations from this size up are 2 MiB-aligned and advised MADV_HUGEPAGE; smaller ones
+// come from operator new as usual.
+inline constexpr size_t kHugePageBytes = size_t(2) << 20;
+
+template <class T>
+struct LargeAllocator {
+    using value_type = T;
+    LargeAllocator() = default;
+    template <class U>
+    LargeAllocator(const LargeAllocator<U>&) noexcept {}
+
+    T* allocate(size_t n) {
+        if (n > size_t(-1) / sizeof(T)) throw std::bad_array_new_length();
+        const size_t bytes = n * sizeof(T);
+        if (bytes < kHugePageBytes) return static_cast<T*>(::operator new(bytes, std::align_val_t(alignof(T))));
+        const size_t rounded = (bytes + kHugePageBytes - 1) / kHugePageBytes * kHugePageBytes;
+        void* p = std::aligned_alloc(kHugePageBytes, rounded);
+        if (!p) throw std::bad_alloc();
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+        ::madvise(p, rounded, MADV_HUGEPAGE);  // advice only: without THP it is refused, harmlessly
+#endif
+        return static_cast<T*>(p);
+    }
+    void deallocate(T* p, size_t n) noexcept {
+        if (n * sizeof(T) < kHugePageBytes) ::operator delete(p, std::align_val_t(alignof(T)));
+        else std::free(p);
+    }
+    template <class U>
+    bool operator==(const LargeAllocator<U>&) const noexcept { return true; }
+};
+
+template <class T>
+using LargeVector = std::vector<T, LargeAllocator<T>>;
+
+}  // namespace tessera
