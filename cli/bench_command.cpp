@@ -222,6 +222,7 @@ const Kind kKinds[] = {
     {"convergence", bench_convergence, "sampling strategies at equal time against a reference"},
     {"leave-out", bench_leave_out, "what leaving out unneeded work saves"},
     {"rays", bench_rays, "our BVH and Embree on the same rays"},
+    {"prepare", bench_prepare, "scene preparation: every stage on 1 and 2 threads beside Embree, peak memory, cache hits"},
     {"cluster", bench_cluster, "a render farm: tile hand-offs, overhead per tile, two nodes against one process"},
 };
 

@@ -2,6 +2,7 @@
 // Shared by the bench subcommands.
 #include <cstdlib>
 #include <string>
+#include <vector>
 
 namespace tessera::cli {
 
@@ -11,7 +12,23 @@ inline std::string default_cs184_dir() {
     return TESSERA_DEFAULT_CS184_DIR;
 }
 
+// The shared glTF sample models (gltf-pbr): TESSERA_GLTF_PBR_DIR, else the path configured at build time.
+inline std::string default_gltf_pbr_dir() {
+    if (const char* e = std::getenv("TESSERA_GLTF_PBR_DIR"); e && *e) return e;
+    return TESSERA_DEFAULT_GLTF_PBR_DIR;
+}
+
+// One job of a preview submitted again and again to a fresh in-process server (the scene cache).
+struct CacheLatency {
+    bool hit;
+    double end_to_end_ms;   // submit to succeeded, as a client sees it
+    double preparation_ms;  // load and preparation inside the job
+};
+// Prints the table and returns one row per job (none when a request failed).
+std::vector<CacheLatency> scene_cache_latency(int triangles, int jobs);
+
 int bench_figures(int argc, char** argv);
+int bench_prepare(int argc, char** argv);
 int bench_server(int argc, char** argv);
 int bench_convergence(int argc, char** argv);
 int bench_leave_out(int argc, char** argv);

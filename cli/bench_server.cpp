@@ -44,6 +44,56 @@ double pct(std::vector<double> v, double p) {
 
 }  // namespace
 
+std::vector<CacheLatency> scene_cache_latency(int triangles, int jobs) {
+    std::vector<CacheLatency> rows;
+    spdlog::set_level(spdlog::level::err);  // a log line per poll would measure the terminal
+    const auto dir = std::filesystem::temp_directory_path() / ("tessera_bench_cache_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir);
+    server::ServiceConfig cfg;
+    cfg.data_dir = dir.string();
+    cfg.project_scenes = TESSERA_DEFAULT_SCENES_DIR;
+    server::JobService service(cfg);
+    server::HttpApi api(service, server::HttpLimits{}, (dir / "none.yaml").string());
+    const int port = api.bind("127.0.0.1", 0);
+    std::thread serving([&] { api.serve(); });
+    httplib::Client c("127.0.0.1", port);
+    c.set_tcp_nodelay(true);
+    c.set_read_timeout(600, 0);
+    const json preview = {{"scene", "builtin:displaced_sphere?triangles=" + std::to_string(triangles)},
+                          {"width", 64}, {"height", 48}, {"spp", 1}};
+    std::printf("\nThe same 64×48 preview of builtin:displaced_sphere (%d triangles, 1 spp) submitted %d times to a fresh "
+                "server, submit to succeeded:\n\n| job | scene cache | end to end (ms) | preparation in the job (ms) |\n|---|---|---:|---:|\n",
+                triangles, jobs);
+    for (int rep = 0; rep < jobs; ++rep) {
+        const auto a = Clock::now();
+        auto res = c.Post("/v1/jobs", preview.dump(), "application/json");
+        if (!res || res->status != 202) {
+            std::fprintf(stderr, "bench: submit failed\n");
+            rows.clear();
+            break;
+        }
+        const std::string jid = json::parse(res->body)["id"];
+        std::string st;
+        for (;;) {
+            auto s = c.Get("/v1/jobs/" + jid);
+            st = json::parse(s->body)["state"];
+            if (st == "succeeded" || st == "failed") break;
+            std::this_thread::sleep_for(std::chrono::microseconds(200));
+        }
+        const double ms = std::chrono::duration<double, std::milli>(Clock::now() - a).count();
+        const json report = json::parse(c.Get("/v1/jobs/" + jid + "/report.json")->body);
+        const json& t = report["timings"];
+        CacheLatency row{report["scene"]["cache"].value("hit", false), ms, 1e3 * (t.value("load_s", 0.0) + t.value("bvh_s", 0.0))};
+        std::printf("| %d | %s | %.1f | %.2f |\n", rep + 1, row.hit ? "hit" : "miss", row.end_to_end_ms, row.preparation_ms);
+        rows.push_back(row);
+    }
+    api.stop();
+    serving.join();
+    service.shutdown();
+    std::filesystem::remove_all(dir);
+    return rows;
+}
+
 int bench_server(int argc, char** argv) {
     int clients = 16;
     double seconds = 5;
@@ -243,47 +293,8 @@ int bench_server(int argc, char** argv) {
     std::printf("- the same work done directly: median %.2f ms\n", pct(direct, 0.5));
     std::printf("- server overhead per job: %.2f ms\n", pct(via_server, 0.5) - pct(direct, 0.5));
 
-    // 4. Prepared scenes kept between jobs: the same preview of a large scene, submitted again
-    //    and again to a fresh server; the first job prepares the scene, the others find it.
-    if (cache_triangles > 0) {
-        const auto dir3 = dir.string() + "_cache";
-        std::filesystem::remove_all(dir3);
-        cfg.data_dir = dir3;
-        server::JobService service3(cfg);
-        server::HttpApi api3(service3, server::HttpLimits{}, "none.yaml");
-        const int port3 = api3.bind("127.0.0.1", 0);
-        std::thread serving3([&] { api3.serve(); });
-        httplib::Client c3("127.0.0.1", port3);
-        c3.set_tcp_nodelay(true);
-        c3.set_read_timeout(600, 0);
-        const json preview = {{"scene", "builtin:displaced_sphere?triangles=" + std::to_string(cache_triangles)},
-                              {"width", 64}, {"height", 48}, {"spp", 1}};
-        std::printf("\nThe same 64×48 preview of builtin:displaced_sphere (%d triangles, 1 spp) submitted %d times to a fresh "
-                    "server, submit to succeeded:\n\n| job | scene cache | end to end (ms) | preparation in the job (ms) |\n|---|---|---:|---:|\n",
-                    cache_triangles, cache_jobs);
-        for (int rep = 0; rep < cache_jobs; ++rep) {
-            const auto a = Clock::now();
-            auto res = c3.Post("/v1/jobs", preview.dump(), "application/json");
-            if (!res || res->status != 202) { std::fprintf(stderr, "bench: submit failed\n"); return 1; }
-            const std::string jid = json::parse(res->body)["id"];
-            std::string st;
-            for (;;) {
-                auto s = c3.Get("/v1/jobs/" + jid);
-                st = json::parse(s->body)["state"];
-                if (st == "succeeded" || st == "failed") break;
-                std::this_thread::sleep_for(std::chrono::microseconds(200));
-            }
-            const double ms = std::chrono::duration<double, std::milli>(Clock::now() - a).count();
-            const json report = json::parse(c3.Get("/v1/jobs/" + jid + "/report.json")->body);
-            const json& t = report["timings"];
-            std::printf("| %d | %s | %.1f | %.2f |\n", rep + 1, report["scene"]["cache"].value("hit", false) ? "hit" : "miss", ms,
-                        1e3 * (t.value("load_s", 0.0) + t.value("bvh_s", 0.0)));
-        }
-        api3.stop();
-        serving3.join();
-        service3.shutdown();
-        std::filesystem::remove_all(dir3);
-    }
+    // 4. Prepared scenes kept between jobs.
+    if (cache_triangles > 0 && scene_cache_latency(cache_triangles, cache_jobs).empty()) return 1;
     return 0;
 }
 

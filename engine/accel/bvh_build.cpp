@@ -33,13 +33,37 @@ namespace {
 
 // 32 bytes, two to a cache line (Embree's PrimRef): the centroid is recomputed where it is
 // read, which costs less than carrying it through every partition.
+// Laid out as two 16-byte rows (lo, id) and (hi, pad) so that binning loads each as one vector.
 struct PrimRef {
-    Aabb bounds;
+    glm::vec3 lo;
     uint32_t id;
+    glm::vec3 hi;
     uint32_t pad;
-    glm::vec3 centroid() const { return bounds.centroid(); }
+    Aabb bounds() const { return Aabb{lo, hi}; }
+    glm::vec3 centroid() const { return 0.5f * (lo + hi); }  // as Aabb::centroid
 };
 static_assert(sizeof(PrimRef) == 32);
+
+// A bin's bounds: SSE rows where available (one min and one max per primitive and axis).
+#if defined(__SSE2__)
+struct Bin {
+    __m128 lo = _mm_set1_ps(INFINITY), hi = _mm_set1_ps(-INFINITY);
+    uint32_t n = 0;
+    void add(__m128 plo, __m128 phi) { lo = _mm_min_ps(lo, plo); hi = _mm_max_ps(hi, phi); ++n; }
+    Aabb box() const {
+        alignas(16) float l[4], h[4];
+        _mm_store_ps(l, lo);
+        _mm_store_ps(h, hi);
+        return Aabb{{l[0], l[1], l[2]}, {h[0], h[1], h[2]}};
+    }
+};
+#else
+struct Bin {
+    Aabb b;
+    uint32_t n = 0;
+    Aabb box() const { return b; }
+};
+#endif
 
 struct Builder {
     const BvhBuildOptions& opt;
@@ -47,7 +71,6 @@ struct Builder {
     LargeVector<BvhNode>& nodes;
     int max_depth_seen = 0;
     // Scratch reused across nodes, so that a build allocates O(1) times, not once per node.
-    struct Bin { Aabb b; uint32_t n = 0; };
     std::vector<Bin> bins;
     std::vector<float> right_area;
     std::vector<uint32_t> right_count;
@@ -65,8 +88,8 @@ struct Builder {
     size_t partition_with_bounds(size_t begin, size_t end, Pred goes_left, Split& s) {
         size_t i = begin, j = end;
         for (;;) {
-            while (i < j && goes_left(refs[i])) { s.lb.expand(refs[i].bounds); s.lcb.expand(refs[i].centroid()); ++i; }
-            while (i < j && !goes_left(refs[j - 1])) { s.rb.expand(refs[j - 1].bounds); s.rcb.expand(refs[j - 1].centroid()); --j; }
+            while (i < j && goes_left(refs[i])) { s.lb.expand(refs[i].bounds()); s.lcb.expand(refs[i].centroid()); ++i; }
+            while (i < j && !goes_left(refs[j - 1])) { s.rb.expand(refs[j - 1].bounds()); s.rcb.expand(refs[j - 1].centroid()); --j; }
             if (i >= j) break;
             std::swap(refs[i], refs[j - 1]);
         }
@@ -103,16 +126,34 @@ struct Builder {
         glm::vec3 scale;
         const glm::vec3 ext = cb.extent();
         for (int a = 0; a < 3; ++a) scale[a] = ext[a] > 0.f ? float(nbins) * (1.f - 1e-6f) / ext[a] : 0.f;
+#if defined(__SSE2__)
+        // The same arithmetic as the scalar centroid and bin index, four lanes at once (the
+        // fourth, id and padding, is never read).
+        const __m128 base = _mm_setr_ps(cb.lo.x, cb.lo.y, cb.lo.z, 0.f), mul = _mm_setr_ps(scale.x, scale.y, scale.z, 0.f);
+        const __m128 half = _mm_set1_ps(0.5f);
+        Bin* const bx = bins.data();
+        Bin* const by = bx + nbins;
+        Bin* const bz = by + nbins;
+        for (size_t i = begin; i < end; ++i) {
+            const __m128 lo = _mm_loadu_ps(&refs[i].lo.x), hi = _mm_loadu_ps(&refs[i].hi.x);
+            alignas(16) int k[4];
+            _mm_store_si128(reinterpret_cast<__m128i*>(k),
+                            _mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(_mm_mul_ps(half, _mm_add_ps(lo, hi)), base), mul)));
+            bx[std::min(nbins - 1, k[0])].add(lo, hi);
+            by[std::min(nbins - 1, k[1])].add(lo, hi);
+            bz[std::min(nbins - 1, k[2])].add(lo, hi);
+        }
+#else
         for (size_t i = begin; i < end; ++i) {
             const PrimRef& r = refs[i];
             const glm::vec3 c = r.centroid();
             for (int a = 0; a < 3; ++a) {
-                int k = std::min(nbins - 1, int((c[a] - cb.lo[a]) * scale[a]));
-                Bin& bin = bins[size_t(a) * nbins + k];
-                bin.b.expand(r.bounds);
+                Bin& bin = bins[size_t(a) * nbins + std::min(nbins - 1, int((c[a] - cb.lo[a]) * scale[a]))];
+                bin.b.expand(r.bounds());
                 ++bin.n;
             }
         }
+#endif
         const size_t n = end - begin;
         const uint32_t block = uint32_t(std::max(1, opt.leaf_block));
         auto blocks = [block](uint32_t count) { return float((count + block - 1) / block); };
@@ -125,12 +166,12 @@ struct Builder {
             const Bin* ab = &bins[size_t(a) * nbins];
             Aabb acc; uint32_t cnt = 0;
             for (int k = nbins - 1; k > 0; --k) {
-                acc.expand(ab[k].b); cnt += ab[k].n;
+                acc.expand(ab[k].box()); cnt += ab[k].n;
                 right_area[k] = acc.surface_area(); right_count[k] = cnt;
             }
             acc = Aabb{}; cnt = 0;
             for (int k = 0; k < nbins - 1; ++k) {
-                acc.expand(ab[k].b); cnt += ab[k].n;
+                acc.expand(ab[k].box()); cnt += ab[k].n;
                 if (cnt == 0 || right_count[k + 1] == 0) continue;
                 const float cost = acc.surface_area() * blocks(cnt) + right_area[k + 1] * blocks(right_count[k + 1]);
                 if (cost < best_cost) { best_cost = cost; best_axis = a; best_bin = k; }
@@ -157,7 +198,7 @@ struct Builder {
     void bounds_of(size_t begin, size_t end, Aabb& b, Aabb& cb) const {
         b = Aabb{};
         cb = Aabb{};
-        for (size_t i = begin; i < end; ++i) { b.expand(refs[i].bounds); cb.expand(refs[i].centroid()); }
+        for (size_t i = begin; i < end; ++i) { b.expand(refs[i].bounds()); cb.expand(refs[i].centroid()); }
     }
 
     // Chooses how refs[begin, end) (bounds b, centroid bounds cb) is split: false when
@@ -223,13 +264,17 @@ constexpr size_t kParallelMin = 4096;
 // by the same code on the same primitives.
 void build_subtree(const BvhBuildOptions& opt, LargeVector<PrimRef>& refs, LargeVector<BvhNode>& out, size_t begin,
                    size_t end, int depth, const Aabb& b, const Aabb& cb, int spawn, int& max_depth) {
-    out.emplace_back();
     Builder builder{opt, refs, out, 0, {}, {}, {}};
     if (spawn <= 0 || end - begin < kParallelMin) {
+        // A binary tree over n primitives has at most 2n - 1 nodes: reserved (as address space;
+        // only what is written is faulted in), it never moves while it grows.
+        out.reserve(2 * (end - begin));
+        out.emplace_back();
         builder.build(0, begin, end, depth, b, cb);
         max_depth = builder.max_depth_seen;
         return;
     }
+    out.emplace_back();
     Builder::Split split;
     size_t mid = 0;
     if (!builder.choose(0, begin, end, depth, b, cb, split, mid)) { max_depth = depth; return; }
@@ -283,7 +328,7 @@ Bvh build_bvh(size_t count, const std::function<Aabb(size_t)>& bounds_of, const 
         Aabb pb, pcb;
         for (size_t i = begin; i < end; ++i) {
             const Aabb bi = bounds_of(i);
-            refs[i] = PrimRef{bi, uint32_t(i), 0};
+            refs[i] = PrimRef{bi.lo, uint32_t(i), bi.hi, 0};
             pb.expand(bi);
             pcb.expand(bi.centroid());
         }
