@@ -49,7 +49,9 @@ static_assert(sizeof(PrimRef) == 32);
 struct Bin {
     __m128 lo = _mm_set1_ps(INFINITY), hi = _mm_set1_ps(-INFINITY);
     uint32_t n = 0;
-    void add(__m128 plo, __m128 phi) { lo = _mm_min_ps(lo, plo); hi = _mm_max_ps(hi, phi); ++n; }
+    // Operands in glm::min/max's order (the new value wins only when strictly smaller or
+    // larger), so that even the sign of a zero bound is what the scalar code would give.
+    void add(__m128 plo, __m128 phi) { lo = _mm_min_ps(plo, lo); hi = _mm_max_ps(phi, hi); ++n; }
     Aabb box() const {
         alignas(16) float l[4], h[4];
         _mm_store_ps(l, lo);
@@ -223,6 +225,13 @@ struct Builder {
             mid = median_split(begin, end, axis);
         } else if (opt.type == BvhType::midpoint) {
             mid = midpoint_split(begin, end, axis, cb);
+        } else if (n <= size_t(opt.max_leaf_size) && n <= size_t(std::max(1, opt.leaf_block)) &&
+                   opt.intersection_cost >= 0.f && opt.intersection_cost <= opt.traversal_cost) {
+            // One block: the leaf costs one test, and any split costs a node visit (no less)
+            // plus its children's tests, so the SAH's answer is known without binning. Half of
+            // all nodes reach here.
+            make_leaf(node, b, begin, end);
+            return false;
         } else {
             split = sah_split(begin, end, b, cb);
             if (split.axis < 0) { make_leaf(node, b, begin, end); return false; }
