@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <memory>
 #include <numeric>
 #include <thread>
 
@@ -266,44 +267,62 @@ struct Builder {
 // costs more than the work.
 constexpr size_t kParallelMin = 4096;
 
-// Builds refs[begin, end) into `out` (out[0] its root, offsets relative to out). The two
-// halves of a split are built at once, down to `spawn` levels, each into its own array, and
-// spliced in the sequential builder's depth-first order, so the tree is the same whatever
-// the thread count: both halves touch disjoint ranges of refs, and every split is decided
-// by the same code on the same primitives.
-void build_subtree(const BvhBuildOptions& opt, LargeVector<PrimRef>& refs, LargeVector<BvhNode>& out, size_t begin,
+// A subtree built in parallel: either nodes built on one thread (nodes[0] its root, child
+// offsets relative to nodes), or a split node whose halves were built at once.
+struct Part {
+    LargeVector<BvhNode> nodes;
+    BvhNode root{};
+    std::unique_ptr<Part> left, right;
+    size_t size() const { return left ? 1 + left->size() + right->size() : nodes.size(); }
+};
+
+// Lays a part out depth-first at out[0...], as the sequential builder would have, its
+// nodes' child offsets moved by `base` (out[0]'s index in the whole tree).
+void splice(const Part& p, BvhNode* out, uint32_t base) {
+    if (!p.left) {
+        for (size_t k = 0; k < p.nodes.size(); ++k) {
+            BvhNode n = p.nodes[k];
+            if (!n.is_leaf()) n.offset += base;  // leaves name refs, whose indices are global
+            out[k] = n;
+        }
+        return;
+    }
+    const uint32_t left_size = uint32_t(p.left->size());
+    out[0] = p.root;
+    out[0].offset = base + 1 + left_size;
+    splice(*p.left, out + 1, base + 1);
+    splice(*p.right, out + 1 + left_size, base + 1 + left_size);
+}
+
+// Builds refs[begin, end) into `part`. The two halves of a split are built at once, down to
+// `spawn` levels, each into its own part, and spliced once at the end in the sequential
+// builder's depth-first order, so the tree is the same whatever the thread count: both halves
+// touch disjoint ranges of refs, and every split is decided by the same code on the same
+// primitives.
+void build_subtree(const BvhBuildOptions& opt, LargeVector<PrimRef>& refs, Part& part, size_t begin,
                    size_t end, int depth, const Aabb& b, const Aabb& cb, int spawn, int& max_depth) {
-    Builder builder{opt, refs, out, 0, {}, {}, {}};
+    Builder builder{opt, refs, part.nodes, 0, {}, {}, {}};
+    // A binary tree over n primitives has at most 2n - 1 nodes: reserved (as address space;
+    // only what is written is faulted in), the array never moves while it grows.
+    part.nodes.reserve(spawn <= 0 || end - begin < kParallelMin ? 2 * (end - begin) : 1);
+    part.nodes.emplace_back();
     if (spawn <= 0 || end - begin < kParallelMin) {
-        // A binary tree over n primitives has at most 2n - 1 nodes: reserved (as address space;
-        // only what is written is faulted in), it never moves while it grows.
-        out.reserve(2 * (end - begin));
-        out.emplace_back();
         builder.build(0, begin, end, depth, b, cb);
         max_depth = builder.max_depth_seen;
         return;
     }
-    out.emplace_back();
     Builder::Split split;
     size_t mid = 0;
     if (!builder.choose(0, begin, end, depth, b, cb, split, mid)) { max_depth = depth; return; }
-    LargeVector<BvhNode> left, right;
+    part.root = part.nodes[0];
+    part.nodes = {};
+    part.left = std::make_unique<Part>();
+    part.right = std::make_unique<Part>();
     int left_depth = depth, right_depth = depth;
-    std::thread worker([&] { build_subtree(opt, refs, left, begin, mid, depth + 1, split.lb, split.lcb, spawn - 1, left_depth); });
-    build_subtree(opt, refs, right, mid, end, depth + 1, split.rb, split.rcb, spawn - 1, right_depth);
+    std::thread worker([&] { build_subtree(opt, refs, *part.left, begin, mid, depth + 1, split.lb, split.lcb, spawn - 1, left_depth); });
+    build_subtree(opt, refs, *part.right, mid, end, depth + 1, split.rb, split.rcb, spawn - 1, right_depth);
     worker.join();
     max_depth = std::max(left_depth, right_depth);
-    auto append = [&out](const LargeVector<BvhNode>& part) {
-        const uint32_t base = uint32_t(out.size());
-        for (BvhNode n : part) {
-            if (!n.is_leaf()) n.offset += base;  // leaves name refs, whose indices are global
-            out.push_back(n);
-        }
-    };
-    out.reserve(1 + left.size() + right.size());
-    append(left);
-    out[0].offset = uint32_t(out.size());
-    append(right);
 }
 
 }  // namespace
@@ -350,7 +369,14 @@ Bvh build_bvh(size_t count, const std::function<Aabb(size_t)>& bounds_of, const 
     // (a ground plane beside a building) still leave none idle for long. One thread: none.
     const int spawn = threads > 1 ? std::bit_width(unsigned(threads - 1)) + 2 : 0;
     int max_depth = 0;
-    build_subtree(options, refs, bvh.nodes, 0, refs.size(), 0, b, cb, spawn, max_depth);
+    Part tree;
+    build_subtree(options, refs, tree, 0, refs.size(), 0, b, cb, spawn, max_depth);
+    if (tree.left) {
+        bvh.nodes.resize(tree.size());
+        splice(tree, bvh.nodes.data(), 0);
+    } else {
+        bvh.nodes = std::move(tree.nodes);
+    }
     bvh.prim_index.resize(refs.size());
     for (size_t i = 0; i < refs.size(); ++i) bvh.prim_index[i] = refs[i].id;
 
