@@ -9,6 +9,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
+#include <cstring>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -144,6 +146,10 @@ int bench_prepare(int argc, char** argv) {
         else std::printf("(%s is absent: the glTF row is skipped; set TESSERA_GLTF_PBR_DIR or --gltf)\n", gltf.c_str());
     }
     const bool embree = embree_available();
+    const char* tunables = std::getenv("GLIBC_TUNABLES");
+    std::printf("malloc: %s\n", tunables && std::strstr(tunables, "glibc.malloc.hugetlb=1")
+                                     ? "transparent huge pages (GLIBC_TUNABLES=glibc.malloc.hugetlb=1, as scripts/run.sh and the image set it)"
+                                     : "glibc's default (4 KiB pages outside the engine's own arrays)");
     std::printf("Scene preparation, median of %d runs, each in a fresh process (ms; peak: memory the preparation adds at "
                 "its highest, MiB).\n'ours' is the whole preparation; 'Embree' is Embree's medium build alone (its "
                 "buffers filled and committed), measured in the same run.\n\n",

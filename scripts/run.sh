@@ -9,4 +9,9 @@ bash scripts/setup.sh
 bash scripts/build.sh release
 args=()
 [ -d ../shared/scenes/cs184 ] && args+=(--scenes ../shared/scenes/cs184)
+# Scene preparation writes hundreds of megabytes of fresh memory; in transparent huge pages
+# it faults a fraction as often (docs/benchmarks.md, "Scene preparation": a 1M-triangle glTF
+# loads in 34 ms instead of 139). The engine asks for them for its own arrays; this asks
+# glibc's malloc to, for the rest (the loaders').
+export GLIBC_TUNABLES="${GLIBC_TUNABLES:-glibc.malloc.hugetlb=1}"
 exec ./build/release/cli/tessera serve "${args[@]}" "$@"

@@ -921,6 +921,9 @@ TEST_F(Server, PreparedScenesAreKeptAcrossJobs) {
         auto r = client_->Get("/v1/jobs/" + id + "/report.json");
         EXPECT_TRUE(r && r->status == 200);
         const json report = json::parse(r->body);
+        const json& stages = report["scene"]["build_stages"];  // the preparation's, cached or not
+        EXPECT_TRUE(stages.is_array() && !stages.empty() && stages[0].value("stage", "") == "gather" &&
+                    stages[0]["seconds"].is_number()) << report["scene"];
         const Image image = read_image((dir_ / "jobs" / id / "image.exr").string());
         return std::pair{report["scene"]["cache"], image.rgb};
     };
