@@ -1,6 +1,6 @@
 #pragma once
 // The immutable scene a render reads: primitives laid out for intersection in BVH leaf order,
-// their shading data, runtime materials and the camera. Built once per job from a
+// their shading data (in input order), runtime materials and the camera. Built once per job from a
 // SceneDescription, and only from what that scene and job use (see BuildReport).
 #include <cstdint>
 #include <string>
