@@ -4,8 +4,10 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <cmath>
 #include <memory>
 #include <numeric>
+#include <system_error>
 #include <thread>
 
 #include "engine/accel/bvh.h"
@@ -134,11 +136,14 @@ struct Builder {
         // fourth, id and padding, is never read).
         const __m128 base = _mm_setr_ps(cb.lo.x, cb.lo.y, cb.lo.z, 0.f), mul = _mm_setr_ps(scale.x, scale.y, scale.z, 0.f);
         const __m128 half = _mm_set1_ps(0.5f);
+        // The fourth lane (the id read as a float: a denormal below 2^23) is cleared, or every
+        // add and multiply on it would take the processor's slow path for denormals.
+        const __m128 xyz = _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0));
         Bin* const bx = bins.data();
         Bin* const by = bx + nbins;
         Bin* const bz = by + nbins;
         for (size_t i = begin; i < end; ++i) {
-            const __m128 lo = _mm_loadu_ps(&refs[i].lo.x), hi = _mm_loadu_ps(&refs[i].hi.x);
+            const __m128 lo = _mm_and_ps(_mm_loadu_ps(&refs[i].lo.x), xyz), hi = _mm_and_ps(_mm_loadu_ps(&refs[i].hi.x), xyz);
             alignas(16) int k[4];
             _mm_store_si128(reinterpret_cast<__m128i*>(k),
                             _mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(_mm_mul_ps(half, _mm_add_ps(lo, hi)), base), mul)));
@@ -227,10 +232,12 @@ struct Builder {
         } else if (opt.type == BvhType::midpoint) {
             mid = midpoint_split(begin, end, axis, cb);
         } else if (n <= size_t(opt.max_leaf_size) && n <= size_t(std::max(1, opt.leaf_block)) &&
-                   opt.intersection_cost >= 0.f && opt.intersection_cost <= opt.traversal_cost) {
+                   opt.intersection_cost >= 0.f && opt.intersection_cost <= opt.traversal_cost &&
+                   std::isfinite(b.surface_area())) {
             // One block: the leaf costs one test, and any split costs a node visit (no less)
             // plus its children's tests, so the SAH's answer is known without binning. Half of
-            // all nodes reach here.
+            // all nodes reach here. (An infinite area, from bounds near the float range's
+            // end, makes the SAH's comparison NaN and split: left to sah_split to decide.)
             make_leaf(node, b, begin, end);
             return false;
         } else {
@@ -319,9 +326,15 @@ void build_subtree(const BvhBuildOptions& opt, LargeVector<PrimRef>& refs, Part&
     part.left = std::make_unique<Part>();
     part.right = std::make_unique<Part>();
     int left_depth = depth, right_depth = depth;
-    std::thread worker([&] { build_subtree(opt, refs, *part.left, begin, mid, depth + 1, split.lb, split.lcb, spawn - 1, left_depth); });
+    auto build_left = [&] { build_subtree(opt, refs, *part.left, begin, mid, depth + 1, split.lb, split.lcb, spawn - 1, left_depth); };
+    std::thread worker;
+    try {
+        worker = std::thread(build_left);
+    } catch (const std::system_error&) {
+        build_left();  // no thread to be had (a busy server): the same tree, built here
+    }
     build_subtree(opt, refs, *part.right, mid, end, depth + 1, split.rb, split.rcb, spawn - 1, right_depth);
-    worker.join();
+    if (worker.joinable()) worker.join();
     max_depth = std::max(left_depth, right_depth);
 }
 

@@ -46,7 +46,9 @@ struct EmbreeAccel {
 namespace {
 
 // One device per thread count for the process (a device owns Embree's thread pool; 0: one
-// thread per core), created on first use. TESSERA_EMBREE_CONFIG passes Embree's device
+// thread per core), created on first use. Embree sizes its shared task scheduler for the
+// largest count of the devices alive, so a 1-thread device is 1-thread only in a process
+// that made no other (`tessera bench prepare` measures each count in a process of its own). TESSERA_EMBREE_CONFIG passes Embree's device
 // configuration for diagnosis (e.g. "verbose=2" prints its BVH's shape and the kernels it
 // chose; "isa=avx2" pins the kernels).
 RTCDevice device(int threads) {

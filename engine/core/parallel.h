@@ -4,6 +4,7 @@
 // result does not depend on the thread count.
 #include <algorithm>
 #include <cstddef>
+#include <system_error>
 #include <thread>
 #include <vector>
 
@@ -21,11 +22,17 @@ void parallel_ranges(size_t n, int threads, Fn&& fn) {
         fn(size_t(0), n, 0);
         return;
     }
+    auto range = [&fn, n, threads](int t) { fn(n * size_t(t) / size_t(threads), n * size_t(t + 1) / size_t(threads), t); };
     std::vector<std::thread> workers;
     workers.reserve(size_t(threads - 1));
-    for (int t = 1; t < threads; ++t)
-        workers.emplace_back([&fn, n, t, threads] { fn(n * size_t(t) / size_t(threads), n * size_t(t + 1) / size_t(threads), t); });
-    fn(size_t(0), n / size_t(threads), 0);
+    int started = 1;
+    try {
+        for (; started < threads; ++started) workers.emplace_back(range, started);
+    } catch (const std::system_error&) {
+        // No more threads to be had (a busy server): the ranges left run here, same result.
+    }
+    range(0);
+    for (int t = started; t < threads; ++t) range(t);
     for (std::thread& w : workers) w.join();
 }
 

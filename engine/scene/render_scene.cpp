@@ -80,7 +80,9 @@ LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& 
     for (size_t k = 0; k < meshes.size(); ++k) {
         const MeshDesc& mesh = *meshes[k];
         glm::vec3* normals = s.normals.data() + first_vertex[k];
-        if (!mesh.normals.empty()) {
+        // Normals must pair with positions (validate() checks loaded files; a description
+        // built in code that breaks it gets computed normals rather than a misaligned copy).
+        if (!mesh.normals.empty() && mesh.normals.size() == mesh.positions.size()) {
             std::copy(mesh.normals.begin(), mesh.normals.end(), normals);
         } else if (!mesh.flat_normals) {
             for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {

@@ -161,5 +161,19 @@ TEST(RenderScene, ReportsEachStageOfThePreparation) {
     EXPECT_LE(sum, s.report.seconds + 1e-6);
 }
 
+// A description built in code whose normals do not pair with its positions (validate() refuses
+// such files) gets computed normals, not a copy past the end of the array.
+TEST(RenderScene, NormalsThatDoNotPairWithPositionsAreComputed) {
+    SceneDescription d;
+    MeshDesc m;
+    m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}};
+    m.indices = {0, 1, 2, 2, 1, 3};
+    m.normals.assign(9, glm::vec3(1, 0, 0));  // more normals than vertices
+    d.meshes.push_back(m);
+    const RenderScene s = build_render_scene(d, {});
+    ASSERT_EQ(s.normals.size(), 4u);
+    for (const glm::vec3& n : s.normals) EXPECT_NEAR(std::abs(n.z), 1.f, 1e-6f);
+}
+
 }  // namespace
 }  // namespace tessera
