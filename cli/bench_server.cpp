@@ -76,12 +76,20 @@ std::vector<CacheLatency> scene_cache_latency(int triangles, int jobs) {
         std::string st;
         for (;;) {
             auto s = c.Get("/v1/jobs/" + jid);
+            if (!s || s->status != 200) break;
             st = json::parse(s->body)["state"];
             if (st == "succeeded" || st == "failed") break;
             std::this_thread::sleep_for(std::chrono::microseconds(200));
         }
         const double ms = std::chrono::duration<double, std::milli>(Clock::now() - a).count();
-        const json report = json::parse(c.Get("/v1/jobs/" + jid + "/report.json")->body);
+        httplib::Result rep_res = c.Get("/v1/jobs/" + jid + "/report.json");
+        if (st != "succeeded" || !rep_res || rep_res->status != 200) {
+            // A figure from a failed job would be a figure of nothing: say so and print none.
+            std::fprintf(stderr, "bench: job %s ended '%s' without a report\n", jid.c_str(), st.c_str());
+            rows.clear();
+            break;
+        }
+        const json report = json::parse(rep_res->body);
         const json& t = report["timings"];
         CacheLatency row{report["scene"]["cache"].value("hit", false), ms, 1e3 * (t.value("load_s", 0.0) + t.value("bvh_s", 0.0))};
         std::printf("| %d | %s | %.1f | %.2f |\n", rep + 1, row.hit ? "hit" : "miss", row.end_to_end_ms, row.preparation_ms);
