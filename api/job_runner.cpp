@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "api/comparison.h"
+#include "engine/render/film.h"
 
 namespace tessera::api {
 namespace {
@@ -63,6 +64,10 @@ JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutp
         tiles_total = p.tiles_total;
         if (cb.progress) cb.progress(p);
     };
+    if (cb.pass)
+        rcb.on_pass = [&](const PassView& v) {
+            cb.pass(PassSnapshot{v.index, v.spp, v.point, std::make_shared<const Image>(v.film.resolve())});
+        };
     if (!opt.reference_image.empty()) {
         if (!std::filesystem::exists(opt.reference_image)) throw std::runtime_error("the reference job's image was deleted");
         reference = read_image(opt.reference_image);

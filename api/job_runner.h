@@ -53,8 +53,17 @@ struct RunOutputs {
     static RunOutputs in_directory(const std::string& dir);
 };
 
+// A running render's latest finished pass, as a server shows it before the job ends.
+struct PassSnapshot {
+    int index = 0;        // 0 for the first pass
+    int spp = 0;          // the pass's per-pixel sample target
+    ConvergencePoint point;
+    std::shared_ptr<const Image> image;  // linear RGB with per-pixel sample counts
+};
+
 struct RunCallbacks {
     std::function<void(const RenderProgress&)> progress;  // from render threads: cheap, thread-safe
+    std::function<void(const PassSnapshot&)> pass;        // after each pass of a render job (not set: none made)
     const std::atomic<bool>* stop = nullptr;             // set: end early, write nothing
 };
 

@@ -34,7 +34,14 @@ json progress_json(const JobProgress& p) {
             {"samples_done", p.samples_done}};
 }
 
+json measured(double v) { return v >= 0 ? json(v) : json(nullptr); }
+
 }  // namespace
+
+json to_json(const PassSummary& p) {
+    return {{"index", p.index}, {"spp", p.spp}, {"spp_mean", p.spp_mean}, {"seconds", p.seconds},
+            {"est_rel_mse", measured(p.est_rel_mse)}, {"rel_mse", measured(p.rel_mse)}};
+}
 
 json to_json(const JobStatus& s) {
     json j;
@@ -51,6 +58,7 @@ json to_json(const JobStatus& s) {
     JobProgress progress;
     progress.fraction = s.state == JobState::succeeded ? 1.0 : 0.0;
     j["progress"] = progress_json(s.live_progress ? *s.live_progress : progress);
+    j["latest_pass"] = s.latest_pass ? to_json(*s.latest_pass) : json(nullptr);
     const bool has_summary = s.summary.is_object();
     if (s.state == JobState::succeeded && has_summary && s.summary.contains("progress")) j["progress"] = s.summary["progress"];
     json timings = {{"queued_s", nullptr}, {"load_s", nullptr}, {"bvh_s", nullptr}, {"render_s", nullptr},

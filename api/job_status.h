@@ -20,6 +20,15 @@ struct JobProgress {
     uint64_t tiles_done = 0, tiles_total = 0, samples_done = 0;
 };
 
+// A running render's latest finished pass (its image is served until the job ends).
+struct PassSummary {
+    int index = 0;              // 0 for the first pass
+    int spp = 0;                // the pass's per-pixel sample target
+    double spp_mean = 0, seconds = 0;
+    double est_rel_mse = -1, rel_mse = -1;  // negative: not measured
+};
+nlohmann::json to_json(const PassSummary& p);
+
 struct JobStatus {
     std::string id;
     JobState state = JobState::queued;
@@ -30,6 +39,7 @@ struct JobStatus {
     std::string error;
     std::optional<size_t> queue_position;
     std::optional<JobProgress> live_progress;  // a running job's, from its renderer
+    std::optional<PassSummary> latest_pass;    // a running job's, once a pass has finished
     nlohmann::json summary;    // the finished job's status_summary (timings, stats, progress), or null
 };
 

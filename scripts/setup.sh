@@ -46,6 +46,8 @@ done
 if [ "$build_only" = 0 ]; then
   command -v node > /dev/null || missing+=(nodejs)
   command -v npm > /dev/null || missing+=(npm)
+  # The web page's test drives Debian's Chromium (tests/web).
+  dpkg-query -W -f='${Status}' chromium 2>/dev/null | grep -q 'install ok installed' || missing+=(chromium)
 fi
 
 if [ ${#missing[@]} -eq 0 ]; then
@@ -62,13 +64,16 @@ else
   $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
 
-# The contract tools at the versions tests/contract/package-lock.json pins, into
-# tests/contract/node_modules (not committed); again only when the lock file changed.
-contract="$(cd "$(dirname "$0")/.." && pwd)/tests/contract"
-if [ "$build_only" = 1 ]; then
-  :
-elif [ ! -f "$contract/node_modules/.package-lock.json" ] || [ "$contract/package-lock.json" -nt "$contract/node_modules/.package-lock.json" ]; then
-  echo "setup: installing the contract tools (npm ci in tests/contract)"
-  (cd "$contract" && npm ci --no-audit --no-fund --loglevel=error)
+# The test tools from npm at the versions each package-lock.json pins, into node_modules beside
+# it (not committed); again only when the lock file changed: the contract tools (Spectral,
+# ajv) and the browser driver (playwright-core, which uses Debian's Chromium and downloads none).
+root="$(cd "$(dirname "$0")/.." && pwd)"
+if [ "$build_only" = 0 ]; then
+  for tools in "$root/tests/contract" "$root/tests/web"; do
+    if [ ! -f "$tools/node_modules/.package-lock.json" ] || [ "$tools/package-lock.json" -nt "$tools/node_modules/.package-lock.json" ]; then
+      echo "setup: installing test tools (npm ci in ${tools#$root/})"
+      (cd "$tools" && npm ci --no-audit --no-fund --loglevel=error)
+    fi
+  done
 fi
 echo "setup: done"

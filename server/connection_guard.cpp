@@ -222,6 +222,8 @@ void ConnectionGuard::response_started(uint64_t body_bytes) {
     set_deadline(limits_.body_timeout_s + double(body_bytes) / limits_.min_rate, kResponse);
 }
 
+void ConnectionGuard::response_streaming() { set_deadline(limits_.body_timeout_s, kResponse); }
+
 void ConnectionGuard::close_after_response() {
     if (t_connection) t_connection->close_after = true;
 }

@@ -46,6 +46,9 @@ public:
     // httplib's hooks, called in the connection's own thread.
     void request_head_read(uint64_t content_length);
     void response_started(uint64_t body_bytes);
+    // A stream (Server-Sent Events): the client must take each write within the body timeout;
+    // called when it starts and after every write.
+    void response_streaming();
     void response_sent();
     // The connection ends after this response: its request's body was not read.
     void close_after_response();

@@ -5,6 +5,8 @@
 #include <sys/socket.h>
 
 #include <chrono>
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <optional>
@@ -17,6 +19,8 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "api/job_schema.h"
+#include "engine/io/image_io.h"
 #include "server/problem.h"
 
 namespace tessera::server {
@@ -45,6 +49,20 @@ std::string read_file(const std::string& path) {
     std::ostringstream ss;
     ss << in.rdbuf();
     return ss.str();
+}
+
+// ?exposure=EV on image.png: stops of exposure applied to the linear values before the sRGB
+// curve (0 when absent).
+float exposure_param(const httplib::Request& req, const std::string& file) {
+    if (!req.has_param("exposure")) return 0.f;
+    if (file != "image.png")
+        throw Problem(400, "invalid-parameter", "Invalid query parameter", "exposure applies to image.png only").with_field("exposure");
+    const std::string v = req.get_param_value("exposure");
+    char* end = nullptr;
+    const double ev = v.empty() || v.size() > 24 ? NAN : std::strtod(v.c_str(), &end);
+    if (!std::isfinite(ev) || end != v.c_str() + v.size() || ev < -16 || ev > 16)
+        throw Problem(400, "invalid-parameter", "Invalid query parameter", "exposure must be a number of stops in [-16, 16]").with_field("exposure");
+    return float(ev);
 }
 
 size_t size_param(const httplib::Request& req, const char* name, size_t fallback, size_t lo, size_t hi) {
@@ -94,7 +112,7 @@ std::string loggable(std::string_view s, size_t max) {
 std::string allowed_methods(const std::string& path) {
     // As routes() registers them; httplib answers HEAD with a GET route.
     static const std::vector<std::pair<std::regex, std::string>> table = {
-        {std::regex(R"(/healthz|/readyz|/metrics|/v1/openapi\.yaml)"), "GET, HEAD"},
+        {std::regex(R"(/healthz|/readyz|/metrics|/v1/openapi\.yaml|/v1/job-schema|/v1/events|/|/ui/[^/]+)"), "GET, HEAD"},
         {std::regex(R"(/v1/jobs|/v1/scenes)"), "GET, HEAD, POST"},
         {std::regex(R"(/v1/comparisons)"), "POST"},
         {std::regex(R"(/v1/jobs/[^/]+)"), "GET, HEAD, DELETE"},
@@ -193,7 +211,8 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
         return refuse_before_body(req, res) ? res.status : 100;
     });
     server_->set_post_routing_handler([this](const httplib::Request&, httplib::Response& res) {
-        guard_->response_started(res.body.size());
+        if (res.get_header_value("Content-Type") == "text/event-stream") guard_->response_streaming();
+        else guard_->response_started(res.body.size());
     });
     server_->set_logger([this](const httplib::Request& req, const httplib::Response& res) {
         if (guard_->draining()) return;  // the rest of a refused body parsed as a request: not one
@@ -275,6 +294,8 @@ int HttpApi::bind(const std::string& host, int port) {
 void HttpApi::serve() { server_->listen_after_bind(); }
 void HttpApi::stop() {
     if (!server_) return;
+    // Event streams wait for events in connection threads: they end now, not at their timeout.
+    service_.events().close();
     server_->stop();
     // Connections waiting for their next request would hold stop() for their keep-alive time.
     guard_->close_idle();
@@ -336,6 +357,8 @@ bool HttpApi::refuse_before_body(const httplib::Request& req, httplib::Response&
 
 void HttpApi::routes() {
     auto& s = *server_;
+    page_routes();
+    event_routes();
     s.Get("/healthz", [](const httplib::Request&, httplib::Response& res) { send_json(res, 200, {{"status", "ok"}}); });
     s.Get("/readyz", [this](const httplib::Request&, httplib::Response& res) {
         if (!ready()) throw Problem(503, "not-ready", "Not ready", "the server is shutting down").with_retry_after(5);
@@ -378,11 +401,37 @@ void HttpApi::routes() {
         service_.delete_results(req.matches[1]);
         res.status = 204;
     });
+    s.Get("/v1/job-schema", [this](const httplib::Request&, httplib::Response& res) {
+        res.set_content(api::job_schema(service_.config().job_limits).dump(), "application/json");
+    });
     s.Get(R"(/v1/jobs/([^/]+)/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg))", [this](const httplib::Request& req, httplib::Response& res) {
+        const std::string id = req.matches[1];
         const std::string file = req.matches[2];
-        const std::string path = service_.result_path(req.matches[1], file);
+        const float exposure = exposure_param(req, file);
         const char* type = file == "image.exr" ? "image/x-exr" : file == "report.json" ? "application/json"
                          : file == "convergence.csv" ? "text/csv" : file == "convergence.svg" ? "image/svg+xml" : "image/png";
+        // A running job's images are its latest finished pass, said so in the headers.
+        if (file == "image.png" || file == "image.exr" || file == "rate.png") {
+            if (const auto live = service_.live_pass(id)) {
+                const auto bytes = file == "image.png" ? png_bytes(*live->image, exposure)
+                                 : file == "image.exr" ? exr_bytes(*live->image) : rate_png_bytes(*live->image, live->max_spp);
+                res.set_header("Cache-Control", "no-store");
+                res.set_header("X-Tessera-Pass", std::to_string(live->pass.index));
+                res.set_header("X-Tessera-Pass-Spp", std::to_string(live->pass.spp));
+                const double err = live->pass.rel_mse >= 0 ? live->pass.rel_mse : live->pass.est_rel_mse;
+                if (err >= 0) res.set_header("X-Tessera-Pass-Error", fmt::format("{:.6g}", err));
+                res.set_content(std::string(bytes.begin(), bytes.end()), type);
+                return;
+            }
+        }
+        const std::string path = service_.result_path(id, file);
+        if (exposure != 0.f) {
+            // Another exposure of the linear image: the EXR beside the PNG, encoded anew.
+            const std::string exr = service_.result_path(id, "image.exr");
+            const auto bytes = png_bytes(read_image(exr), exposure);
+            res.set_content(std::string(bytes.begin(), bytes.end()), type);
+            return;
+        }
         res.set_content(read_file(path), type);
     });
 

@@ -27,6 +27,10 @@ struct HttpLimits {
     // one; /healthz and /readyz stay open.
     BearerAuth auth;
     bool metrics_open = false;
+    // GET /v1/events: a stream ends after this long (clients reconnect with Last-Event-ID), and
+    // sends a comment when nothing happened for keep_alive_s.
+    double event_stream_s = 300;
+    double event_keep_alive_s = 15;
 };
 
 // Whether a Content-Type header names JSON: application/json or application/*+json, in any
@@ -50,6 +54,8 @@ public:
 
 private:
     void routes();
+    void event_routes();
+    void page_routes();
     std::string metrics_text();
     bool needs_token(const std::string& path) const;
     size_t body_limit(const httplib::Request& req) const;

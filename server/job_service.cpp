@@ -79,6 +79,7 @@ JobService::JobService(ServiceConfig config)
             node_ = std::make_unique<RenderNode>(nc);
             node_->start();
         }
+        farm_watch_ = std::thread([this] { watch_farm(); });
         return;
     }
     store_ = std::make_unique<SqliteJobStore>(config_.data_dir + "/tessera.db", config_.max_store_bytes);
@@ -103,6 +104,8 @@ void JobService::shutdown() {
     pause_cv_.notify_all();
     for (auto& w : workers_) if (w.joinable()) w.join();
     workers_.clear();
+    if (farm_watch_.joinable()) farm_watch_.join();
+    events_.close();
     // A farm's node hands its tasks in hand back to the others.
     if (node_) node_->stop();
     node_.reset();
@@ -208,6 +211,13 @@ json JobService::enqueue(const api::Job& job) {
             throw store_problem(e);
         }
         queue_.insert({rec.priority, rec.seq, rec.id});
+        // Before a worker can take it: "created" comes before its "running".
+        json st = status_json(rec, true);
+        publish("created", st);
+        cv_.notify_one();
+        ++metrics_.jobs_submitted;
+        spdlog::info("job {} queued (scene {}, priority {})", rec.id, api::scene_of(job), rec.priority);
+        return st;
     }
     cv_.notify_one();
     ++metrics_.jobs_submitted;
@@ -235,7 +245,7 @@ json JobService::status(const std::string& id) {
     return status_json(*rec);
 }
 
-json JobService::status_json(const JobRecord& rec) {
+json JobService::status_json(const JobRecord& rec, bool locked) {
     api::JobStatus st;
     st.id = rec.id;
     st.state = rec.state;
@@ -264,7 +274,8 @@ json JobService::status_json(const JobRecord& rec) {
             // Progress is a courtesy: the record itself was read.
         }
     } else {
-        std::lock_guard<std::mutex> lock(mutex_);
+        std::unique_lock<std::mutex> lock(mutex_, std::defer_lock);
+        if (!locked) lock.lock();
         if (rec.state == JobState::queued) {
             // The record was read before the lock: a job not in the queue any more was taken
             // from its head meanwhile (it is starting), so its position is 0, never null.
@@ -281,6 +292,10 @@ json JobService::status_json(const JobRecord& rec) {
             const double budget = r.sample_budget;
             st.live_progress = api::JobProgress{budget > 0 ? std::min(1.0, double(r.samples.load()) / budget) : 0.0,
                                                 r.tiles_done.load(), r.tiles_total.load(), r.samples.load()};
+            if (rec.state == JobState::running) {
+                std::lock_guard<std::mutex> pass_lock(it->second->pass_mutex);
+                st.latest_pass = r.pass;
+            }
         }
     }
     if (!rec.report_json.empty()) st.summary = json::parse(rec.report_json, nullptr, false);
@@ -312,6 +327,7 @@ json JobService::cancel(const std::string& id) {
         }
         return status(id);
     }
+    bool canceled_queued = false;
     {
         std::lock_guard<std::mutex> lock(mutex_);
         for (auto it = queue_.begin(); it != queue_.end(); ++it)
@@ -319,12 +335,15 @@ json JobService::cancel(const std::string& id) {
                 // The store first: if it refuses (503), the job stays queued in both.
                 if (store_->finish(id, JobState::canceled, now_s(), "", "")) spdlog::info("job {} canceled while queued", id);
                 queue_.erase(it);
+                canceled_queued = true;
                 break;
             }
         auto r = running_.find(id);
         if (r != running_.end()) { r->second->cancel = true; r->second->stop = true; }
     }
-    return status(id);
+    json st = status(id);
+    if (canceled_queued) publish("state", st);  // a running job's ends when its worker stops it
+    return st;
 }
 
 void JobService::delete_results(const std::string& id) {
@@ -391,6 +410,7 @@ bool JobService::take_next(JobRecord& rec, std::shared_ptr<Running>& running) {
             continue;
         }
         running = std::make_shared<Running>();
+        running->rec = rec;
         running_[key.id] = running;
         return true;
     }
@@ -401,6 +421,7 @@ void JobService::worker() {
     std::shared_ptr<Running> running;
     while (take_next(rec, running)) {
         spdlog::info("job {} running (attempt {})", rec.id, rec.attempts);
+        publish("state", status_json(rec));
         try {
             run(rec, *running);
         } catch (const std::exception& e) {
@@ -408,8 +429,11 @@ void JobService::worker() {
         } catch (...) {
             spdlog::error("job {}: unknown exception", rec.id);
         }
-        std::lock_guard<std::mutex> lock(mutex_);
-        running_.erase(rec.id);
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            running_.erase(rec.id);
+        }
+        publish_state(rec.id);  // finished, failed, canceled, or queued again by a shutdown
     }
 }
 
@@ -451,6 +475,7 @@ void JobService::run(const JobRecord& rec, Running& running) {
         opt.prepare = [this](const std::string& source, const RenderSceneOptions& options) { return scenes_.get_local(source, options); };
         if (const auto* r = std::get_if<api::RenderJob>(&job)) {
             running.sample_budget = double(r->render.spp) * r->render.width * r->render.height;
+            running.max_spp = r->render.spp;
             if (!r->reference.empty()) opt.reference_image = (fs::path(job_dir(r->reference)) / "image.exr").string();
         }
         const std::string dir = job_dir(rec.id);
@@ -461,12 +486,33 @@ void JobService::run(const JobRecord& rec, Running& running) {
             running.tiles_done = p.tiles_done;
             running.tiles_total = p.tiles_total;
             running.samples = p.samples_done;
+            // At most four progress events a second: one render thread claims each slot.
+            const int64_t now = std::chrono::steady_clock::now().time_since_epoch().count();
+            int64_t last = running.progress_event_ns.load();
+            if (now - last >= 250'000'000 && running.progress_event_ns.compare_exchange_strong(last, now))
+                publish("progress", status_json(running.rec));
+        };
+        cb.pass = [&](const api::PassSnapshot& snap) {
+            api::PassSummary ps{snap.index, snap.spp, snap.point.spp_mean, snap.point.seconds, snap.point.est_rel_mse,
+                                snap.point.rel_mse};
+            {
+                std::lock_guard<std::mutex> lock(running.pass_mutex);
+                running.pass = ps;
+                running.pass_image = snap.image;
+            }
+            publish("pass", status_json(running.rec), &ps);
         };
         outcome = api::run_job(job, opt, api::RunOutputs::in_directory(dir), cb);
     } catch (const SceneError& e) {
         error = std::string("scene: ") + e.what();
     } catch (const std::exception& e) {
         error = e.what();
+    }
+    {
+        // From here the job's state becomes final: its images are its results, not a pass.
+        std::lock_guard<std::mutex> lock(running.pass_mutex);
+        running.pass.reset();
+        running.pass_image.reset();
     }
     if (error.empty() && outcome.stopped) {
         if (running.shutdown) {
@@ -490,6 +536,81 @@ void JobService::run(const JobRecord& rec, Running& running) {
     if (until_stored(rec.id, "succeeded", [&] { store_->finish(rec.id, JobState::succeeded, now_s(), "", summary); }))
         spdlog::info("job {} succeeded in {:.3f} s", rec.id,
                      outcome.render ? outcome.render->timings.total_s : 0.0);
+}
+
+std::optional<JobService::LivePass> JobService::live_pass(const std::string& id) {
+    std::shared_ptr<Running> r;
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        auto it = running_.find(id);
+        if (it == running_.end()) return std::nullopt;
+        r = it->second;
+    }
+    std::lock_guard<std::mutex> lock(r->pass_mutex);
+    if (!r->pass || !r->pass_image) return std::nullopt;
+    return LivePass{*r->pass, r->pass_image, r->max_spp};
+}
+
+void JobService::publish(const char* type, const json& status, const api::PassSummary* pass) {
+    json data = {{"job", status}};
+    if (pass) data["pass"] = api::to_json(*pass);
+    events_.publish(type, status.value("id", ""), data.dump());
+}
+
+void JobService::publish_state(const std::string& id) {
+    try {
+        publish("state", status(id));
+    } catch (const std::exception& e) {
+        spdlog::warn("job {}: no state event: {}", id, e.what());
+    }
+}
+
+void JobService::watch_farm() {
+    // What each job looked like at the last look: its state and samples.
+    std::map<std::string, std::pair<std::string, uint64_t>> seen;
+    bool watching = false;
+    for (;;) {
+        {
+            std::unique_lock<std::mutex> lock(mutex_);
+            if (pause_cv_.wait_for(lock, std::chrono::milliseconds(300), [&] { return stopping_; })) return;
+        }
+        if (events_.subscribers() == 0) {
+            watching = false;
+            seen.clear();
+            continue;
+        }
+        try {
+            std::map<std::string, std::pair<std::string, uint64_t>> now;
+            std::map<std::string, json> statuses;
+            auto look = [&](const std::vector<JobRecord>& records) {
+                for (const JobRecord& r : records) {
+                    if (now.count(r.id)) continue;
+                    json s = status_json(r);
+                    now[r.id] = {s["state"].get<std::string>(), s["progress"].value("samples_done", uint64_t(0))};
+                    statuses[r.id] = std::move(s);
+                }
+            };
+            // Every unfinished job, and the newest ones: a job that came and went between two
+            // looks is among those.
+            look(store_->list(JobState::queued, 0, 1000));
+            look(store_->list(JobState::running, 0, 1000));
+            look(store_->list(std::nullopt, 0, 50));
+            // Unfinished before, out of sight now: it finished and older jobs are newer.
+            for (const auto& [id, before] : seen)
+                if (!now.count(id) && (before.first == "queued" || before.first == "running")) publish_state(id);
+            if (watching)
+                for (const auto& [id, state] : now) {
+                    auto it = seen.find(id);
+                    if (it == seen.end()) publish(state.first == "queued" ? "created" : "state", statuses[id]);
+                    else if (it->second.first != state.first) publish("state", statuses[id]);
+                    else if (it->second.second != state.second) publish("progress", statuses[id]);
+                }
+            seen = std::move(now);
+            watching = true;
+        } catch (const std::exception& e) {
+            spdlog::warn("events: cannot read the farm's jobs: {}", e.what());
+        }
+    }
 }
 
 }  // namespace tessera::server

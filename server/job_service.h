@@ -20,6 +20,8 @@
 
 #include "api/job.h"
 #include "api/job_status.h"
+#include "engine/render/image.h"
+#include "server/job_events.h"
 #include "server/job_store.h"
 #include "server/redis_job_store.h"
 #include "server/render_node.h"
@@ -69,6 +71,16 @@ public:
     void delete_results(const std::string& id);    // throws Problem 404 / 409
     // The path of a finished job's result file ("image.png", ...); throws Problem 404/409/410.
     std::string result_path(const std::string& id, const std::string& file);
+    // A running job's latest finished pass (its image and error), rendered in this process;
+    // nothing for other jobs, before the first pass, and in a farm (no one process holds it).
+    struct LivePass {
+        api::PassSummary pass;
+        std::shared_ptr<const Image> image;
+        int max_spp = 0;  // the job's spp: the rate map's scale
+    };
+    std::optional<LivePass> live_pass(const std::string& id);
+    // What GET /v1/events streams: job created, state changed, progress, pass finished.
+    JobEvents& events() { return events_; }
 
     // Stops accepting jobs; running renders are interrupted and their jobs re-queued in the
     // store (they run again after a restart). Blocks until the workers have stopped.
@@ -93,6 +105,12 @@ private:
         std::atomic<size_t> tiles_done{0}, tiles_total{0};
         std::atomic<uint64_t> samples{0};
         std::atomic<double> sample_budget{0};  // spp × pixels: progress is samples over this
+        JobRecord rec;                          // as it started: its status while it runs
+        std::atomic<int64_t> progress_event_ns{0};  // when progress was last published
+        std::mutex pass_mutex;
+        std::optional<api::PassSummary> pass;   // the latest finished pass, and its image
+        std::shared_ptr<const Image> pass_image;
+        int max_spp = 0;
     };
     struct QueueKey {
         int priority;
@@ -109,7 +127,15 @@ private:
     // with back-off); false if the service stops first.
     bool until_stored(const std::string& id, const char* what, const std::function<void()>& change);
     nlohmann::json enqueue(const api::Job& job);
-    nlohmann::json status_json(const JobRecord& rec);
+    // `locked`: the caller holds mutex_.
+    nlohmann::json status_json(const JobRecord& rec, bool locked = false);
+    // One event for every subscriber of /v1/events: the job's status, and a pass when given.
+    void publish(const char* type, const nlohmann::json& status, const api::PassSummary* pass = nullptr);
+    // The job's status as stored now, published (a state change); store errors are logged only.
+    void publish_state(const std::string& id);
+    // A farm's API node does not run the jobs: it turns changes it sees in the store into
+    // events while someone listens.
+    void watch_farm();
     std::string job_dir(const std::string& id) const;
     std::string scene_source(const std::string& scene);
     void publish_scene(const std::string& id, const std::string& scene);
@@ -130,6 +156,8 @@ private:
     std::atomic<bool> accepting_{true};
     bool stopping_ = false;
     std::vector<std::thread> workers_;
+    JobEvents events_;
+    std::thread farm_watch_;
 };
 
 }  // namespace tessera::server

@@ -5,6 +5,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 namespace tessera {
@@ -17,10 +18,18 @@ float srgb_encode(float v) {
 
 float cs184_encode(float v) { return std::clamp(std::pow(std::max(0.f, std::sqrt(2.f) * v), 1.f / 2.2f), 0.f, 1.f); }
 
-void write(const std::string& path, OIIO::ImageSpec spec, OIIO::TypeDesc type, const void* data, const Metadata& meta) {
+// Writes a file, or into `memory` through an I/O proxy (`path` then only names the format).
+void write(const std::string& path, OIIO::ImageSpec spec, OIIO::TypeDesc type, const void* data, const Metadata& meta,
+           std::vector<unsigned char>* memory = nullptr) {
     for (const auto& [k, v] : meta) spec.attribute(k, v);
     auto out = OIIO::ImageOutput::create(path);
     if (!out) throw std::runtime_error(path + ": cannot create an image writer: " + OIIO::geterror());
+    std::unique_ptr<OIIO::Filesystem::IOVecOutput> proxy;
+    if (memory) {
+        proxy = std::make_unique<OIIO::Filesystem::IOVecOutput>(*memory);
+        if (!out->supports("ioproxy") || !out->set_ioproxy(proxy.get()))
+            throw std::runtime_error(path + ": the writer cannot encode into memory");
+    }
     if (!out->open(path, spec)) throw std::runtime_error(path + ": " + out->geterror());
     if (!out->write_image(type, data)) throw std::runtime_error(path + ": " + out->geterror());
     if (!out->close()) throw std::runtime_error(path + ": " + out->geterror());
@@ -34,10 +43,11 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 
 }  // namespace
 
-std::vector<unsigned char> encode_srgb8(const Image& image, ToneCurve curve) {
+std::vector<unsigned char> encode_srgb8(const Image& image, ToneCurve curve, float gain) {
     std::vector<unsigned char> px(image.rgb.size());
     for (size_t i = 0; i < px.size(); ++i) {
-        const float v = curve == ToneCurve::srgb ? srgb_encode(image.rgb[i]) : cs184_encode(image.rgb[i]);
+        const float x = image.rgb[i] * gain;
+        const float v = curve == ToneCurve::srgb ? srgb_encode(x) : cs184_encode(x);
         px[i] = static_cast<unsigned char>(std::lround(v * 255.f));
     }
     return px;
@@ -56,14 +66,17 @@ std::vector<unsigned char> rate_colors8(const Image& image, int max_spp) {
 }
 
 // PNG, or any 8-bit format OIIO picks by the extension (the docs' figures are JPEG).
-void write_png(const std::string& path, const Image& image, ToneCurve curve, const Metadata& meta) {
-    const auto px = encode_srgb8(image, curve);
+namespace {
+
+void png_out(const std::string& path, const Image& image, ToneCurve curve, float gain, const Metadata& meta,
+             std::vector<unsigned char>* memory) {
+    const auto px = encode_srgb8(image, curve, gain);
     OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
     spec.attribute("oiio:ColorSpace", curve == ToneCurve::srgb ? "sRGB" : "CS184 gamma 2.2 with sqrt(2) exposure");
-    write(path, spec, OIIO::TypeDesc::UINT8, px.data(), meta);
+    write(path, spec, OIIO::TypeDesc::UINT8, px.data(), meta, memory);
 }
 
-void write_exr(const std::string& path, const Image& image, const Metadata& meta) {
+void exr_out(const std::string& path, const Image& image, const Metadata& meta, std::vector<unsigned char>* memory) {
     const size_t n = size_t(image.width) * image.height;
     std::vector<float> data(n * 4);
     for (size_t i = 0; i < n; ++i) {
@@ -75,7 +88,40 @@ void write_exr(const std::string& path, const Image& image, const Metadata& meta
     spec.alpha_channel = -1;  // the fourth channel is data, not coverage
     spec.attribute("oiio:ColorSpace", "Linear");
     spec.attribute("compression", "zip");
-    write(path, spec, OIIO::TypeDesc::FLOAT, data.data(), meta);
+    write(path, spec, OIIO::TypeDesc::FLOAT, data.data(), meta, memory);
+}
+
+void rate_out(const std::string& path, const Image& image, int max_spp, const Metadata& meta, std::vector<unsigned char>* memory) {
+    const auto px = rate_colors8(image, max_spp);
+    OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
+    spec.attribute("tessera:rate_scale", "blue = 0, green = 0.5, red = 1 x " + std::to_string(max_spp) + " samples per pixel");
+    write(path, spec, OIIO::TypeDesc::UINT8, px.data(), meta, memory);
+}
+
+}  // namespace
+
+void write_png(const std::string& path, const Image& image, ToneCurve curve, const Metadata& meta) {
+    png_out(path, image, curve, 1.f, meta, nullptr);
+}
+
+void write_exr(const std::string& path, const Image& image, const Metadata& meta) { exr_out(path, image, meta, nullptr); }
+
+std::vector<unsigned char> png_bytes(const Image& image, float exposure_ev) {
+    std::vector<unsigned char> bytes;
+    png_out("image.png", image, ToneCurve::srgb, std::exp2(exposure_ev), {}, &bytes);
+    return bytes;
+}
+
+std::vector<unsigned char> exr_bytes(const Image& image) {
+    std::vector<unsigned char> bytes;
+    exr_out("image.exr", image, {}, &bytes);
+    return bytes;
+}
+
+std::vector<unsigned char> rate_png_bytes(const Image& image, int max_spp) {
+    std::vector<unsigned char> bytes;
+    rate_out("rate.png", image, max_spp, {}, &bytes);
+    return bytes;
 }
 
 void write_image(const std::string& path, const Image& image, const Metadata& meta) {
@@ -85,10 +131,7 @@ void write_image(const std::string& path, const Image& image, const Metadata& me
 }
 
 void write_rate_png(const std::string& path, const Image& image, int max_spp, const Metadata& meta) {
-    const auto px = rate_colors8(image, max_spp);
-    OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
-    spec.attribute("tessera:rate_scale", "blue = 0, green = 0.5, red = 1 x " + std::to_string(max_spp) + " samples per pixel");
-    write(path, spec, OIIO::TypeDesc::UINT8, px.data(), meta);
+    rate_out(path, image, max_spp, meta, nullptr);
 }
 
 Image read_image(const std::string& path) {

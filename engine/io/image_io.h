@@ -25,8 +25,14 @@ void write_image(const std::string& path, const Image& image, const Metadata& me
 // CS184 colours; the scale is stated in the file's metadata.
 void write_rate_png(const std::string& path, const Image& image, int max_spp, const Metadata& meta = {});
 
-// 8-bit encodings, exposed for tests and the server.
-std::vector<unsigned char> encode_srgb8(const Image& image, ToneCurve curve);
+// The same encodings in memory (a server answering with a running job's latest pass, or a
+// finished one at another exposure): `exposure_ev` scales the linear values by 2^EV first.
+std::vector<unsigned char> png_bytes(const Image& image, float exposure_ev = 0.f);
+std::vector<unsigned char> exr_bytes(const Image& image);
+std::vector<unsigned char> rate_png_bytes(const Image& image, int max_spp);
+
+// 8-bit encodings, exposed for tests and the server; `gain` multiplies the linear values.
+std::vector<unsigned char> encode_srgb8(const Image& image, ToneCurve curve, float gain = 1.f);
 std::vector<unsigned char> rate_colors8(const Image& image, int max_spp);
 
 // Reads a float RGB image (EXR or anything OIIO reads) as linear RGB; throws on failure.

@@ -85,7 +85,7 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
         else pt.spp_mean = double(samples_done.load()) / (double(settings.width) * settings.height);
         pt.seconds = elapsed();
         result.curve.points.push_back(pt);
-        if (callbacks.on_pass) callbacks.on_pass(pt);
+        if (callbacks.on_pass) callbacks.on_pass(PassView{pass, target, pt, film});
         if (const auto stop = stop_after_pass(settings, plan, film, target, pt, stop_time, stop_cancel)) {
             result.curve.stop = *stop;
             break;

@@ -37,14 +37,26 @@ struct RenderProgress {
     uint64_t samples_done = 0;
 };
 
+struct Film;
+
+// What a finished pass shows: its number (0 first), its per-pixel sample target, its error point
+// and the film as it stands (valid during the call only: the next pass adds to it).
+struct PassView {
+    int index = 0;
+    int spp = 0;
+    const ConvergencePoint& point;
+    const Film& film;
+};
+
 struct RenderCallbacks {
     // Called after each tile from the worker that finished it (keep it cheap and thread-safe).
     std::function<void(const RenderProgress&)> progress;
     // Checked between tiles: a set flag stops the render after the pass it is in (pixels keep
     // the samples they have).
     const std::atomic<bool>* cancel = nullptr;
-    // Called after every pass with the error so far.
-    std::function<void(const ConvergencePoint&)> on_pass;
+    // Called after every pass from the calling thread, with the error so far and the film (a
+    // server shows a running job's latest pass from it).
+    std::function<void(const PassView&)> on_pass;
     // An image of the same size to measure the error against (converged render); optional.
     const Image* reference = nullptr;
 };

@@ -74,8 +74,10 @@ async function call(method, path, {body, type, auth = true, headers = {}} = {}) 
   const resp = resolve(entry.op.responses[String(r.status)] ?? entry.op.responses.default);
   if (!resp) { fail(`${where}: status not documented for ${id}`); return {status: r.status, text, headers: r.headers}; }
   if (!entry.op.responses[String(r.status)]) fail(`${where}: only 'default' documents this status for ${id}`);
-  for (const name of Object.keys(resp.headers ?? {}))
-    if (!r.headers.get(name)) fail(`${where}: header ${name} missing`);
+  // A documented header must be there unless the spec marks it `required: false` (sent only in
+  // some cases, which the caller checks).
+  for (const [name, h] of Object.entries(resp.headers ?? {}))
+    if (h.required !== false && !r.headers.get(name)) fail(`${where}: header ${name} missing`);
   if (resp.content) {
     const media = Object.entries(resp.content).find(([k]) => k.split(';')[0].trim() === ctype);
     if (!media) fail(`${where}: Content-Type '${ctype}' not among ${Object.keys(resp.content).join(', ')}`);
@@ -84,6 +86,68 @@ async function call(method, path, {body, type, auth = true, headers = {}} = {}) 
     fail(`${where}: a body where the spec documents none`);
   }
   return {status: r.status, text, headers: r.headers};
+}
+
+// A Server-Sent Events stream: the answer's status and type are checked like any other; then
+// events are read until `enough` says so (or 20 s pass), each one's data validated against
+// JobEvent, and the stream is dropped.
+async function stream(path, {headers = {}, auth = true, enough = () => true, during = async () => {}} = {}) {
+  const ac = new AbortController();
+  const h = {...headers};
+  if (auth) h.Authorization = 'Bearer ' + token;
+  const r = await fetch(base + path, {headers: h, signal: ac.signal});
+  const where = `GET ${path} → ${r.status}`;
+  const entry = operations.find((o) => o.method === 'get' && o.re.test(path.split('?')[0]));
+  const id = entry.op.operationId;
+  if (!seen.has(id)) seen.set(id, new Set());
+  seen.get(id).add(r.status);
+  if (!entry.op.responses[String(r.status)]) fail(`${where}: status not documented for ${id}`);
+  const ctype = (r.headers.get('content-type') || '').split(';')[0].trim();
+  if (r.status !== 200) {
+    const text = await r.text();
+    if (ctype !== 'application/problem+json') fail(`${where}: not a problem`);
+    else validate(spec.components.schemas.Problem, text, where);
+    return {status: r.status, events: [], text};
+  }
+  if (ctype !== 'text/event-stream') fail(`${where}: Content-Type '${ctype}'`);
+  const events = [];
+  const reader = r.body.getReader();
+  const decoder = new TextDecoder();
+  let pending = '';
+  const timer = setTimeout(() => ac.abort(), 20000);
+  let acted = false;
+  try {
+    while (!enough(events)) {
+      const {value, done} = await reader.read();
+      if (done) break;
+      pending += decoder.decode(value, {stream: true});
+      let cut;
+      while ((cut = pending.indexOf('\n\n')) >= 0) {
+        const block = pending.slice(0, cut);
+        pending = pending.slice(cut + 2);
+        const e = {};
+        for (const line of block.split('\n')) {
+          if (!line || line.startsWith(':')) continue;
+          const i = line.indexOf(':');
+          const field = i < 0 ? line : line.slice(0, i);
+          const value = i < 0 ? '' : line.slice(i + 1).replace(/^ /, '');
+          if (field === 'data') e.data = (e.data ?? '') + value;
+          else e[field] = value;
+        }
+        if (!e.event) continue;
+        events.push(e);
+        if (e.event !== 'reset') validate(spec.components.schemas.JobEvent, e.data, `${where} event ${e.event}`);
+      }
+      if (!acted) { acted = true; await during(); }
+    }
+  } catch (err) {
+    if (err.name !== 'AbortError') throw err;
+    fail(`${where}: the stream did not deliver what was expected in 20 s`);
+  } finally {
+    clearTimeout(timer);
+    ac.abort();
+  }
+  return {status: r.status, events, text: ''};
 }
 
 function validate(schema, text, where) {
@@ -110,6 +174,30 @@ async function waitState(id, states) {
 
 const small = {scene: 'cornell_box', width: 32, height: 24, spp: 4};
 const long = {scene: 'cornell_box', width: 400, height: 300, spp: 65536, max_depth: 5};
+
+// The web page and the schema its form is built from.
+expect(await call('GET', '/', {auth: false}), 200, 'the page, without a token');
+expect(await call('GET', '/ui/app.js', {auth: false}), 200, 'a script of the page');
+expect(await call('GET', '/ui/style.css', {auth: false}), 200, 'the style of the page');
+expect(await call('GET', '/ui/no-such-file.js', {auth: false}), 404, 'a file the page does not have');
+expect(await call('GET', '/v1/job-schema'), 200, 'the job schema');
+
+// Events: a job submitted while the stream is open is seen created; a job filter that names
+// no job is 404; an id this server never gave out gets a reset.
+{
+  let created = null;
+  const {events} = await stream('/v1/events', {
+    enough: (ev) => created && ev.some((e) => e.event === 'created' && JSON.parse(e.data).job.id === created),
+    during: async () => { created = json(await call('POST', '/v1/jobs', {body: small})).id; },
+  });
+  if (!events.some((e) => e.event === 'created')) fail('no created event');
+  const last = events[events.length - 1];
+  const resumed = await stream(`/v1/events?job=${created}`, {headers: {'Last-Event-ID': last.id}, enough: (ev) => ev.some((e) => e.event === 'state' && JSON.parse(e.data).job.state === 'succeeded')});
+  if (resumed.events.some((e) => JSON.parse(e.data).job.id !== created)) fail('a job filter let another job through');
+  expect(await stream('/v1/events?job=0123456789abcdef'), 404, 'events of an unknown job');
+  const reset = await stream('/v1/events', {headers: {'Last-Event-ID': '1'}, enough: (ev) => ev.length > 0});
+  if (reset.events[0]?.event !== 'reset') fail(`a foreign Last-Event-ID: ${JSON.stringify(reset.events[0])}`);
+}
 
 // Operations and health.
 expect(await call('GET', '/healthz', {auth: false}), 200, 'health without a token');
@@ -145,15 +233,37 @@ const failed = await waitState(broken.id, ['failed', 'succeeded']);
 if (failed?.state !== 'failed' || !String(failed.error).includes(brokenScene)) fail(`a job on a broken scene: ${JSON.stringify(failed)}`);
 for (const f of files) expect(await call('GET', `/v1/jobs/${broken.id}/${f}`), 410, `${f} of a failed job`);
 
-// A running job: its files are not there yet (409), its results cannot be deleted (409).
+// A running job: its report is not there yet (409), its results cannot be deleted (409); its
+// images are 409 before its first pass and that pass, marked, after it.
 const running = json(expect(await call('POST', '/v1/jobs', {body: long}), 202, 'submit a long job'));
-for (const f of files) expect(await call('GET', `/v1/jobs/${running.id}/${f}`), 409, `${f} of an unfinished job`);
+for (const f of files.slice(3)) expect(await call('GET', `/v1/jobs/${running.id}/${f}`), 409, `${f} of an unfinished job`);
 expect(await call('DELETE', `/v1/jobs/${running.id}/results`), 409, 'delete results of an unfinished job');
+for (let i = 0; i < 600; i++) {
+  const s = json(await call('GET', `/v1/jobs/${running.id}`));
+  if (s.latest_pass) break;
+  await sleep(20);
+}
+for (const f of files.slice(0, 3)) {
+  const r = expect(await call('GET', `/v1/jobs/${running.id}/${f}`), 200, `${f} of a running job's latest pass`);
+  if (!r.headers.get('x-tessera-pass') || !r.headers.get('x-tessera-pass-spp')) fail(`${f} of a running job: no X-Tessera-Pass headers`);
+}
 expect(await call('DELETE', `/v1/jobs/${running.id}`), 200, 'cancel');
+const blocker = json(expect(await call('POST', '/v1/jobs', {body: {...long, seed: 98}}), 202, 'a job that runs'));
+const unstarted = json(expect(await call('POST', '/v1/jobs', {body: {...long, seed: 99}}), 202, 'a job behind it'));
+for (const f of files) expect(await call('GET', `/v1/jobs/${unstarted.id}/${f}`), 409, `${f} of a queued job`);
+await call('DELETE', `/v1/jobs/${unstarted.id}`);
+await call('DELETE', `/v1/jobs/${blocker.id}`);
 
 // A finished job: every file, then deleted (204) and gone (410).
 await waitState(job.id, ['succeeded']);
-for (const f of files) expect(await call('GET', `/v1/jobs/${job.id}/${f}`), 200, f);
+for (const f of files) {
+  const r = expect(await call('GET', `/v1/jobs/${job.id}/${f}`), 200, f);
+  if (r.headers.get('x-tessera-pass')) fail(`${f} of a finished job carries X-Tessera-Pass`);
+}
+expect(await call('GET', `/v1/jobs/${job.id}/image.png?exposure=1.5`), 200, 'another exposure');
+expect(await call('GET', `/v1/jobs/${job.id}/image.png?exposure=99`), 400, 'an exposure out of range');
+expect(await call('GET', `/v1/jobs/${job.id}/image.exr?exposure=1`), 400, 'exposure on the EXR');
+expect(await call('GET', `/v1/jobs/${job.id}/rate.png?exposure=1`), 400, 'exposure on the rate map');
 expect(await call('DELETE', `/v1/jobs/${job.id}/results`), 204, 'delete results');
 for (const f of files) expect(await call('GET', `/v1/jobs/${job.id}/${f}`), 410, `${f} after deletion`);
 

@@ -1,6 +1,7 @@
 // The HTTP API against a real server started in-process on an ephemeral port.
 #include "server/http_api.h"
 #include "server/sqlite_job_store.h"
+#include "tests/server/server_fixture.h"
 
 #include <gtest/gtest.h>
 #include <httplib.h>
@@ -28,95 +29,6 @@ namespace {
 
 using nlohmann::json;
 namespace fs = std::filesystem;
-
-// A long render: cancellation and priorities need a job that is still running.
-const json kLongJob = {{"scene", "builtin:cornell_spheres"}, {"width", 400}, {"height", 300}, {"spp", 4096}, {"max_depth", 5}, {"tile_size", 16}};
-const json kSmallJob = {{"scene", "builtin:cornell_box"}, {"width", 32}, {"height", 24}, {"spp", 2}};
-
-class Server : public ::testing::Test {
-protected:
-    void start(size_t max_queued = 1000, int64_t max_store_bytes = 0) {
-        dir_ = fs::temp_directory_path() / ("tessera_http_" + std::to_string(::getpid()) + "_" +
-                                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-        fs::remove_all(dir_);
-        ServiceConfig cfg;
-        cfg.data_dir = dir_.string();
-        cfg.project_scenes = TESSERA_PROJECT_SCENES;
-        cfg.render_threads = 2;
-        cfg.max_queued = max_queued;
-        cfg.max_store_bytes = max_store_bytes;
-        cfg.scene_dirs = scene_dirs_;
-        service_ = std::make_unique<JobService>(cfg);
-        std::ofstream(dir_ / "openapi.yaml") << "openapi: 3.0.3\n";
-        api_ = std::make_unique<HttpApi>(*service_, limits_, (dir_ / "openapi.yaml").string());
-        port_ = api_->bind("127.0.0.1", 0);
-        thread_ = std::thread([this] { api_->serve(); });
-        client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
-        client_->set_read_timeout(30, 0);
-        for (int i = 0; i < 100 && !client_->Get("/healthz"); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    void TearDown() override {
-        if (service_) service_->shutdown();
-        if (api_) api_->stop();
-        if (thread_.joinable()) thread_.join();
-        api_.reset();
-        service_.reset();
-        std::error_code ec;
-        fs::remove_all(dir_, ec);
-    }
-    httplib::Result post_job(const json& j) { return client_->Post("/v1/jobs", j.dump(), "application/json"); }
-    std::string submit(const json& j) {
-        auto r = post_job(j);
-        EXPECT_TRUE(r);
-        EXPECT_EQ(r->status, 202) << r->body;
-        return json::parse(r->body)["id"];
-    }
-    json status(const std::string& id) {
-        auto r = client_->Get("/v1/jobs/" + id);
-        EXPECT_TRUE(r && r->status == 200);
-        return json::parse(r->body);
-    }
-    json wait_state(const std::string& id, const std::vector<std::string>& states, double timeout_s = 60) {
-        const auto t0 = std::chrono::steady_clock::now();
-        for (;;) {
-            json s = status(id);
-            for (const auto& st : states) if (s["state"] == st) return s;
-            if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > timeout_s) {
-                ADD_FAILURE() << "timed out waiting for " << id << ": " << s.dump();
-                return s;
-            }
-            std::this_thread::sleep_for(std::chrono::milliseconds(20));
-        }
-    }
-    void expect_problem(const httplib::Result& r, int status, const std::string& field = "") {
-        ASSERT_TRUE(r);
-        EXPECT_EQ(r->status, status) << r->body;
-        EXPECT_EQ(r->get_header_value("Content-Type"), "application/problem+json") << r->body;
-        const json p = json::parse(r->body, nullptr, false);
-        ASSERT_FALSE(p.is_discarded()) << r->body;
-        EXPECT_EQ(p["status"], status);
-        EXPECT_TRUE(p.contains("type") && p.contains("title") && p.contains("detail")) << r->body;
-        if (!field.empty()) {
-            EXPECT_EQ(p.value("field", ""), field) << r->body;
-        }
-    }
-
-    static HttpLimits test_limits() {
-        HttpLimits limits;
-        limits.max_job_body = 4096;
-        limits.max_upload = 1 << 20;
-        return limits;
-    }
-
-    HttpLimits limits_ = test_limits();  // a test may change them before start()
-    std::vector<std::string> scene_dirs_;
-    fs::path dir_;
-    std::unique_ptr<JobService> service_;
-    std::unique_ptr<HttpApi> api_;
-    std::unique_ptr<httplib::Client> client_;
-    std::thread thread_;
-    int port_ = 0;
-};
 
 TEST_F(Server, JobLifecycleAndResults) {
     start();

@@ -1,0 +1,206 @@
+// The web page in Debian's Chromium, headless, as a user works it: give the token, submit a
+// job through the form and watch it converge pass by pass, look at the image, the sample-rate
+// map, zoom and exposure, the convergence plot; cancel a second job from the queue; see the
+// API's error beside a bad field; compare two jobs; all at 1280×800 and again at a phone's
+// width. Every request must go to the server under test (nothing from other hosts), and the
+// page must log no script error.
+//
+//   node page_test.mjs BASE_URL TOKEN CHROMIUM SCREENSHOT_DIR
+import {chromium} from 'playwright-core';
+
+const [base, token, executablePath, shots] = process.argv.slice(2);
+if (!shots) {
+  console.error('usage: node page_test.mjs BASE_URL TOKEN CHROMIUM SCREENSHOT_DIR');
+  process.exit(2);
+}
+
+let failures = 0;
+const fail = (msg) => { failures++; console.log('FAIL ' + msg); };
+const check = (ok, msg) => { if (!ok) fail(msg); else console.log('ok   ' + msg); };
+const api = async (method, path, body) => {
+  const r = await fetch(base + path, {method, headers: {Authorization: 'Bearer ' + token, ...(body ? {'Content-Type': 'application/json'} : {})},
+                                      body: body ? JSON.stringify(body) : undefined});
+  return {status: r.status, body: r.status === 204 ? null : await r.json()};
+};
+const waitState = async (id, states, seconds = 60) => {
+  for (let i = 0; i < seconds * 20; i++) {
+    const s = (await api('GET', `/v1/jobs/${id}`)).body;
+    if (states.includes(s.state)) return s;
+    await new Promise((r) => setTimeout(r, 50));
+  }
+  throw new Error(`job ${id} never reached ${states}`);
+};
+
+// The flags Debian's Chromium needs here: root (no sandbox), no GPU, and none of its own
+// calls home, which this machine's closed network would refuse.
+const browser = await chromium.launch({
+  executablePath, headless: true,
+  args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
+         '--disable-component-update', '--disable-sync', '--disable-dev-shm-usage'],
+});
+const context = await browser.newContext({viewport: {width: 1280, height: 800}});
+const foreign = [];
+await context.route('**/*', (route) => {
+  const url = route.request().url();
+  if (url.startsWith(base + '/') || url.startsWith('blob:') || url.startsWith('data:')) return route.continue();
+  foreign.push(url);
+  return route.abort();
+});
+const page = await context.newPage();
+const errors = [];
+page.on('pageerror', (e) => errors.push(`page error: ${e.message}`));
+page.on('console', (m) => {
+  // A refused request shows in the console as a failed resource; those the test provokes
+  // (401 before the token, 400 for the bad field) are expected. Script errors are not.
+  if (m.type() === 'error' && !/Failed to load resource: the server responded with a status of (400|401|404|409)/.test(m.text()))
+    errors.push(`console: ${m.text()}`);
+});
+const requests = [];
+page.on('request', (r) => requests.push(r.url()));
+const shot = (name, fullPage = false) => page.screenshot({path: `${shots}/web_${name}.png`, fullPage});
+
+try {
+  // 1. The token: the server asks for one, the page asks the user.
+  await page.goto(base + '/');
+  await page.waitForSelector('#token-form', {state: 'visible', timeout: 10000});
+  await page.fill('#token-input', token);
+  await page.press('#token-input', 'Enter');
+  await page.waitForSelector('#queue', {timeout: 10000});
+  check(await page.isHidden('#token-form').catch(() => true), 'the token form goes once the token is taken');
+
+  // Jobs the compare view and the queue will show.
+  const a = (await api('POST', '/v1/jobs', {scene: 'cornell_spheres', width: 96, height: 72, spp: 8, max_depth: 3})).body.id;
+  const b = (await api('POST', '/v1/jobs', {scene: 'cornell_spheres', width: 96, height: 72, spp: 64, max_depth: 3})).body.id;
+  await waitState(a, ['succeeded']);
+  await waitState(b, ['succeeded']);
+
+  // 2. Submit through the form; the job's page follows it pass by pass.
+  await page.click('#nav-submit');
+  await page.waitForSelector('#submit-form');
+  await page.waitForFunction(() => [...document.querySelectorAll('#field-scene option')].some((o) => o.value === 'cornell_spheres'));
+  const labelled = await page.evaluate(() => [...document.querySelectorAll('#submit-form input, #submit-form select, #submit-form textarea')]
+    .filter((c) => c.type !== 'hidden' && c.type !== 'submit' && !(c.labels && c.labels.length) && !c.getAttribute('aria-label') && !c.getAttribute('aria-labelledby'))
+    .map((c) => c.id || c.name));
+  check(labelled.length === 0, `every form field has a label (unlabelled: ${labelled.join(', ')})`);
+  await page.selectOption('#field-scene', 'cornell_spheres');
+  await page.fill('#field-width', '160');
+  await page.fill('#field-height', '120');
+  await page.fill('#field-spp', '1024');
+  await page.fill('#field-max_depth', '4');
+  await shot('submit');
+  await page.click('#submit-button');
+  await page.waitForURL(/#\/jobs\/[0-9a-f]{16}/, {timeout: 10000});
+  const id = page.url().match(/#\/jobs\/([0-9a-f]{16})/)[1];
+  const status = (await api('GET', `/v1/jobs/${id}`)).body;
+  check(status.settings.spp === 1024 && status.settings.width === 160 && status.settings.max_depth === 4, 'the form sent the values typed');
+  await page.waitForSelector('#job-view');
+  await page.waitForFunction(() => /^\d+$/.test(document.querySelector('#job-image')?.dataset.pass ?? ''), null, {timeout: 30000});
+  const passShown = await page.getAttribute('#job-image', 'data-pass');
+  check(Number(passShown) >= 0, `a running job shows a pass image (pass ${passShown})`);
+  await page.waitForFunction(() => document.querySelector('#job-view')?.dataset.state === 'succeeded', null, {timeout: 120000});
+  await page.waitForFunction(() => document.querySelector('#job-image')?.dataset.pass === 'final', null, {timeout: 10000});
+  const passesSeen = requests.filter((u) => u.includes(`/v1/jobs/${id}/image.png`)).length;
+  check(passesSeen >= 2, `the image was fetched again as passes finished (${passesSeen} fetches)`);
+  const natural = await page.evaluate(() => {
+    const img = document.querySelector('#job-image');
+    return img.complete ? [img.naturalWidth, img.naturalHeight] : null;
+  });
+  check(natural && natural[0] === 160 && natural[1] === 120, `the final image is shown (${natural})`);
+  await page.waitForFunction(() => document.querySelectorAll('#convergence-plot path, #convergence-plot polyline, #convergence-plot circle').length > 0, null, {timeout: 10000});
+  check(true, 'the convergence plot is drawn');
+  check(await page.getAttribute('#download-png', 'href') !== null, 'a PNG download link');
+  check(await page.getAttribute('#download-exr', 'href') !== null, 'an EXR download link');
+  check(await page.getAttribute('#download-report', 'href') !== null, 'a report download link');
+  await shot('job', true);
+
+  // The sample-rate map, zoom to pixels, exposure.
+  const before = await page.getAttribute('#job-image', 'src');
+  await page.click('#show-rate');
+  await page.waitForFunction((old) => document.querySelector('#job-image').src !== old && document.querySelector('#job-image').complete, before, {timeout: 10000});
+  check(requests.some((u) => u.includes(`/v1/jobs/${id}/rate.png`)), 'the rate map is fetched');
+  await shot('rate');
+  await page.click('#show-rate');
+  await page.selectOption('#zoom', {index: (await page.$$eval('#zoom option', (o) => o.length)) - 1});
+  const shownWidth = await page.evaluate(() => document.querySelector('#job-image').getBoundingClientRect().width);
+  check(shownWidth >= 160 * 4 - 1, `zoom enlarges the pixels (${shownWidth} px wide for 160)`);
+  await page.$eval('#exposure', (e) => { e.value = '2'; e.dispatchEvent(new Event('input', {bubbles: true})); e.dispatchEvent(new Event('change', {bubbles: true})); });
+  await page.waitForFunction((jid) => performance.getEntriesByType('resource').some((r) => r.name.includes(`/v1/jobs/${jid}/image.png?exposure=2`)), id, {timeout: 10000})
+    .catch(() => {});
+  check(requests.some((u) => u.includes(`/v1/jobs/${id}/image.png?exposure=2`)), 'the exposure control asks for the image at +2 EV');
+
+  // 3. A field error from the API beside its field: within the schema's bounds, past the
+  //    server's pixel limit (the problem names /width).
+  await page.click('#nav-submit');
+  await page.waitForSelector('#submit-form');
+  await page.waitForFunction(() => [...document.querySelectorAll('#field-scene option')].some((o) => o.value === 'cornell_spheres'));
+  await page.selectOption('#field-scene', 'cornell_spheres');
+  await page.fill('#field-width', '400');
+  await page.fill('#field-height', '400');
+  await page.click('#submit-button');
+  await page.waitForFunction(() => (document.querySelector('#error-width')?.textContent ?? '').trim().length > 0, null, {timeout: 10000});
+  check(/pixel|width/i.test(await page.textContent('#error-width')), `the API's problem shows beside width: "${(await page.textContent('#error-width')).trim()}"`);
+  check(await page.getAttribute('#field-width', 'aria-invalid') === 'true', 'the field is marked invalid');
+  await shot('field_error');
+
+  // 4. Cancel a second job from the queue while the first one runs.
+  const blocker = (await api('POST', '/v1/jobs', {scene: 'cornell_spheres', width: 200, height: 150, spp: 4096, max_depth: 5})).body.id;
+  const second = (await api('POST', '/v1/jobs', {scene: 'cornell_spheres', width: 200, height: 150, spp: 65536, max_depth: 5, seed: 7})).body.id;
+  await page.click('#nav-queue');
+  await page.waitForSelector(`#queue tr[data-job-id="${second}"]`, {timeout: 10000});
+  await page.waitForFunction((bid) => document.querySelector(`#queue tr[data-job-id="${bid}"]`)?.dataset.state === 'running', blocker, {timeout: 10000});
+  await page.waitForFunction((bid) => { const p = document.querySelector(`#queue tr[data-job-id="${bid}"] progress`); return p && p.value / (p.max || 1) >= 0.02; }, blocker, {timeout: 60000});
+  check(true, 'the running job shows progress in the queue');
+  await shot('queue');
+  await page.click(`#queue tr[data-job-id="${second}"] button[data-action="cancel"]`);
+  await page.waitForFunction((sid) => document.querySelector(`#queue tr[data-job-id="${sid}"]`)?.dataset.state === 'canceled', second, {timeout: 10000});
+  check((await api('GET', `/v1/jobs/${second}`)).body.state === 'canceled', 'the queue cancels a job');
+  await api('DELETE', `/v1/jobs/${blocker}`);
+  await page.waitForFunction((bid) => document.querySelector(`#queue tr[data-job-id="${bid}"]`)?.dataset.state === 'canceled', blocker, {timeout: 10000});
+  check(true, 'a job canceled elsewhere shows canceled (event stream)');
+
+  // 5. Compare two finished jobs, side by side and with the slider; both curves on one plot.
+  await page.goto(`${base}/#/compare?a=${a}&b=${b}`);
+  await page.waitForSelector('#compare-a');
+  await page.waitForFunction(() => document.querySelector('#compare-a').value && document.querySelector('#compare-b').value, null, {timeout: 10000});
+  check(await page.inputValue('#compare-a') === a && await page.inputValue('#compare-b') === b, 'the compare view takes its jobs from the address');
+  await page.waitForFunction(() => document.querySelectorAll('#compare-plot path, #compare-plot polyline').length >= 2, null, {timeout: 10000});
+  check(true, 'both convergence curves on one plot');
+  await shot('compare');
+  await page.selectOption('#compare-mode', 'slider');
+  await page.waitForSelector('#compare-slider', {state: 'visible'});
+  await page.focus('#compare-slider');
+  await page.keyboard.press('ArrowLeft');
+  check(true, 'the slider takes the keyboard');
+  await shot('compare_slider');
+
+  // 6. Keyboard: tabbing from the top reaches the navigation.
+  await page.goto(base + '/#/');
+  await page.waitForSelector('#queue');
+  await page.keyboard.press('Tab');
+  await page.keyboard.press('Tab');
+  const focused = await page.evaluate(() => document.activeElement?.tagName);
+  check(['A', 'BUTTON', 'SELECT', 'INPUT'].includes(focused), `Tab moves focus to controls (${focused})`);
+
+  // 7. A phone's width: nothing wider than the screen.
+  await page.setViewportSize({width: 375, height: 800});
+  await page.goto(`${base}/#/jobs/${id}`);
+  await page.waitForSelector('#job-image');
+  const overflow = await page.evaluate(() => document.documentElement.scrollWidth - window.innerWidth);
+  check(overflow <= 1, `the job page fits a 375 px screen (overflow ${overflow} px)`);
+  await shot('phone_job');
+  await page.goto(base + '/#/');
+  await page.waitForSelector('#queue');
+  const queueOverflow = await page.evaluate(() => document.documentElement.scrollWidth - window.innerWidth);
+  check(queueOverflow <= 1, `the queue fits a 375 px screen (overflow ${queueOverflow} px)`);
+  await shot('phone_queue');
+} catch (e) {
+  fail(`${e.message}`);
+  await shot('failure').catch(() => {});
+} finally {
+  await browser.close();
+}
+
+check(foreign.length === 0, `nothing requested from other hosts (${foreign.slice(0, 3).join(', ')})`);
+check(errors.length === 0, `no script errors (${errors.slice(0, 5).join(' | ')})`);
+console.log(`${failures} failures`);
+process.exit(failures ? 1 : 0);
