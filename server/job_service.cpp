@@ -566,28 +566,27 @@ void JobService::publish_state(const std::string& id) {
 }
 
 void JobService::watch_farm() {
-    // What each job looked like at the last look: its state and samples.
-    std::map<std::string, std::pair<std::string, uint64_t>> seen;
-    bool watching = false;
+    // What each job looked like at the last look: its state and samples. Kept up to date even
+    // while no one listens (three list reads a look), so that a job submitted just after a
+    // client connects is still new to the first look it is in.
+    std::map<std::string, std::pair<JobState, uint64_t>> seen;
+    bool first = true;
     for (;;) {
         {
             std::unique_lock<std::mutex> lock(mutex_);
             if (pause_cv_.wait_for(lock, std::chrono::milliseconds(300), [&] { return stopping_; })) return;
         }
-        if (events_.subscribers() == 0) {
-            watching = false;
-            seen.clear();
-            continue;
-        }
         try {
-            std::map<std::string, std::pair<std::string, uint64_t>> now;
-            std::map<std::string, json> statuses;
-            auto look = [&](const std::vector<JobRecord>& records) {
-                for (const JobRecord& r : records) {
+            std::map<std::string, std::pair<JobState, uint64_t>> now;
+            std::map<std::string, JobRecord> records;
+            auto look = [&](const std::vector<JobRecord>& list) {
+                for (const JobRecord& r : list) {
                     if (now.count(r.id)) continue;
-                    json s = status_json(r);
-                    now[r.id] = {s["state"].get<std::string>(), s["progress"].value("samples_done", uint64_t(0))};
-                    statuses[r.id] = std::move(s);
+                    uint64_t samples = 0;
+                    if (r.state == JobState::running)
+                        if (const auto p = redis_store_->live_progress(r.id)) samples = p->samples;
+                    now[r.id] = {r.state, samples};
+                    records[r.id] = r;
                 }
             };
             // Every unfinished job, and the newest ones: a job that came and went between two
@@ -595,18 +594,26 @@ void JobService::watch_farm() {
             look(store_->list(JobState::queued, 0, 1000));
             look(store_->list(JobState::running, 0, 1000));
             look(store_->list(std::nullopt, 0, 50));
-            // Unfinished before, out of sight now: it finished and older jobs are newer.
+            const bool listening = events_.subscribers() > 0;
+            // Unfinished before, out of sight now: it finished, and 50 newer jobs came since.
             for (const auto& [id, before] : seen)
-                if (!now.count(id) && (before.first == "queued" || before.first == "running")) publish_state(id);
-            if (watching)
+                if (!now.count(id) && !is_final(before.first) && listening) publish_state(id);
+            if (!first && listening)
                 for (const auto& [id, state] : now) {
                     auto it = seen.find(id);
-                    if (it == seen.end()) publish(state.first == "queued" ? "created" : "state", statuses[id]);
-                    else if (it->second.first != state.first) publish("state", statuses[id]);
-                    else if (it->second.second != state.second) publish("progress", statuses[id]);
+                    if (it == seen.end()) {
+                        // New to us: created, and in the state it has reached since.
+                        const json st = status_json(records[id]);
+                        publish("created", st);
+                        if (state.first != JobState::queued) publish("state", st);
+                    } else if (it->second.first != state.first) {
+                        publish("state", status_json(records[id]));
+                    } else if (it->second.second != state.second) {
+                        publish("progress", status_json(records[id]));
+                    }
                 }
             seen = std::move(now);
-            watching = true;
+            first = false;
         } catch (const std::exception& e) {
             spdlog::warn("events: cannot read the farm's jobs: {}", e.what());
         }

@@ -10,6 +10,8 @@
 #   poison_task       a task whose nodes keep dying fails its job with the reason, instead of looping
 #   random_kills      3 nodes (API + render each), 50 jobs, random kill -9 and restarts: every job
 #                     accounted for, every image identical to one process's
+#   events            GET /v1/events on an API node that did not take the job: its life as events
+#                     (what the web page follows in a farm), and the page served there
 set -u
 bin="$1"
 scenario="$2"
@@ -24,6 +26,30 @@ mkdir -p "$work/data"
 job='{"scene":"cornell_spheres","width":160,"height":120,"spp":256,"max_depth":4,"tile_size":16}'
 
 case "$scenario" in
+events)
+  start_api api1
+  start_api api2
+  start_worker w1 --threads 2
+  api -N --max-time 120 "$(url api2)/v1/events" > "$work/events.txt" &
+  stream=$!
+  for _ in $(seq 1 100); do [ -s "$work/events.txt" ] && break; sleep 0.05; done
+  [ -s "$work/events.txt" ] || fail "the event stream did not open"
+  id=$(submit api1 "$job")
+  [ -n "$id" ] || fail "job not accepted"
+  wait_state_on api1 "$id" 120 succeeded
+  # The watcher looks every 300 ms: give it two looks past the end.
+  for _ in $(seq 1 50); do grep -q "\"id\":\"$id\".*\"state\":\"succeeded\"" "$work/events.txt" && break; sleep 0.1; done
+  kill "$stream" 2> /dev/null; wait "$stream" 2> /dev/null
+  mine=$(grep "^data: .*\"id\":\"$id\"" "$work/events.txt" | sed 's/.*"state":"\([a-z]*\)".*/\1/' | uniq | tr '\n' ' ')
+  types=$(grep -B1 "^data: .*\"id\":\"$id\"" "$work/events.txt" | sed -n 's/^event: //p' | uniq | tr '\n' ' ')
+  echo "events of job $id on api2: $types; states: $mine"
+  # The watcher looks every 300 ms: the job may be running by its first look.
+  case "$types" in "created "*) ;; *) fail "events should start with created: $types" ;; esac
+  case "$mine" in *"running succeeded ") ;; *) fail "states seen: $mine (want running, then succeeded)" ;; esac
+  echo "$types" | grep -q progress || fail "no progress event for a 256-spp job on one node"
+  code=$(api -o "$work/page.html" -w '%{http_code}' "$(url api2)/")
+  [ "$code" = 200 ] && grep -q "<html" "$work/page.html" || fail "the web page on an API node: $code"
+  ;;
 kill_render_node)
   ref=$(reference "$job")
   start_api api
