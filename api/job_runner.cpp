@@ -64,9 +64,15 @@ JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutp
         tiles_total = p.tiles_total;
         if (cb.progress) cb.progress(p);
     };
+    // Two images take turns: the one handed out last is still shown; the other is reused once
+    // no one holds it any more (a request may still be encoding it: then a new one is made).
+    std::shared_ptr<Image> pass_images[2];
     if (cb.pass)
         rcb.on_pass = [&](const PassView& v) {
-            cb.pass(PassSnapshot{v.index, v.spp, v.point, std::make_shared<const Image>(v.film.resolve())});
+            std::shared_ptr<Image>& img = pass_images[v.index % 2];
+            if (!img || img.use_count() > 1) img = std::make_shared<Image>();
+            v.film.resolve_into(*img);
+            cb.pass(PassSnapshot{v.index, v.spp, v.point, img});
         };
     if (!opt.reference_image.empty()) {
         if (!std::filesystem::exists(opt.reference_image)) throw std::runtime_error("the reference job's image was deleted");

@@ -27,6 +27,10 @@ struct CacheLatency {
 // Prints the table and returns one row per job (none when a request failed).
 std::vector<CacheLatency> scene_cache_latency(int triangles, int jobs);
 
+// The live updates' costs (event latency, keeping each pass, a running job's image per
+// request): prints them; false when a request or an event failed.
+bool live_update_costs(int jobs);
+
 int bench_figures(int argc, char** argv);
 int bench_prepare(int argc, char** argv);
 int bench_server(int argc, char** argv);

@@ -113,9 +113,12 @@ int bench_server(int argc, char** argv) {
     app.add_option("--slow-clients", slow_clients, "hostile phase: clients trickling a request head (0 with --crowd 0 skips it)")->check(CLI::Range(0, 1000));
     int crowd_pause_ms = 1000;
     int cache_triangles = 1'000'000, cache_jobs = 4;
+    int event_jobs = 30;
     app.add_option("--cache-triangles", cache_triangles, "prepared-scene phase: triangles of the scene (0 skips the phase)")
         ->check(CLI::Range(0, 64'000'000));
     app.add_option("--cache-jobs", cache_jobs, "prepared-scene phase: jobs submitted")->check(CLI::Range(1, 1000));
+    app.add_option("--event-jobs", event_jobs, "live-updates phase: jobs followed through GET /v1/events (0 skips the phase)")
+        ->check(CLI::Range(0, 10000));
     app.add_option("--crowd", crowd, "hostile phase: keep-alive clients looping GET /healthz")->check(CLI::Range(0, 1000));
     app.add_option("--crowd-pause-ms", crowd_pause_ms, "hostile phase: each crowd client's idle time on its open connection between requests")
         ->check(CLI::Range(0, 60000));
@@ -303,6 +306,8 @@ int bench_server(int argc, char** argv) {
 
     // 4. Prepared scenes kept between jobs.
     if (cache_triangles > 0 && scene_cache_latency(cache_triangles, cache_jobs).empty()) return 1;
+    // 5. Live updates.
+    if (event_jobs > 0 && !live_update_costs(event_jobs)) return 1;
     return 0;
 }
 

@@ -222,7 +222,7 @@ void ConnectionGuard::response_started(uint64_t body_bytes) {
     set_deadline(limits_.body_timeout_s + double(body_bytes) / limits_.min_rate, kResponse);
 }
 
-void ConnectionGuard::response_streaming() { set_deadline(limits_.body_timeout_s, kResponse); }
+void ConnectionGuard::response_streaming(double interval_s) { set_deadline(interval_s + limits_.body_timeout_s, kResponse); }
 
 void ConnectionGuard::close_after_response() {
     if (t_connection) t_connection->close_after = true;

@@ -46,9 +46,10 @@ public:
     // httplib's hooks, called in the connection's own thread.
     void request_head_read(uint64_t content_length);
     void response_started(uint64_t body_bytes);
-    // A stream (Server-Sent Events): the client must take each write within the body timeout;
-    // called when it starts and after every write.
-    void response_streaming();
+    // A stream (Server-Sent Events) that writes at least every `interval_s`: the client must take
+    // each write within the body timeout after the next one is due; called when it starts and
+    // after every write.
+    void response_streaming(double interval_s);
     void response_sent();
     // The connection ends after this response: its request's body was not read.
     void close_after_response();

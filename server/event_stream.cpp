@@ -67,7 +67,7 @@ void HttpApi::event_routes() {
             stream->after = batch.last;
             if (out.empty()) out = ":\n\n";  // keep-alive: proxies and clients see the stream is alive
             if (!sink.write(out.data(), out.size())) return false;
-            guard_->response_streaming();
+            guard_->response_streaming(limits_.event_keep_alive_s);
             if (batch.closed || std::chrono::steady_clock::now() >= stream->end) sink.done();
             return true;
         });

@@ -211,7 +211,7 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
         return refuse_before_body(req, res) ? res.status : 100;
     });
     server_->set_post_routing_handler([this](const httplib::Request&, httplib::Response& res) {
-        if (res.get_header_value("Content-Type") == "text/event-stream") guard_->response_streaming();
+        if (res.get_header_value("Content-Type") == "text/event-stream") guard_->response_streaming(limits_.event_keep_alive_s);
         else guard_->response_started(res.body.size());
     });
     server_->set_logger([this](const httplib::Request& req, const httplib::Response& res) {

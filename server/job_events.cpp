@@ -4,7 +4,7 @@
 
 namespace tessera::server {
 
-JobEvents::JobEvents(size_t capacity) : capacity_(capacity ? capacity : 1) {
+JobEvents::JobEvents(size_t capacity, size_t max_bytes) : capacity_(capacity ? capacity : 1), max_bytes_(max_bytes) {
     first_id_ = uint64_t(std::chrono::duration_cast<std::chrono::microseconds>(
                              std::chrono::system_clock::now().time_since_epoch()).count());
     next_id_ = first_id_ + 1;
@@ -13,8 +13,12 @@ JobEvents::JobEvents(size_t capacity) : capacity_(capacity ? capacity : 1) {
 void JobEvents::publish(std::string type, std::string job_id, std::string data) {
     {
         std::lock_guard<std::mutex> lock(mutex_);
+        bytes_ += data.size();
         history_.push_back({next_id_++, std::move(type), std::move(job_id), std::move(data)});
-        if (history_.size() > capacity_) history_.pop_front();
+        while (history_.size() > 1 && (history_.size() > capacity_ || bytes_ > max_bytes_)) {
+            bytes_ -= history_.front().data.size();
+            history_.pop_front();
+        }
     }
     cv_.notify_all();
 }

@@ -23,7 +23,9 @@ class JobEvents {
 public:
     // Ids start at the process's start time in microseconds, so that they keep increasing over
     // a restart and an id from an earlier process is recognised as one (its events are gone).
-    explicit JobEvents(size_t capacity = 4096);
+    // At most `capacity` events and `max_bytes` of their data (an event carries a job's whole
+    // status, whose settings a comparison's labels can make large).
+    explicit JobEvents(size_t capacity = 4096, size_t max_bytes = 64u << 20);
 
     void publish(std::string type, std::string job_id, std::string data);
 
@@ -59,6 +61,8 @@ private:
     std::condition_variable cv_;
     std::deque<JobEvent> history_;
     size_t capacity_;
+    size_t max_bytes_;
+    size_t bytes_ = 0;
     uint64_t first_id_;  // the id before this process's first event
     uint64_t next_id_;
     int subscribers_ = 0;

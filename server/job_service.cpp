@@ -245,7 +245,9 @@ json JobService::status(const std::string& id) {
     return status_json(*rec);
 }
 
-json JobService::status_json(const JobRecord& rec, bool locked) {
+namespace {
+
+api::JobStatus record_status(const JobRecord& rec) {
     api::JobStatus st;
     st.id = rec.id;
     st.state = rec.state;
@@ -256,6 +258,26 @@ json JobService::status_json(const JobRecord& rec, bool locked) {
     st.finished_at = rec.finished_at;
     st.attempts = rec.attempts;
     st.error = rec.error;
+    if (!rec.report_json.empty()) st.summary = json::parse(rec.report_json, nullptr, false);
+    return st;
+}
+
+}  // namespace
+
+// A running job's status from what its worker holds: no store read and not the service's lock
+// (which store writes hold), so render threads publishing progress and passes never wait.
+json JobService::running_status_json(Running& r) {
+    api::JobStatus st = record_status(r.rec);
+    const double budget = r.sample_budget;
+    st.live_progress = api::JobProgress{budget > 0 ? std::min(1.0, double(r.samples.load()) / budget) : 0.0,
+                                        r.tiles_done.load(), r.tiles_total.load(), r.samples.load()};
+    std::lock_guard<std::mutex> pass_lock(r.pass_mutex);
+    st.latest_pass = r.pass;
+    return api::to_json(st);
+}
+
+json JobService::status_json(const JobRecord& rec, bool locked) {
+    api::JobStatus st = record_status(rec);
     if (redis_store_) {
         try {
             if (rec.state == JobState::queued) {
@@ -298,7 +320,6 @@ json JobService::status_json(const JobRecord& rec, bool locked) {
             }
         }
     }
-    if (!rec.report_json.empty()) st.summary = json::parse(rec.report_json, nullptr, false);
     return api::to_json(st);
 }
 
@@ -421,7 +442,7 @@ void JobService::worker() {
     std::shared_ptr<Running> running;
     while (take_next(rec, running)) {
         spdlog::info("job {} running (attempt {})", rec.id, rec.attempts);
-        publish("state", status_json(rec));
+        publish("state", running_status_json(*running));
         try {
             run(rec, *running);
         } catch (const std::exception& e) {
@@ -490,7 +511,7 @@ void JobService::run(const JobRecord& rec, Running& running) {
             const int64_t now = std::chrono::steady_clock::now().time_since_epoch().count();
             int64_t last = running.progress_event_ns.load();
             if (now - last >= 250'000'000 && running.progress_event_ns.compare_exchange_strong(last, now))
-                publish("progress", status_json(running.rec));
+                publish("progress", running_status_json(running));
         };
         cb.pass = [&](const api::PassSnapshot& snap) {
             api::PassSummary ps{snap.index, snap.spp, snap.point.spp_mean, snap.point.seconds, snap.point.est_rel_mse,
@@ -500,7 +521,7 @@ void JobService::run(const JobRecord& rec, Running& running) {
                 running.pass = ps;
                 running.pass_image = snap.image;
             }
-            publish("pass", status_json(running.rec), &ps);
+            publish("pass", running_status_json(running), &ps);
         };
         outcome = api::run_job(job, opt, api::RunOutputs::in_directory(dir), cb);
     } catch (const SceneError& e) {
@@ -552,9 +573,14 @@ std::optional<JobService::LivePass> JobService::live_pass(const std::string& id)
 }
 
 void JobService::publish(const char* type, const json& status, const api::PassSummary* pass) {
-    json data = {{"job", status}};
-    if (pass) data["pass"] = api::to_json(*pass);
-    events_.publish(type, status.value("id", ""), data.dump());
+    // Called from render threads too: an event that cannot be made is logged, never thrown.
+    try {
+        json data = {{"job", status}};
+        if (pass) data["pass"] = api::to_json(*pass);
+        events_.publish(type, status.value("id", ""), data.dump());
+    } catch (const std::exception& e) {
+        spdlog::warn("events: no {} event: {}", type, e.what());
+    }
 }
 
 void JobService::publish_state(const std::string& id) {
@@ -567,9 +593,11 @@ void JobService::publish_state(const std::string& id) {
 
 void JobService::watch_farm() {
     // What each job looked like at the last look: its state and samples. Kept up to date even
-    // while no one listens (three list reads a look), so that a job submitted just after a
-    // client connects is still new to the first look it is in.
-    std::map<std::string, std::pair<JobState, uint64_t>> seen;
+    // while no one listens, so that nothing is missed in the gap while a client reconnects.
+    // A look reads ids only (three sorted-set ranges) and the progress of running jobs;
+    // records are read for the jobs that changed, and only when someone listens.
+    enum Seen { queued, running, other };
+    std::map<std::string, std::pair<Seen, uint64_t>> seen;
     bool first = true;
     for (;;) {
         {
@@ -577,43 +605,37 @@ void JobService::watch_farm() {
             if (pause_cv_.wait_for(lock, std::chrono::milliseconds(300), [&] { return stopping_; })) return;
         }
         try {
-            std::map<std::string, std::pair<JobState, uint64_t>> now;
-            std::map<std::string, JobRecord> records;
-            auto look = [&](const std::vector<JobRecord>& list) {
-                for (const JobRecord& r : list) {
-                    if (now.count(r.id)) continue;
-                    uint64_t samples = 0;
-                    if (r.state == JobState::running)
-                        if (const auto p = redis_store_->live_progress(r.id)) samples = p->samples;
-                    now[r.id] = {r.state, samples};
-                    records[r.id] = r;
-                }
-            };
-            // Every unfinished job, and the newest ones: a job that came and went between two
-            // looks is among those.
-            look(store_->list(JobState::queued, 0, 1000));
-            look(store_->list(JobState::running, 0, 1000));
-            look(store_->list(std::nullopt, 0, 50));
+            std::map<std::string, std::pair<Seen, uint64_t>> now;
+            for (const std::string& id : redis_store_->ids(JobState::queued, 1000)) now[id] = {queued, 0};
+            for (const std::string& id : redis_store_->ids(JobState::running, 1000)) {
+                const auto p = redis_store_->live_progress(id);
+                now[id] = {running, p ? p->samples : 0};
+            }
+            // The newest jobs, whatever their state: one that came and went between two looks.
+            for (const std::string& id : redis_store_->ids(std::nullopt, 50)) now.emplace(id, std::pair{other, uint64_t(0)});
             const bool listening = events_.subscribers() > 0;
+            std::vector<std::pair<std::string, const char*>> changes;
             // Unfinished before, out of sight now: it finished, and 50 newer jobs came since.
             for (const auto& [id, before] : seen)
-                if (!now.count(id) && !is_final(before.first) && listening) publish_state(id);
-            if (!first && listening)
+                if (!now.count(id) && before.first != other) changes.push_back({id, "state"});
+            if (!first)
                 for (const auto& [id, state] : now) {
                     auto it = seen.find(id);
-                    if (it == seen.end()) {
-                        // New to us: created, and in the state it has reached since.
-                        const json st = status_json(records[id]);
-                        publish("created", st);
-                        if (state.first != JobState::queued) publish("state", st);
-                    } else if (it->second.first != state.first) {
-                        publish("state", status_json(records[id]));
-                    } else if (it->second.second != state.second) {
-                        publish("progress", status_json(records[id]));
-                    }
+                    if (it == seen.end()) changes.push_back({id, "created"});
+                    else if (it->second.first != state.first) changes.push_back({id, "state"});
+                    else if (state.first == running && it->second.second != state.second) changes.push_back({id, "progress"});
                 }
             seen = std::move(now);
             first = false;
+            if (!listening) continue;
+            for (const auto& [id, type] : changes) {
+                const std::optional<JobRecord> rec = store_->get(id);
+                if (!rec) continue;
+                const json st = status_json(*rec);
+                publish(type, st);
+                // New to us after it started: created, then the state it has reached.
+                if (std::string(type) == "created" && rec->state != JobState::queued) publish("state", st);
+            }
         } catch (const std::exception& e) {
             spdlog::warn("events: cannot read the farm's jobs: {}", e.what());
         }

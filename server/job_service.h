@@ -129,6 +129,7 @@ private:
     nlohmann::json enqueue(const api::Job& job);
     // `locked`: the caller holds mutex_.
     nlohmann::json status_json(const JobRecord& rec, bool locked = false);
+    nlohmann::json running_status_json(Running& running);
     // One event for every subscriber of /v1/events: the job's status, and a pass when given.
     void publish(const char* type, const nlohmann::json& status, const api::PassSummary* pass = nullptr);
     // The job's status as stored now, published (a state change); store errors are logged only.

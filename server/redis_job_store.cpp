@@ -148,6 +148,16 @@ std::vector<JobRecord> RedisJobStore::list(std::optional<JobState> state, size_t
     });
 }
 
+std::vector<std::string> RedisJobStore::ids(std::optional<JobState> state, size_t limit) const {
+    return locked("ids", [&] {
+        std::vector<std::string> out;
+        if (limit == 0) return out;
+        const std::string key = state ? keys::jobs_in(to_string(*state)) : keys::all_jobs;
+        for (const auto& v : redis_.command({"ZREVRANGE", key, "0", std::to_string(limit - 1)}).items) out.push_back(v.text);
+        return out;
+    });
+}
+
 size_t RedisJobStore::count(std::optional<JobState> state) const {
     return locked("count", [&] {
         return size_t(redis_.command({"ZCARD", state ? keys::jobs_in(to_string(*state)) : keys::all_jobs}).as_int());

@@ -35,6 +35,9 @@ public:
 
     // The position of a queued job in run order (0: next), or -1.
     long long queue_position(const std::string& id) const;
+    // The newest `limit` job ids in a state (or of all jobs), without their records: what a
+    // watcher compares look to look.
+    std::vector<std::string> ids(std::optional<JobState> state, size_t limit) const;
 
     // Farm side. Publishes what a job's scene is (and the file's bytes, once per content) before
     // the job is queued, so render nodes load exactly the bytes the job named.

@@ -22,9 +22,11 @@ float cs184_encode(float v) { return std::clamp(std::pow(std::max(0.f, std::sqrt
 void write(const std::string& path, OIIO::ImageSpec spec, OIIO::TypeDesc type, const void* data, const Metadata& meta,
            std::vector<unsigned char>* memory = nullptr) {
     for (const auto& [k, v] : meta) spec.attribute(k, v);
+    // Before the writer: it is destroyed after it, so a writer closing on an error path never
+    // writes through a freed proxy.
+    std::unique_ptr<OIIO::Filesystem::IOVecOutput> proxy;
     auto out = OIIO::ImageOutput::create(path);
     if (!out) throw std::runtime_error(path + ": cannot create an image writer: " + OIIO::geterror());
-    std::unique_ptr<OIIO::Filesystem::IOVecOutput> proxy;
     if (memory) {
         proxy = std::make_unique<OIIO::Filesystem::IOVecOutput>(*memory);
         if (!out->supports("ioproxy") || !out->set_ioproxy(proxy.get()))

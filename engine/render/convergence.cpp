@@ -94,6 +94,28 @@ std::string convergence_csv(const ConvergenceCurve& c) {
     return o.str();
 }
 
+namespace {
+
+// Labels and titles come from jobs (a comparison's labels, a scene's name): escaped, so that
+// "a<b & c" is text in the plot, not broken or foreign markup.
+std::string xml_text(const std::string& t) {
+    std::string out;
+    for (char c : t) {
+        switch (c) {
+            case '<': out += "&lt;"; break;
+            case '>': out += "&gt;"; break;
+            case '&': out += "&amp;"; break;
+            case '"': out += "&quot;"; break;
+            default:
+                // Control characters are not allowed in XML 1.0 text.
+                if (static_cast<unsigned char>(c) >= 0x20 || c == '\t' || c == '\n') out += c;
+        }
+    }
+    return out;
+}
+
+}  // namespace
+
 std::string convergence_svg(const std::vector<ConvergenceCurve>& curves, const std::vector<std::string>& labels,
                             const std::string& title) {
     // Plot the measured relMSE where there is a reference, else the estimate.
@@ -119,7 +141,7 @@ std::string convergence_svg(const std::vector<ConvergenceCurve>& curves, const s
     std::ostringstream s;
     s << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H << "\" font-family=\"sans-serif\" font-size=\"12\">\n";
     s << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
-    s << "<text x=\"" << W / 2 << "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">" << title << "</text>\n";
+    s << "<text x=\"" << W / 2 << "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">" << xml_text(title) << "</text>\n";
     for (double e = lx0; e <= lx1 + 1e-9; ++e) {
         const double x = px(std::pow(10.0, e));
         s << "<line x1=\"" << x << "\" y1=\"" << T << "\" x2=\"" << x << "\" y2=\"" << H - B << "\" stroke=\"#ddd\"/>\n";
@@ -146,7 +168,7 @@ std::string convergence_svg(const std::vector<ConvergenceCurve>& curves, const s
         const int ly = T + 10 + int(i) * 18;
         s << "<line x1=\"" << W - R + 10 << "\" y1=\"" << ly << "\" x2=\"" << W - R + 30 << "\" y2=\"" << ly << "\" stroke=\"" << col
           << "\" stroke-width=\"2\"/>\n";
-        s << "<text x=\"" << W - R + 35 << "\" y=\"" << ly + 4 << "\">" << (i < labels.size() ? labels[i] : "") << "</text>\n";
+        s << "<text x=\"" << W - R + 35 << "\" y=\"" << ly + 4 << "\">" << xml_text(i < labels.size() ? labels[i] : "") << "</text>\n";
     }
     s << "</svg>\n";
     return s.str();

@@ -147,6 +147,7 @@ async function stream(path, {headers = {}, auth = true, enough = () => true, dur
     clearTimeout(timer);
     ac.abort();
   }
+  if (!enough(events)) fail(`${where}: the stream ended before it delivered what was expected`);
   return {status: r.status, events, text: ''};
 }
 

@@ -60,6 +60,20 @@ TEST(JobEvents, ReadersThatFellBehindOrCameFromElsewhereAreTold) {
     EXPECT_TRUE(ev.wait_after(ev.last_id() + 1000, "", milliseconds(0)).lost);
 }
 
+TEST(JobEvents, TheHistoryIsBoundedInBytesToo) {
+    JobEvents ev(100, 1000);
+    const uint64_t start = ev.last_id();
+    for (int i = 0; i < 10; ++i) ev.publish("progress", "a", std::string(300, 'x'));
+    EXPECT_TRUE(ev.wait_after(start, "", milliseconds(0)).lost);
+    const auto held = ev.wait_after(ev.last_id() - 3, "", milliseconds(0));
+    EXPECT_FALSE(held.lost) << "three events of 300 bytes fit in 1000";
+    EXPECT_EQ(held.events.size(), 3u);
+    EXPECT_TRUE(ev.wait_after(ev.last_id() - 4, "", milliseconds(0)).lost);
+    // One event larger than the bound is still held (the newest always is).
+    ev.publish("state", "a", std::string(5000, 'y'));
+    EXPECT_EQ(ev.wait_after(ev.last_id() - 1, "", milliseconds(0)).events.size(), 1u);
+}
+
 TEST(JobEvents, IdsKeepIncreasingOverARestart) {
     uint64_t before;
     {

@@ -113,6 +113,12 @@ TEST(Convergence, CsvAndSvgAreReadable) {
     const std::string svg = convergence_svg({c}, {"one"}, "title");
     for (const char* s : {"<svg", "polyline", "render time (seconds, log scale)", "relative MSE", ">one<", "1e-1"})
         EXPECT_NE(svg.find(s), std::string::npos) << s;
+    // Labels and titles from jobs are text, never markup.
+    const std::string hostile = convergence_svg({c, c}, {"a<b & \"c\"", "</text><script>x</script>"}, "t<i>tle\x01");
+    EXPECT_NE(hostile.find(">a&lt;b &amp; &quot;c&quot;<"), std::string::npos) << hostile;
+    EXPECT_EQ(hostile.find("<script>"), std::string::npos);
+    EXPECT_EQ(hostile.find("<i>"), std::string::npos);
+    EXPECT_EQ(hostile.find('\x01'), std::string::npos);
 }
 
 }  // namespace
