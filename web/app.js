@@ -90,12 +90,16 @@ function openTokenForm(reason) {
   tokenInput.focus();
 }
 
+// Dismissed by the user: later refusals (the background refreshes get one every few seconds)
+// leave it closed; the Access token button opens it again.
+let tokenDismissed = false;
 window.addEventListener('tessera:unauthorized', () => {
+  if (tokenDismissed) { syncTokenButton(true); return; }
   openTokenForm(getToken()
     ? 'The server did not accept the saved access token. Enter another one.'
     : 'This server needs an access token. Enter one to continue.');
 });
-tokenButton.addEventListener('click', () => openTokenForm('The access token is kept in this browser and sent with every request.'));
+tokenButton.addEventListener('click', () => (tokenDismissed = false, openTokenForm('The access token is kept in this browser and sent with every request.')));
 tokenForm.addEventListener('submit', (ev) => {
   ev.preventDefault();
   const token = tokenInput.value.trim();
@@ -106,6 +110,7 @@ tokenForm.addEventListener('submit', (ev) => {
     return;
   }
   setToken(token);
+  tokenDismissed = false;
   dialog.close();
   syncTokenButton(true);
   announce('Access token saved');
@@ -118,7 +123,8 @@ forgetButton.addEventListener('click', () => {
   announce('Access token removed');
   route();
 });
-document.getElementById('token-cancel').addEventListener('click', () => dialog.close());
+document.getElementById('token-cancel').addEventListener('click', () => { tokenDismissed = true; dialog.close(); });
+dialog.addEventListener('cancel', () => { tokenDismissed = true; });  // Escape
 
 // The connection indicator: text as well as colour.
 const conn = document.getElementById('conn-status');

@@ -60,9 +60,14 @@ page.on('request', (r) => requests.push(r.url()));
 const shot = (name, fullPage = false) => page.screenshot({path: `${shots}/web_${name}.png`, fullPage});
 
 try {
-  // 1. The token: the server asks for one, the page asks the user.
+  // 1. The token: the server asks for one, the page asks the user; a wrong one is asked again.
   await page.goto(base + '/');
   await page.waitForSelector('#token-form', {state: 'visible', timeout: 10000});
+  await page.fill('#token-input', 'not-the-token-0123456789');
+  await page.press('#token-input', 'Enter');
+  await page.waitForFunction(() => /not accept/i.test(document.querySelector('#token-form')?.textContent ?? '') &&
+                                   document.querySelector('#token-form')?.checkVisibility(), null, {timeout: 10000});
+  check(true, 'a wrong token is refused and asked for again');
   await page.fill('#token-input', token);
   await page.press('#token-input', 'Enter');
   await page.waitForSelector('#queue', {timeout: 10000});
@@ -141,6 +146,27 @@ try {
   check(/pixel|width/i.test(await page.textContent('#error-width')), `the API's problem shows beside width: "${(await page.textContent('#error-width')).trim()}"`);
   check(await page.getAttribute('#field-width', 'aria-invalid') === 'true', 'the field is marked invalid');
   await shot('field_error');
+
+  // Scene upload from the form: the new scene is then the one selected.
+  await page.setInputFiles('#upload-file', new URL('../../scenes/cornell_box.gltf', import.meta.url).pathname);
+  await page.click('#upload-button');
+  await page.waitForFunction(() => (document.querySelector('#field-scene')?.value ?? '').startsWith('upload/'), null, {timeout: 10000});
+  const uploaded = await page.inputValue('#field-scene');
+  const catalog = (await api('GET', '/v1/scenes')).body.scenes.map((e) => e.name);
+  check(catalog.includes(uploaded), `an uploaded scene is in the catalog and selected (${uploaded})`);
+
+  // An equal-time comparison job's page shows its table and plot.
+  const cmp = (await api('POST', '/v1/comparisons', {scene: 'cornell_box', width: 24, height: 18, seconds: 0.1, reps: 1, reference_spp: 8})).body.id;
+  await waitState(cmp, ['succeeded']);
+  await page.goto(`${base}/#/jobs/${cmp}`);
+  await page.waitForSelector('#comparison-table tbody tr', {timeout: 10000});
+  const rows = await page.$$eval('#comparison-table tbody tr', (r) => r.length);
+  const configs = (await api('GET', `/v1/jobs/${cmp}/report.json`)).body.comparison;
+  const expected = Array.isArray(configs) ? configs.length : (configs.rows ?? configs.configs ?? []).length;
+  check(rows >= 2 && (!expected || rows === expected), `a comparison job's table: ${rows} configurations (report: ${expected})`);
+  await page.waitForFunction(() => { const i = document.querySelector('#comparison-plot'); return i && i.complete && i.naturalWidth > 0; }, null, {timeout: 10000});
+  check(true, "a comparison job's plot is shown");
+  await shot('comparison_job', true);
 
   // 4. Cancel a second job from the queue while the first one runs.
   const blocker = (await api('POST', '/v1/jobs', {scene: 'cornell_spheres', width: 200, height: 150, spp: 4096, max_depth: 5})).body.id;
