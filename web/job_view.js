@@ -109,6 +109,8 @@ function renderBody(container, first) {
   function refreshImage() {
     if (gone && job.state !== 'running') return showPlaceholder('The results of this job were removed.');
     if (job.state === 'queued') { image.clear(); return showPlaceholder('The image appears once the job runs.'); }
+    // Failed and canceled jobs keep no results: nothing to ask for (it would be a 410).
+    if (job.state === 'failed' || job.state === 'canceled') { image.clear(); return showPlaceholder('This job ended without an image.'); }
     if (job.state === 'running' && !hasPassImage()) { image.clear(); return showPlaceholder('The image appears after the first pass.'); }
     image.show(showRate ? jobPath(id, 'rate.png') : jobPath(id, 'image.png', exposureQuery()));
   }
@@ -179,8 +181,8 @@ function renderBody(container, first) {
     job = j;
     if (j.latest_pass) pass(j.latest_pass);
     if (prev !== j.state) {
-      if (isFinal(j.state)) loadReport();
-      else { drawConvergence(); drawReport(); }
+      if (j.state === 'succeeded') loadReport();
+      else { drawConvergence(); drawReport(); drawDownloads(); }
       refreshImage();
     }
     drawDownloads();
