@@ -21,7 +21,7 @@
 #include "cli/bench_common.h"
 #include "engine/io/image_io.h"
 #include "engine/render/film.h"
-#include "server/http_api.h"
+#include "cli/in_process_server.h"
 
 namespace tessera::cli {
 namespace {
@@ -56,15 +56,8 @@ struct Received {
 
 bool live_update_costs(int jobs) {
     spdlog::set_level(spdlog::level::err);
-    const auto dir = std::filesystem::temp_directory_path() / ("tessera_bench_events_" + std::to_string(::getpid()));
-    std::filesystem::remove_all(dir);
-    server::ServiceConfig cfg;
-    cfg.data_dir = dir.string();
-    cfg.project_scenes = TESSERA_DEFAULT_SCENES_DIR;
-    server::JobService service(cfg);
-    server::HttpApi api(service, server::HttpLimits{}, (dir / "none.yaml").string());
-    const int port = api.bind("127.0.0.1", 0);
-    std::thread serving([&] { api.serve(); });
+    InProcessServer server("events");
+    const int port = server.port;
 
     // A subscriber that stamps every event as it arrives.
     std::mutex mu;
@@ -124,13 +117,10 @@ bool live_update_costs(int jobs) {
     }
     stop = true;
     // The reader returns at its next event or keep-alive; stopping the server ends the stream.
-    api.stop();
+    server.stop();
     reader.join();
-    serving.join();
-    service.shutdown();
     if (!ok) {
         std::fprintf(stderr, "bench: a job or its events did not arrive\n");
-        std::filesystem::remove_all(dir);
         return false;
     }
     std::printf("\nLive updates: one client of GET /v1/events while %d small jobs (cornell_box 64×48, 16 spp) run one after "
@@ -182,7 +172,6 @@ bool live_update_costs(int jobs) {
                 *std::max_element(without.begin(), without.end()));
     std::printf("At 800×600: keeping a pass (resolving the film into the image kept from two passes before) %.2f ms; a running job's image.png %.1f ms, image.exr %.1f ms "
                 "per request (medians of 9).\n", median(resolve_ms), median(png_ms), median(exr_ms));
-    std::filesystem::remove_all(dir);
     return true;
 }
 

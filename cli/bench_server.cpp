@@ -27,6 +27,7 @@
 #include "cli/bench_common.h"
 #include "server/command_line.h"
 #include "server/http_api.h"
+#include "cli/in_process_server.h"
 
 namespace tessera::cli {
 
@@ -47,15 +48,8 @@ double pct(std::vector<double> v, double p) {
 std::vector<CacheLatency> scene_cache_latency(int triangles, int jobs) {
     std::vector<CacheLatency> rows;
     spdlog::set_level(spdlog::level::err);  // a log line per poll would measure the terminal
-    const auto dir = std::filesystem::temp_directory_path() / ("tessera_bench_cache_" + std::to_string(::getpid()));
-    std::filesystem::remove_all(dir);
-    server::ServiceConfig cfg;
-    cfg.data_dir = dir.string();
-    cfg.project_scenes = TESSERA_DEFAULT_SCENES_DIR;
-    server::JobService service(cfg);
-    server::HttpApi api(service, server::HttpLimits{}, (dir / "none.yaml").string());
-    const int port = api.bind("127.0.0.1", 0);
-    std::thread serving([&] { api.serve(); });
+    InProcessServer server("cache");
+    const int port = server.port;
     httplib::Client c("127.0.0.1", port);
     c.set_tcp_nodelay(true);
     c.set_read_timeout(600, 0);
@@ -95,10 +89,6 @@ std::vector<CacheLatency> scene_cache_latency(int triangles, int jobs) {
         std::printf("| %d | %s | %.1f | %.2f |\n", rep + 1, row.hit ? "hit" : "miss", row.end_to_end_ms, row.preparation_ms);
         rows.push_back(row);
     }
-    api.stop();
-    serving.join();
-    service.shutdown();
-    std::filesystem::remove_all(dir);
     return rows;
 }
 
