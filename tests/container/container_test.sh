@@ -2,7 +2,8 @@
 # container_test.sh: the image as a user gets it, with a real container engine (Debian's
 # podman). Builds docker/Dockerfile (on a debian:12 base made here from Debian's packages),
 # checks its size, starts it with a token on a loopback port and waits for health, renders a
-# job with curl and fetches its PNG and EXR, checks the server runs as a user other than root,
+# job with curl and fetches its PNG and EXR, checks the server runs as a user other than root
+# and serves its web page,
 # stops it with SIGTERM (exit status 0), starts a new container on the same volume and finds
 # the job and its image there. Then docker/compose.yaml with podman-compose: Redis, an API
 # node and two render nodes from the same image; a job submitted to the API node is rendered
@@ -93,6 +94,11 @@ user=$(podman exec "$name" id -u)
 [ "$user" != 0 ] || fail "the server runs as root"
 code=$(curl -s -o /dev/null -w '%{http_code}' --noproxy '*' "http://127.0.0.1:$port/v1/jobs" || true)
 [ "$code" = 401 ] || fail "without a token /v1/jobs answered $code, not 401"
+# The web page is compiled into the binary: served without a token, nothing beside it needed.
+page=$(curl -s --noproxy '*' "http://127.0.0.1:$port/" || true)
+case "$page" in *"<html"*) ;; *) fail "the image does not serve its web page at /" ;; esac
+code=$(curl -s -o /dev/null -w '%{http_code}' --noproxy '*' "http://127.0.0.1:$port/ui/app.js" || true)
+[ "$code" = 200 ] || fail "the page's script /ui/app.js answered $code"
 
 render_job '{"scene": "cornell_box", "width": 64, "height": 48, "spp": 4, "max_depth": 2}'
 api -o "$podman_conf_dir/image.png" "http://127.0.0.1:$port/v1/jobs/$id/image.png"
