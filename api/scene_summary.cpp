@@ -12,7 +12,7 @@ nlohmann::json describe_scene(const SceneDescription& s) {
                         {"warnings", s.warnings}};
     size_t emissive = 0;
     for (const auto& m : s.meshes)
-        if (m.material >= 0 && s.materials[size_t(m.material)].kind == MaterialKind::emission) ++emissive;
+        if (m.material >= 0 && s.materials[size_t(m.material)].emits()) ++emissive;
     j["emissive_meshes"] = emissive;
     if (!b.empty()) j["bounds"] = {{"min", {b.lo.x, b.lo.y, b.lo.z}}, {"max", {b.hi.x, b.hi.y, b.hi.z}}};
     else j["bounds"] = nullptr;

@@ -35,7 +35,6 @@ struct Loader {
     std::unordered_map<const void*, int> material_index;                   // <material> -> index
     std::unordered_map<const void*, std::vector<glm::vec3>> positions;     // <source> -> local positions
     std::set<std::string> warned;
-    std::set<MaterialKind> kinds_warned;
     uint64_t triangles = 0, vertices = 0;
     bool cmu462_warned = false;
     int cameras_seen = 0;
@@ -320,11 +319,6 @@ dvec3 dir(const dmat4& T, dvec3 d) { return dvec3(T * dvec4(d, 0.0)); }
 
 // ---- materials -------------------------------------------------------------------------------
 
-std::string kind_name(MaterialKind k) {
-    static constexpr const char* names[] = {"diffuse", "emission", "mirror", "glass", "microfacet", "glossy"};
-    return names[static_cast<int>(k)];  // same order as the enum
-}
-
 glm::vec3 vec3_param(const Loader& L, Node parent, const char* name, glm::vec3 fallback, bool non_negative = true) {
     Node e = parent.child(name);
     if (!e) return fallback;
@@ -407,10 +401,6 @@ MaterialDesc read_material(Loader& L, Node material) {
             else
                 warn(L, c, "material '" + m.name + "': CGL " + tag(c) + " is not a known BSDF and was ignored");
         }
-    }
-    if (m.kind != MaterialKind::diffuse && m.kind != MaterialKind::emission && L.kinds_warned.insert(m.kind).second) {
-        const std::string k = kind_name(m.kind);
-        warn(L, material, "material '" + m.name + "' (" + k + ") is rendered as diffuse until " + k + " is implemented");
     }
     return m;
 }

@@ -34,7 +34,8 @@ static_assert(std::endian::native == std::endian::little, "glTF buffers are litt
 // document would overflow the stack there. Real files nest fewer than ten levels.
 constexpr int kMaxJsonDepth = 128;
 // Extensions whose content is read; anything else in extensionsRequired is refused.
-constexpr const char* kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_materials_emissive_strength"};
+constexpr const char* kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_ior",
+                                                "KHR_materials_specular"};
 
 constexpr const char* kVerticesLeft = "vertices left under LoadLimits::max_vertices";
 // Each primitive instance becomes a MeshDesc with its own overhead; bounds memory for files that
@@ -623,19 +624,33 @@ void convert_materials(Ctx& c) {
         MaterialDesc d;
         d.name = mat.name.empty() ? "material " + str(i) : clip(mat.name, 200);
         d.origin = at(c.file, mp);
-        const auto& base = mat.pbrMetallicRoughness.baseColorFactor;
-        if (base.size() >= 3) d.albedo = glm::vec3(glm::dvec3(base[0], base[1], base[2]));
-        double strength = 1.0;
-        const auto ext = mat.extensions.find("KHR_materials_emissive_strength");
-        if (ext != mat.extensions.end() && ext->second.Has("emissiveStrength")) {
-            const tinygltf::Value& s = ext->second.Get("emissiveStrength");
-            if (!s.IsNumber() || !(s.GetNumberAsDouble() >= 0))
-                fail(c, mp + "/extensions/KHR_materials_emissive_strength/emissiveStrength", "must be a number >= 0");
-            strength = s.GetNumberAsDouble();
-        }
+        const auto& pbr = mat.pbrMetallicRoughness;
+        if (pbr.baseColorFactor.size() >= 3) d.albedo = glm::vec3(glm::dvec3(pbr.baseColorFactor[0], pbr.baseColorFactor[1], pbr.baseColorFactor[2]));
+        auto unit = [&](double v, const char* name) {
+            if (!(v >= 0.0 && v <= 1.0)) fail(c, mp + "/pbrMetallicRoughness/" + name, "must be a number in [0, 1]");
+            return static_cast<float>(v);
+        };
+        d.metallic = unit(pbr.metallicFactor, "metallicFactor");
+        d.roughness = unit(pbr.roughnessFactor, "roughnessFactor");
+        // A number read from an extension object, or `fallback` when it is absent.
+        auto ext_number = [&](const char* ext, const char* field, double fallback, double lo, double hi) {
+            const auto e = mat.extensions.find(ext);
+            if (e == mat.extensions.end() || !e->second.Has(field)) return fallback;
+            const tinygltf::Value& v = e->second.Get(field);
+            if (!v.IsNumber() || !(v.GetNumberAsDouble() >= lo && v.GetNumberAsDouble() <= hi))
+                fail(c, mp + "/extensions/" + ext + "/" + field,
+                     "must be a number in [" + std::to_string(lo) + ", " + (std::isinf(hi) ? "inf" : std::to_string(hi)) + "]");
+            return v.GetNumberAsDouble();
+        };
+        const double strength = ext_number("KHR_materials_emissive_strength", "emissiveStrength", 1.0, 0.0, INFINITY);
+        d.ior = static_cast<float>(ext_number("KHR_materials_ior", "ior", 1.5, 1.0, 10.0));
+        d.specular = static_cast<float>(ext_number("KHR_materials_specular", "specularFactor", 1.0, 0.0, 1.0));
         const auto& e = mat.emissiveFactor;
         if (e.size() == 3) d.emission = glm::vec3(glm::dvec3(e[0], e[1], e[2]) * strength);
-        if (d.emission.x > 0 || d.emission.y > 0 || d.emission.z > 0) d.kind = MaterialKind::emission;
+        // A base with no specular layer and no metal is Lambertian (our own scenes write
+        // KHR_materials_specular 0 to say so): no microfacet lobe is evaluated for it.
+        if (d.metallic > 0.f || d.specular > 0.f) d.kind = MaterialKind::metallic_roughness;
+        else d.kind = d.emits() ? MaterialKind::emission : MaterialKind::diffuse;
         d.double_sided = mat.doubleSided;
         if (mat.pbrMetallicRoughness.baseColorTexture.index >= 0 || mat.emissiveTexture.index >= 0 ||
             mat.pbrMetallicRoughness.metallicRoughnessTexture.index >= 0 || mat.normalTexture.index >= 0 ||
@@ -718,7 +733,7 @@ void summarise(Ctx& c) {
     if (!c.m.animations.empty()) w.push_back("animations are ignored: the scene is rendered at rest");
     if (c.out.meshes.empty()) w.push_back("the scene has no triangle geometry");
     const bool emitter = std::any_of(c.out.meshes.begin(), c.out.meshes.end(), [&](const MeshDesc& m) {
-        return m.material >= 0 && c.out.materials[static_cast<size_t>(m.material)].kind == MaterialKind::emission;
+        return m.material >= 0 && c.out.materials[static_cast<size_t>(m.material)].emits();
     });
     if (c.out.lights.empty() && !emitter)
         w.push_back("the scene has no lights or emissive materials; a path-traced render will be black");

@@ -1,5 +1,6 @@
 #include "engine/io/gltf_writer.h"
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -83,6 +84,15 @@ std::string to_gltf(const SceneDescription& scene, int sphere_subdivisions) {
                    {"pbrMetallicRoughness", {{"baseColorFactor", {m.albedo.x, m.albedo.y, m.albedo.z, 1.0}},
                                              {"metallicFactor", 0.0}, {"roughnessFactor", 1.0}}},
                    {"doubleSided", m.double_sided}};
+        if (m.kind == MaterialKind::metallic_roughness) {
+            jm["pbrMetallicRoughness"]["metallicFactor"] = m.metallic;
+            jm["pbrMetallicRoughness"]["roughnessFactor"] = m.roughness;
+            if (m.ior != 1.5f) jm["extensions"]["KHR_materials_ior"] = {{"ior", m.ior}};
+            if (m.specular != 1.f) jm["extensions"]["KHR_materials_specular"] = {{"specularFactor", m.specular}};
+        } else {
+            // Lambertian: glTF's default dielectric layer is turned off.
+            jm["extensions"]["KHR_materials_specular"] = {{"specularFactor", 0.0}};
+        }
         const float peak = std::max(m.emission.x, std::max(m.emission.y, m.emission.z));
         if (peak > 0.f) {
             jm["emissiveFactor"] = {m.emission.x / peak, m.emission.y / peak, m.emission.z / peak};
@@ -147,6 +157,9 @@ std::string to_gltf(const SceneDescription& scene, int sphere_subdivisions) {
                          {"matrix", {r.x, r.y, r.z, 0, u.x, u.y, u.z, 0, -f.x, -f.y, -f.z, 0, c.position.x, c.position.y, c.position.z, 1}}});
     }
     if (emissive_strength) j["extensionsUsed"].push_back("KHR_materials_emissive_strength");
+    for (const char* ext : {"KHR_materials_specular", "KHR_materials_ior"})
+        if (std::any_of(materials.begin(), materials.end(), [&](const json& jm) { return jm.contains("extensions") && jm["extensions"].contains(ext); }))
+            j["extensionsUsed"].push_back(ext);
     if (lights_used) {
         j["extensionsUsed"].push_back("KHR_lights_punctual");
         j["extensions"]["KHR_lights_punctual"]["lights"] = lights;

@@ -3,7 +3,9 @@
 // 1 adds direct lighting, n adds up to n bounces; `accumulate` sums bounces 0..n and `nth`
 // keeps only bounce n. Direct lighting is estimated at every vertex by its own rays
 // (hemisphere, light, or MIS of light and BSDF samples), so all three strategies estimate the
-// same integral; the continuation ray only carries the path and never adds emission itself.
+// same integral; the continuation ray only carries the path and never adds emission itself,
+// except after a delta lobe (mirror, glass), whose light no light sample can find: there the
+// continuation's emission stands in for that vertex's direct lighting, so it is counted once.
 #include <algorithm>
 #include <cmath>
 
@@ -29,24 +31,47 @@ public:
         glm::vec3 L = include(0) ? emitted(si, hit, wo) : glm::vec3(0.f);
         glm::vec3 beta(1.f);
         for (int depth = 1; depth <= st_.max_depth; ++depth) {
-            face(si, wo);
-            const Material& m = s_.materials[si.material];
-            if (m.albedo == glm::vec3(0.f)) break;  // nothing is reflected from here on
-            if (include(depth)) L += beta * direct(si, m, rng);
-            if (depth == st_.max_depth) break;
+            const bool back = face(si, wo);
+            const Bsdf& b = s_.materials[si.material].bsdf;
+            if (bsdf_is_black(b)) break;  // nothing is reflected from here on
+            const Frame frame(si.ns);
+            const glm::vec3 wo_l = frame.to_local(wo);
+            // A delta lobe sees lights only along its own directions: its continuation carries
+            // the emission it finds, in place of direct lighting, for this same bounce.
+            const bool delta = bsdf_is_delta(b);
+            if (!delta) {
+                if (include(depth)) L += beta * direct(si, b, frame, wo_l, rng);
+                if (depth == st_.max_depth) break;
+            }
             if (st_.russian_roulette > 0.f) {
                 if (rng.next_float() >= st_.russian_roulette) break;
                 beta /= st_.russian_roulette;
             }
-            // Cosine-weighted continuation: f·cos/pdf of the Lambertian lobe is its albedo.
-            const glm::vec2 u = rng.next_2d();
-            const glm::vec3 wi = Frame(si.ns).to_world(sample_cosine_hemisphere(u.x, u.y));
-            if (glm::dot(wi, si.ng) <= 0.f) break;  // below the true surface (shading normal bent away)
-            beta *= m.albedo;
+            glm::vec3 wi;
+            if (b.kind == BsdfKind::lambertian) {
+                // Cosine-weighted: f·cos/pdf of the Lambertian lobe is its albedo.
+                const glm::vec2 u = rng.next_2d();
+                wi = frame.to_world(sample_cosine_hemisphere(u.x, u.y));
+                if (glm::dot(wi, si.ng) <= 0.f) break;  // below the true surface (shading normal bent away)
+                beta *= b.albedo;
+            } else {
+                BsdfSample bs;
+                if (!sample(b, back, wo_l, rng, bs)) break;
+                wi = frame.to_world(bs.wi);
+                if ((glm::dot(wi, si.ng) > 0.f) != (bs.wi.z > 0.f)) break;  // the true surface disagrees
+                beta *= bs.weight;
+            }
             Ray next = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri);
             ++stats_.bounce_rays;
-            if (!intersect(s_, next, hit, stats_.traversal)) break;
+            if (!intersect(s_, next, hit, stats_.traversal)) {
+                if (delta && include(depth)) L += beta * sky(wi);
+                break;
+            }
             si = surface_at(s_, next, hit);
+            if (delta) {
+                if (include(depth)) L += beta * emitted(si, hit, -wi);
+                if (depth == st_.max_depth) break;
+            }
             wo = -wi;
         }
         return L;
@@ -70,16 +95,40 @@ private:
         return m.emission;
     }
 
-    // Two-sided shading: both normals turned toward the viewer.
-    static void face(SurfaceInteraction& si, const glm::vec3& wo) {
-        if (glm::dot(si.ng, wo) < 0.f) { si.ng = -si.ng; si.ns = -si.ns; }
+    // Two-sided shading: both normals turned toward the viewer. True when they were turned: wo
+    // is on the back of the surface (inside a closed object with outward normals).
+    static bool face(SurfaceInteraction& si, const glm::vec3& wo) {
+        if (glm::dot(si.ng, wo) >= 0.f) return false;
+        si.ng = -si.ng;
+        si.ns = -si.ns;
+        return true;
+    }
+
+    // A direction from a BSDF other than Lambertian's; glass seen from inside has the inverse
+    // relative index.
+    bool sample(const Bsdf& b, bool back, const glm::vec3& wo_l, Sampler& rng, BsdfSample& bs) {
+        const float uc = bsdf_chooses_lobe(b) ? rng.next_float() : 0.f;
+        const glm::vec2 u = rng.next_2d();
+        if (b.kind == BsdfKind::glass && back) {
+            Bsdf inverse = b;
+            inverse.ior = 1.f / b.ior;
+            return bsdf_sample(inverse, wo_l, uc, u, bs);
+        }
+        return bsdf_sample(b, wo_l, uc, u, bs);
     }
 
     static float power_heuristic(float a, float b) { return a * a / (a * a + b * b); }
 
-    glm::vec3 direct(const SurfaceInteraction& si, const Material& m, Sampler& rng) {
+    // Direct lighting at a vertex whose BSDF has no delta lobe. A Lambertian BSDF keeps its
+    // constant f and cosine density without a call per sample.
+    glm::vec3 direct(const SurfaceInteraction& si, const Bsdf& b, const Frame& frame, const glm::vec3& wo_l, Sampler& rng) {
         if (!s_.has_lights()) return glm::vec3(0.f);
-        const glm::vec3 f = m.albedo * kInvPi;
+        const bool lambert = b.kind == BsdfKind::lambertian;
+        const glm::vec3 f_lambert = b.albedo * kInvPi;
+        auto f = [&](const glm::vec3& wi) { return lambert ? f_lambert : bsdf_f(b, wo_l, frame.to_local(wi)); };
+        auto pdf_bsdf = [&](const glm::vec3& wi, float cos_i) {
+            return lambert ? cosine_hemisphere_pdf(cos_i) : bsdf_pdf(b, wo_l, frame.to_local(wi));
+        };
         glm::vec3 Ld(0.f);
         // Delta lights have one deterministic direction: one shadow ray each, in every strategy.
         for (const DeltaLight& dl : s_.delta_lights) {
@@ -91,17 +140,16 @@ private:
                 if (c <= 0.f || glm::dot(si.ng, wi) <= 0.f) continue;
                 ++stats_.shadow_rays;
                 if (!occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, dl.position, si.tri), stats_.traversal))
-                    Ld += f * dl.intensity * (c / dist2);
+                    Ld += f(wi) * dl.intensity * (c / dist2);
             } else {
                 const glm::vec3 wi = -dl.direction;
                 const float c = glm::dot(si.ns, wi);
                 if (c <= 0.f || glm::dot(si.ng, wi) <= 0.f) continue;
                 ++stats_.shadow_rays;
-                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri), stats_.traversal)) Ld += f * dl.intensity * c;
+                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri), stats_.traversal)) Ld += f(wi) * dl.intensity * c;
             }
         }
         const int n = std::max(1, st_.light_rays);
-        const Frame frame(si.ns);
         if (st_.direct == DirectLighting::hemisphere) {
             const int count = n * int(s_.area_lights.size() + (s_.has_sky ? 1 : 0));
             for (int i = 0; i < count; ++i) {
@@ -114,7 +162,7 @@ private:
                 glm::vec3 Le;
                 if (intersect(s_, r, h, stats_.traversal)) Le = emitted(surface_at(s_, r, h), h, -wi);
                 else Le = sky(wi);
-                Ld += f * Le * (glm::dot(si.ns, wi) / (uniform_hemisphere_pdf() * float(count)));
+                Ld += f(wi) * Le * (glm::dot(si.ns, wi) / (uniform_hemisphere_pdf() * float(count)));
             }
             return Ld;
         }
@@ -128,8 +176,8 @@ private:
             ++stats_.shadow_rays;
             if (occluded(s_, spawn_ray_between(si.p, si.p_err, si.ng, ls.point, ls.point_err, ls.n, si.tri), stats_.traversal)) return;
             const float pdf = ls.pdf_w * pick;
-            const float w = mis ? power_heuristic(pdf, cosine_hemisphere_pdf(c)) : 1.f;
-            Ld += f * ls.Le * (w * c / (pdf * float(n)));
+            const float w = mis ? power_heuristic(pdf, pdf_bsdf(ls.wi, c)) : 1.f;
+            Ld += f(ls.wi) * ls.Le * (w * c / (pdf * float(n)));
         };
         auto light_sample = [&](const AreaLight& light, float pick) {
             LightSample ls;
@@ -165,8 +213,20 @@ private:
         if (mis && !s_.area_lights.empty()) {
             // BSDF samples, shared by all area lights; each hit counts for the light it found.
             for (int i = 0; i < n; ++i) {
-                const glm::vec2 u = rng.next_2d();
-                const glm::vec3 wl = sample_cosine_hemisphere(u.x, u.y);
+                glm::vec3 wl, weight;  // weight: f·cos/pdf
+                float pdf_b;
+                if (lambert) {
+                    const glm::vec2 u = rng.next_2d();
+                    wl = sample_cosine_hemisphere(u.x, u.y);
+                    pdf_b = cosine_hemisphere_pdf(wl.z);
+                    weight = f_lambert * (wl.z / pdf_b);
+                } else {
+                    BsdfSample bs;
+                    if (!sample(b, false, wo_l, rng, bs)) continue;
+                    wl = bs.wi;
+                    pdf_b = bs.pdf;
+                    weight = bs.weight;
+                }
                 const glm::vec3 wi = frame.to_world(wl);
                 if (glm::dot(wi, si.ng) <= 0.f || wl.z <= 0.f) continue;
                 Ray r = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri);
@@ -179,7 +239,6 @@ private:
                 const SurfaceInteraction hs = surface_at(s_, r, h);
                 const glm::vec3 Le = emitted(hs, h, -wi);
                 if (Le == glm::vec3(0.f)) continue;
-                const float pdf_b = cosine_hemisphere_pdf(wl.z);
                 const AreaLight& hit_light = s_.area_lights[li];
                 // The weight as the light sample of the same point computes it: geometry from
                 // the shading point, not from the offset ray origin (whose offset is not small
@@ -188,7 +247,7 @@ private:
                 const float dist = glm::length(d);
                 if (!(dist > 0.f)) continue;
                 const glm::vec3 wp = d / dist;
-                const float pdf_bp = cosine_hemisphere_pdf(std::max(0.f, glm::dot(si.ns, wp)));
+                const float pdf_bp = pdf_bsdf(wp, std::max(0.f, glm::dot(si.ns, wp)));
                 float pdf_l;
                 if (by_tree) {
                     const LightTriangle& lt = s_.light_triangles[lti];
@@ -197,17 +256,27 @@ private:
                 } else {
                     pdf_l = area_light_pdf(hit_light, hs.ng, wp, dist) * (by_power ? hit_light.power_pmf : 1.f);
                 }
-                Ld += f * Le * (power_heuristic(pdf_bp, pdf_l) * wl.z / (pdf_b * float(n)));
+                Ld += Le * weight * (power_heuristic(pdf_bp, pdf_l) / float(n));
             }
         }
         if (s_.has_sky) {
-            // The sky is sampled with the cosine lobe: f·L·cos/pdf reduces to albedo·L.
+            // The sky is sampled with the BSDF: f·L·cos/pdf is the sample's weight times L
+            // (for the Lambertian lobe, its albedo).
             for (int i = 0; i < n; ++i) {
-                const glm::vec2 u = rng.next_2d();
-                const glm::vec3 wi = frame.to_world(sample_cosine_hemisphere(u.x, u.y));
+                glm::vec3 wi, weight;
+                if (lambert) {
+                    const glm::vec2 u = rng.next_2d();
+                    wi = frame.to_world(sample_cosine_hemisphere(u.x, u.y));
+                    weight = b.albedo;
+                } else {
+                    BsdfSample bs;
+                    if (!sample(b, false, wo_l, rng, bs) || bs.wi.z <= 0.f) continue;
+                    wi = frame.to_world(bs.wi);
+                    weight = bs.weight;
+                }
                 if (glm::dot(wi, si.ng) <= 0.f || wi.y <= 0.f) continue;
                 ++stats_.shadow_rays;
-                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri), stats_.traversal)) Ld += m.albedo * s_.sky / float(n);
+                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri), stats_.traversal)) Ld += weight * s_.sky / float(n);
             }
         }
         return Ld;

@@ -33,7 +33,7 @@ std::vector<MeshDesc> cs184_lamps_as_meshes(const SceneDescription& desc, std::v
         if (glm::dot(glm::cross(q.positions[1] - q.positions[0], q.positions[2] - q.positions[0]), l.direction) < 0.f)
             q.indices = {0, 2, 1, 0, 3, 2};  // emit toward the light's direction
         q.material = int(materials.size());
-        materials.push_back(Material{MaterialKind::emission, glm::vec3(0.f), l.radiance, false});
+        materials.push_back(emitter_material(l.radiance));
         lamps.push_back(std::move(q));
     }
     return lamps;

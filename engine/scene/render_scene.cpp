@@ -199,6 +199,23 @@ void build_sphere_accel(const std::vector<Aabb>& bounds, const RenderSceneOption
     s.report.built.push_back("sphere list: " + std::to_string(s.spheres.size()) + " spheres");
 }
 
+// Which BSDFs the scene uses: one with none but Lambertian ones never evaluates anything but
+// albedo/π, and one without delta lobes never takes their branches.
+void report_materials(const std::vector<Material>& materials, BuildReport& report) {
+    static constexpr const char* names[] = {"lambertian", "mirror", "glass", "conductor (Beckmann)", "glossy (Phong)",
+                                            "glTF metallic-roughness (GGX)"};
+    size_t counts[std::size(names)] = {};
+    for (const Material& m : materials) ++counts[size_t(m.bsdf.kind)];
+    std::string used;
+    for (size_t k = 0; k < std::size(names); ++k)
+        if (counts[k]) used += (used.empty() ? "" : ", ") + std::to_string(counts[k]) + " " + names[k];
+    report.built.push_back("materials: " + used);
+    if (counts[0] == materials.size())
+        report.left_out.push_back("non-Lambertian BSDFs: every material is Lambertian (f = albedo/π, cosine sampling)");
+    else if (!counts[size_t(BsdfKind::mirror)] && !counts[size_t(BsdfKind::glass)])
+        report.left_out.push_back("delta BSDF paths: no mirror or glass in the scene");
+}
+
 }  // namespace
 
 RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOptions& options) {
@@ -209,11 +226,12 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     s.report.warnings = desc.warnings;
 
     for (const MaterialDesc& m : desc.materials)
-        s.materials.push_back(Material{m.kind, m.albedo, m.emission, m.double_sided});
+        s.materials.push_back(make_material(m));
     const std::vector<MeshDesc> lamps = cs184_lamps_as_meshes(desc, s.materials, s.report);
     add_delta_lights(desc, s);
     const uint32_t default_material = uint32_t(s.materials.size());
     s.materials.push_back(Material{});
+    report_materials(s.materials, s.report);
 
     std::vector<const MeshDesc*> meshes;
     for (const MeshDesc& m : desc.meshes) meshes.push_back(&m);

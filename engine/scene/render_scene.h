@@ -13,6 +13,7 @@
 #include "engine/camera/camera.h"
 #include "engine/geometry/ray.h"
 #include "engine/geometry/triangle4.h"
+#include "engine/material/material.h"
 #include "engine/scene/light_tree.h"
 #include "engine/scene/lights.h"
 #include "engine/scene/scene_description.h"
@@ -20,14 +21,6 @@
 namespace tessera {
 
 enum class TriangleTest { watertight, moller_trumbore };
-
-struct Material {
-    MaterialKind kind = MaterialKind::diffuse;
-    glm::vec3 albedo{0.5f};
-    glm::vec3 emission{0.f};
-    bool double_sided = false;
-    bool emissive() const { return emission.x > 0.f || emission.y > 0.f || emission.z > 0.f; }
-};
 
 // `light`: the triangle's entry in light_triangles (its AreaLight is that entry's `light`), or
 // kNoLight. Kept here rather than in a side table because the BVH build reorders triangles.

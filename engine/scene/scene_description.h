@@ -13,7 +13,9 @@
 
 namespace tessera {
 
-enum class MaterialKind { diffuse, emission, mirror, glass, microfacet, glossy };
+// emission: emits, and reflects as diffuse. metallic_roughness: glTF 2.0's model (albedo is the
+// base colour, roughness the perceptual roughness).
+enum class MaterialKind { diffuse, emission, mirror, glass, microfacet, glossy, metallic_roughness };
 
 struct MaterialDesc {
     std::string name;
@@ -21,12 +23,15 @@ struct MaterialDesc {
     glm::vec3 albedo{0.5f};        // diffuse reflectance (or mirror/glass reflectance)
     glm::vec3 emission{0.0f};      // emitted radiance; non-zero makes the surface a light
     glm::vec3 transmittance{0.0f}; // glass
-    float ior = 1.5f;              // glass
-    float roughness = 0.0f;        // glass / microfacet alpha
+    float ior = 1.5f;              // glass; metallic_roughness: KHR_materials_ior
+    float roughness = 0.0f;        // microfacet: Beckmann alpha; metallic_roughness: glTF roughness (alpha = roughness²)
+    float metallic = 0.0f;         // metallic_roughness
+    float specular = 1.0f;         // metallic_roughness: KHR_materials_specular's specularFactor
     float shininess = 0.0f;        // glossy
     glm::vec3 eta{0.0f}, k{0.0f};  // microfacet conductor
     bool double_sided = false;     // emission on both sides (glTF doubleSided)
     SourceLocation origin;
+    bool emits() const { return emission.x > 0.f || emission.y > 0.f || emission.z > 0.f; }
 };
 
 // A triangle mesh already transformed to world space.

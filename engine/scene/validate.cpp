@@ -18,8 +18,16 @@ void validate(const SceneDescription& scene) {
     const int nmat = static_cast<int>(scene.materials.size());
     for (const auto& m : scene.materials) {
         if (!finite(m.albedo) || !finite(m.emission) || !finite(m.transmittance) || !std::isfinite(m.ior) ||
-            !std::isfinite(m.roughness))
+            !std::isfinite(m.roughness) || !finite(m.eta) || !finite(m.k) || !std::isfinite(m.metallic) ||
+            !std::isfinite(m.specular) || !std::isfinite(m.shininess))
             throw SceneError(m.origin, "material '" + m.name + "' has a non-finite parameter");
+        if (!(m.ior > 0.f))
+            throw SceneError(m.origin, "material '" + m.name + "' has index of refraction " + std::to_string(m.ior) + ", not > 0");
+        if (m.transmittance.x < 0 || m.transmittance.y < 0 || m.transmittance.z < 0 || m.eta.x < 0 || m.eta.y < 0 ||
+            m.eta.z < 0 || m.k.x < 0 || m.k.y < 0 || m.k.z < 0 || m.roughness < 0 || m.metallic < 0 || m.metallic > 1 ||
+            m.specular < 0 || m.shininess < 0)
+            throw SceneError(m.origin, "material '" + m.name + "' has a parameter out of its range (transmittance, eta, k, "
+                                       "roughness, specular and shininess >= 0; metallic in [0, 1])");
         if (m.emission.x < 0 || m.emission.y < 0 || m.emission.z < 0)
             throw SceneError(m.origin, "material '" + m.name + "' has negative emission " + vec_str(m.emission));
         if (m.albedo.x < 0 || m.albedo.y < 0 || m.albedo.z < 0)

@@ -134,7 +134,9 @@ TEST(GltfSamples, BoxAppliesMatrixHierarchyAndMaterial) {
     ASSERT_EQ(s.materials.size(), 1u);
     EXPECT_EQ(s.meshes[0].material, 0);
     expect_near(s.materials[0].albedo, {0.8f, 0.0f, 0.0f});
-    EXPECT_EQ(s.materials[0].kind, MaterialKind::diffuse);
+    EXPECT_EQ(s.materials[0].kind, MaterialKind::metallic_roughness);  // glTF's defaults: a rough metal
+    EXPECT_EQ(s.materials[0].metallic, 1.f);
+    EXPECT_EQ(s.materials[0].roughness, 1.f);
     EXPECT_EQ(s.meshes[0].origin.pointer, "/meshes/0/primitives/0");
     const auto [lo, hi] = bounds(s);
     expect_near(lo, glm::vec3(-0.5f));
@@ -352,17 +354,52 @@ TEST(GltfMaterials, FactorsEmissiveStrengthAndDoubleSided) {
     ASSERT_EQ(s.materials.size(), 2u);
     const MaterialDesc& lamp = s.materials[0];
     EXPECT_EQ(lamp.name, "lamp");
-    EXPECT_EQ(lamp.kind, MaterialKind::emission);
+    EXPECT_EQ(lamp.kind, MaterialKind::metallic_roughness);
+    EXPECT_TRUE(lamp.emits());
     expect_near(lamp.emission, {4, 2, 0});
     expect_near(lamp.albedo, {0.2f, 0.4f, 0.6f});
     EXPECT_TRUE(lamp.double_sided);
     EXPECT_EQ(lamp.origin.pointer, "/materials/0");
-    EXPECT_EQ(s.materials[1].kind, MaterialKind::diffuse);
-    expect_near(s.materials[1].albedo, {1, 1, 1});  // glTF default base colour
+    EXPECT_EQ(s.materials[1].kind, MaterialKind::metallic_roughness);
+    expect_near(s.materials[1].albedo, {1, 1, 1});  // glTF's defaults: white, metallic 1, roughness 1
+    EXPECT_EQ(s.materials[1].metallic, 1.f);
+    EXPECT_EQ(s.materials[1].roughness, 1.f);
     EXPECT_FALSE(s.materials[1].double_sided);
     EXPECT_EQ(s.meshes[0].material, 0);
     EXPECT_FALSE(has_warning(s, "no lights"));  // the emitter lights the scene
     EXPECT_FALSE(has_warning(s, "extensions used by the file are ignored"));
+}
+
+// Metallic and roughness factors, KHR_materials_ior and KHR_materials_specular are read; a base
+// with neither metal nor specular layer is Lambertian (what our own scenes write).
+TEST(GltfMaterials, MetallicRoughnessIorAndSpecular) {
+    const SceneDescription s = parse(triangle_file(R"([{"mesh":0}])",
+                                                   R"("materials":[
+            {"name":"gold","pbrMetallicRoughness":{"baseColorFactor":[1,0.8,0.3,1],"metallicFactor":1,"roughnessFactor":0.3}},
+            {"name":"plastic","pbrMetallicRoughness":{"metallicFactor":0,"roughnessFactor":0.5},
+             "extensions":{"KHR_materials_ior":{"ior":1.7},"KHR_materials_specular":{"specularFactor":0.5}}},
+            {"name":"matte","pbrMetallicRoughness":{"metallicFactor":0},"extensions":{"KHR_materials_specular":{"specularFactor":0}}}],
+            "extensionsUsed":["KHR_materials_ior","KHR_materials_specular"])",
+                                                   R"([{"nodes":[0]}])", R"(,"material":0)"));
+    ASSERT_EQ(s.materials.size(), 3u);
+    EXPECT_EQ(s.materials[0].kind, MaterialKind::metallic_roughness);
+    EXPECT_EQ(s.materials[0].metallic, 1.f);
+    EXPECT_FLOAT_EQ(s.materials[0].roughness, 0.3f);
+    EXPECT_EQ(s.materials[1].kind, MaterialKind::metallic_roughness);
+    EXPECT_FLOAT_EQ(s.materials[1].ior, 1.7f);
+    EXPECT_FLOAT_EQ(s.materials[1].specular, 0.5f);
+    EXPECT_EQ(s.materials[2].kind, MaterialKind::diffuse);
+    EXPECT_FALSE(has_warning(s, "extensions used by the file are ignored"));
+    const SceneError e = error_of([&] {
+        parse(triangle_file(R"([{"mesh":0}])", R"("materials":[{"pbrMetallicRoughness":{"metallicFactor":1.5}}])",
+                            R"([{"nodes":[0]}])", R"(,"material":0)"));
+    });
+    EXPECT_EQ(e.where().pointer, "/materials/0/pbrMetallicRoughness/metallicFactor");
+    const SceneError e2 = error_of([&] {
+        parse(triangle_file(R"([{"mesh":0}])", R"("materials":[{"extensions":{"KHR_materials_ior":{"ior":-1}}}])",
+                            R"([{"nodes":[0]}])", R"(,"material":0)"));
+    });
+    EXPECT_EQ(e2.where().pointer, "/materials/0/extensions/KHR_materials_ior/ior");
 }
 
 TEST(GltfMaterials, TexturesWarnAndBrokenImagesDoNotMatter) {

@@ -1,0 +1,262 @@
+#pragma once
+// The closed set of BSDFs, as plain data and free functions switched on a tag: no virtual call
+// per sample. Every function works in a local frame whose z is the shading normal turned to
+// wo's side (wo.z > 0 for a well-formed query); glass reads its relative index from `ior`, which
+// the integrator inverts when wo is inside the object.
+//
+// bsdf_f and bsdf_pdf describe the non-delta part (zero for mirror and glass); bsdf_sample draws
+// from the whole BSDF and returns f·|cos θi|/pdf, so delta lobes need no density.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include <glm/glm.hpp>
+
+#include "engine/material/fresnel.h"
+#include "engine/material/ggx_albedo.h"
+#include "engine/material/microfacet.h"
+#include "engine/sampling/warp.h"
+
+namespace tessera {
+
+enum class BsdfKind : uint8_t {
+    lambertian,          // albedo / π
+    mirror,              // perfect specular reflection × albedo
+    glass,               // smooth Fresnel dielectric: reflection × albedo, refraction × transmittance
+    conductor,           // CS184 microfacet: Beckmann, exact conductor Fresnel with eta + i·k per channel
+    phong,               // CS184 "glossy": normalised Phong lobe (exponent) around the mirror direction
+    metallic_roughness,  // glTF 2.0 Appendix B: GGX specular, Lambertian base, mixed by metallic
+};
+
+struct Bsdf {
+    BsdfKind kind = BsdfKind::lambertian;
+    glm::vec3 albedo{0.5f};         // reflectance; glTF: base colour
+    glm::vec3 transmittance{1.f};   // glass
+    float ior = 1.5f;               // glass: η_far / η_near; glTF: the dielectric's index (KHR_materials_ior)
+    float alpha = 0.5f;             // conductor (Beckmann α), metallic_roughness (GGX α = roughness²)
+    glm::vec3 eta{1.f}, k{0.f};     // conductor
+    float metallic = 0.f;           // metallic_roughness
+    float specular = 1.f;           // metallic_roughness: KHR_materials_specular's factor
+    float exponent = 1.f;           // phong
+};
+
+struct BsdfSample {
+    glm::vec3 wi;       // local
+    glm::vec3 weight;   // f·|cos θi| / pdf
+    float pdf = 0.f;    // per solid angle; for a delta lobe, the probability of choosing it
+    bool delta = false;
+};
+
+inline float luminance(const glm::vec3& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+
+inline bool bsdf_is_delta(const Bsdf& b) { return b.kind == BsdfKind::mirror || b.kind == BsdfKind::glass; }
+
+inline bool bsdf_is_black(const Bsdf& b) {
+    const glm::vec3 zero(0.f);
+    switch (b.kind) {
+        case BsdfKind::glass: return b.albedo == zero && b.transmittance == zero;
+        case BsdfKind::conductor: return false;
+        case BsdfKind::metallic_roughness: return b.albedo == zero && b.metallic >= 1.f;
+        default: return b.albedo == zero;
+    }
+}
+
+// Whether bsdf_sample reads its 1-D number `uc` (a choice between lobes): the integrator draws
+// it only then, so a Lambertian path takes the same sample dimensions as it always did.
+inline bool bsdf_chooses_lobe(const Bsdf& b) { return b.kind == BsdfKind::glass || b.kind == BsdfKind::metallic_roughness; }
+
+namespace bsdf_detail {
+
+// glTF metallic-roughness: Schlick's F for the mixed specular lobe (f0 and f90 mixed by
+// metallic; the dielectric's from its index and KHR_materials_specular's factor) over a
+// Lambertian base. The base takes what the dielectric's specular lobe leaves, by that lobe's
+// directional albedo E at both ends, (1 − E(μo))(1 − E(μi)) / (1 − E_avg), rather than by glTF's
+// sample 1 − F(v·h): reciprocal, and white dielectrics then reflect at most what arrives
+// (glTF's sample formula reflects up to 1.46 at grazing incidence; docs/materials.md).
+struct MetallicRoughness {
+    glm::vec3 f0, f90;
+    float d_f0, d_f90;   // the dielectric's
+    glm::vec3 c_diff;
+    float alpha;
+    float base_o;        // 1 − E(μo), over 1 − E_avg
+    explicit MetallicRoughness(const Bsdf& b, const glm::vec3& wo) {
+        const float r = (b.ior - 1.f) / (b.ior + 1.f);
+        d_f0 = std::min(1.f, r * r) * b.specular;
+        d_f90 = b.specular;
+        f0 = glm::mix(glm::vec3(d_f0), b.albedo, b.metallic);
+        f90 = glm::mix(glm::vec3(d_f90), glm::vec3(1.f), b.metallic);
+        c_diff = b.albedo * (1.f - b.metallic);
+        alpha = std::max(b.alpha, kMinAlpha);
+        const float avg = ggx_albedo_average(alpha)(d_f0, d_f90);
+        base_o = avg < 1.f ? std::max(0.f, 1.f - ggx_albedo(wo.z, alpha)(d_f0, d_f90)) / (1.f - avg) : 0.f;
+    }
+    glm::vec3 f_spec(float c) const {
+        const float m = std::clamp(1.f - c, 0.f, 1.f);
+        return f0 + (f90 - f0) * ((m * m) * (m * m) * m);
+    }
+    glm::vec3 f_base(const glm::vec3& wi) const {
+        return c_diff * (kInvPi * base_o * std::max(0.f, 1.f - ggx_albedo(wi.z, alpha)(d_f0, d_f90)));
+    }
+    // The probability of sampling the specular lobe, from wo alone: each lobe's albedo guess.
+    float p_spec(const glm::vec3& wo) const {
+        const float s = luminance(f_spec(wo.z));
+        const float d = luminance(c_diff) * std::max(0.f, 1.f - ggx_albedo(wo.z, alpha)(d_f0, d_f90));
+        if (d <= 0.f) return 1.f;
+        if (s <= 0.f) return 0.f;
+        return std::clamp(s / (s + d), 0.1f, 0.9f);
+    }
+};
+
+}  // namespace bsdf_detail
+
+inline glm::vec3 bsdf_f(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi) {
+    switch (b.kind) {
+        case BsdfKind::lambertian: return wi.z > 0.f && wo.z > 0.f ? b.albedo * kInvPi : glm::vec3(0.f);
+        case BsdfKind::mirror:
+        case BsdfKind::glass: return glm::vec3(0.f);
+        case BsdfKind::conductor: {
+            if (wo.z <= 0.f || wi.z <= 0.f) return glm::vec3(0.f);
+            glm::vec3 h = wo + wi;
+            if (h == glm::vec3(0.f)) return glm::vec3(0.f);
+            h = glm::normalize(h);
+            const float alpha = std::max(b.alpha, kMinAlpha);
+            const float g = 1.f / (1.f + beckmann_lambda(wo, alpha) + beckmann_lambda(wi, alpha));
+            const glm::vec3 F = fresnel_conductor(glm::dot(wi, h), b.eta, b.k);
+            return F * (beckmann_d(h, alpha) * g / (4.f * wo.z * wi.z));
+        }
+        case BsdfKind::phong: {
+            if (wo.z <= 0.f || wi.z <= 0.f) return glm::vec3(0.f);
+            const float c = glm::dot(reflect_local(wo), wi);
+            if (c <= 0.f) return glm::vec3(0.f);
+            return b.albedo * ((b.exponent + 2.f) * (0.5f * kInvPi) * std::pow(c, b.exponent));
+        }
+        case BsdfKind::metallic_roughness: {
+            if (wo.z <= 0.f || wi.z <= 0.f) return glm::vec3(0.f);
+            const bsdf_detail::MetallicRoughness m(b, wo);
+            glm::vec3 h = wo + wi;
+            if (h == glm::vec3(0.f)) return glm::vec3(0.f);
+            h = glm::normalize(h);
+            const float vh = std::max(0.f, glm::dot(wo, h));
+            const float g = 1.f / (1.f + ggx_lambda(wo, m.alpha) + ggx_lambda(wi, m.alpha));
+            const glm::vec3 spec = m.f_spec(vh) * (ggx_d(h, m.alpha) * g / (4.f * wo.z * wi.z));
+            return spec + m.f_base(wi);
+        }
+    }
+    return glm::vec3(0.f);
+}
+
+inline float bsdf_pdf(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi) {
+    switch (b.kind) {
+        case BsdfKind::lambertian: return wo.z > 0.f ? cosine_hemisphere_pdf(wi.z) : 0.f;
+        case BsdfKind::mirror:
+        case BsdfKind::glass: return 0.f;
+        case BsdfKind::conductor: {
+            if (wo.z <= 0.f || wi.z <= 0.f) return 0.f;
+            glm::vec3 h = wo + wi;
+            if (h == glm::vec3(0.f)) return 0.f;
+            h = glm::normalize(h);
+            const float oh = glm::dot(wo, h);
+            return oh > 0.f ? beckmann_pdf_h(h, std::max(b.alpha, kMinAlpha)) / (4.f * oh) : 0.f;
+        }
+        case BsdfKind::phong: {
+            if (wo.z <= 0.f || wi.z <= 0.f) return 0.f;
+            const float c = glm::dot(reflect_local(wo), wi);
+            return c > 0.f ? (b.exponent + 1.f) * (0.5f * kInvPi) * std::pow(c, b.exponent) : 0.f;
+        }
+        case BsdfKind::metallic_roughness: {
+            if (wo.z <= 0.f || wi.z <= 0.f) return 0.f;
+            const bsdf_detail::MetallicRoughness m(b, wo);
+            const float ps = m.p_spec(wo);
+            glm::vec3 h = wo + wi;
+            float spec = 0.f;
+            if (h != glm::vec3(0.f)) {
+                h = glm::normalize(h);
+                const float oh = glm::dot(wo, h);
+                if (oh > 0.f) spec = ggx_visible_pdf_h(wo, h, m.alpha) / (4.f * oh);
+            }
+            return ps * spec + (1.f - ps) * cosine_hemisphere_pdf(wi.z);
+        }
+    }
+    return 0.f;
+}
+
+// `uc` is read only where bsdf_chooses_lobe(b). False: no direction (the path ends there).
+inline bool bsdf_sample(const Bsdf& b, const glm::vec3& wo, float uc, glm::vec2 u, BsdfSample& s) {
+    if (wo.z <= 0.f) return false;
+    switch (b.kind) {
+        case BsdfKind::lambertian: {
+            s.wi = sample_cosine_hemisphere(u.x, u.y);
+            s.pdf = cosine_hemisphere_pdf(s.wi.z);
+            s.weight = b.albedo;
+            s.delta = false;
+            return s.wi.z > 0.f;
+        }
+        case BsdfKind::mirror: {
+            s.wi = reflect_local(wo);
+            s.pdf = 1.f;
+            s.weight = b.albedo;
+            s.delta = true;
+            return true;
+        }
+        case BsdfKind::glass: {
+            const float F = fresnel_dielectric(wo.z, b.ior);
+            s.delta = true;
+            if (uc < F) {
+                s.wi = reflect_local(wo);
+                s.pdf = F;
+                s.weight = b.albedo;
+                return true;
+            }
+            if (!refract(wo, glm::vec3(0.f, 0.f, 1.f), b.ior, s.wi)) return false;  // F = 1 there; unreachable
+            s.pdf = 1.f - F;
+            // Radiance, not importance: it is compressed by η² entering the denser side.
+            s.weight = b.transmittance / (b.ior * b.ior);
+            return s.wi.z < 0.f;
+        }
+        case BsdfKind::conductor: {
+            const float alpha = std::max(b.alpha, kMinAlpha);
+            const glm::vec3 h = beckmann_sample_h(u, alpha);
+            const float oh = glm::dot(wo, h);
+            if (oh <= 0.f) return false;
+            s.wi = 2.f * oh * h - wo;
+            if (s.wi.z <= 0.f) return false;
+            s.pdf = beckmann_pdf_h(h, alpha) / (4.f * oh);
+            if (!(s.pdf > 0.f)) return false;
+            s.weight = bsdf_f(b, wo, s.wi) * (s.wi.z / s.pdf);
+            s.delta = false;
+            return true;
+        }
+        case BsdfKind::phong: {
+            const float c = std::pow(u.x, 1.f / (b.exponent + 1.f));
+            const float sn = std::sqrt(std::max(0.f, 1.f - c * c));
+            const float phi = 2.f * kPi * u.y;
+            s.wi = Frame(reflect_local(wo)).to_world({sn * std::cos(phi), sn * std::sin(phi), c});
+            if (s.wi.z <= 0.f) return false;
+            s.pdf = bsdf_pdf(b, wo, s.wi);
+            if (!(s.pdf > 0.f)) return false;
+            s.weight = bsdf_f(b, wo, s.wi) * (s.wi.z / s.pdf);
+            s.delta = false;
+            return true;
+        }
+        case BsdfKind::metallic_roughness: {
+            const bsdf_detail::MetallicRoughness m(b, wo);
+            if (uc < m.p_spec(wo)) {
+                const glm::vec3 h = ggx_sample_visible_h(wo, u, m.alpha);
+                const float oh = glm::dot(wo, h);
+                if (oh <= 0.f) return false;
+                s.wi = 2.f * oh * h - wo;
+            } else {
+                s.wi = sample_cosine_hemisphere(u.x, u.y);
+            }
+            if (s.wi.z <= 0.f) return false;
+            s.pdf = bsdf_pdf(b, wo, s.wi);
+            if (!(s.pdf > 0.f)) return false;
+            s.weight = bsdf_f(b, wo, s.wi) * (s.wi.z / s.pdf);
+            s.delta = false;
+            return true;
+        }
+    }
+    return false;
+}
+
+}  // namespace tessera
