@@ -79,7 +79,13 @@ JobService::JobService(ServiceConfig config)
             node_ = std::make_unique<RenderNode>(nc);
             node_->start();
         }
-        farm_watch_ = std::thread([this] { watch_farm(); });
+        std::optional<FarmLook> first;
+        try {
+            first = look_at_farm();
+        } catch (const std::exception& e) {
+            spdlog::warn("events: cannot read the farm's jobs: {}", e.what());
+        }
+        farm_watch_ = std::thread([this, first = std::move(first)]() mutable { watch_farm(std::move(first)); });
         return;
     }
     store_ = std::make_unique<SqliteJobStore>(config_.data_dir + "/tessera.db", config_.max_store_bytes);
@@ -591,42 +597,47 @@ void JobService::publish_state(const std::string& id) {
     }
 }
 
-void JobService::watch_farm() {
-    // What each job looked like at the last look: its state and samples. Kept up to date even
-    // while no one listens, so that nothing is missed in the gap while a client reconnects.
-    // A look reads ids only (three sorted-set ranges) and the progress of running jobs;
-    // records are read for the jobs that changed, and only when someone listens.
-    enum Seen { queued, running, other };
-    std::map<std::string, std::pair<Seen, uint64_t>> seen;
-    bool first = true;
+JobService::FarmLook JobService::look_at_farm() {
+    // A look reads ids only (three sorted-set ranges) and the progress of running jobs.
+    FarmLook now;
+    for (const std::string& id : redis_store_->ids(JobState::queued, 1000)) now[id] = {FarmSeen::queued, 0};
+    for (const std::string& id : redis_store_->ids(JobState::running, 1000)) {
+        const auto p = redis_store_->live_progress(id);
+        now[id] = {FarmSeen::running, p ? p->samples : 0};
+    }
+    // The newest jobs, whatever their state: one that came and went between two looks.
+    for (const std::string& id : redis_store_->ids(std::nullopt, 50)) now.emplace(id, std::pair{FarmSeen::other, uint64_t(0)});
+    return now;
+}
+
+void JobService::watch_farm(std::optional<FarmLook> first) {
+    // What each job looked like at the last look, kept up to date even while no one listens,
+    // so that nothing is missed in the gap while a client reconnects. Records are read for the
+    // jobs that changed, and only when someone listens. Without a first look (Redis was not
+    // there at start), the first one here is the baseline.
+    bool baseline = !first;
+    FarmLook seen = first ? std::move(*first) : FarmLook{};
     for (;;) {
         {
             std::unique_lock<std::mutex> lock(mutex_);
             if (pause_cv_.wait_for(lock, std::chrono::milliseconds(300), [&] { return stopping_; })) return;
         }
         try {
-            std::map<std::string, std::pair<Seen, uint64_t>> now;
-            for (const std::string& id : redis_store_->ids(JobState::queued, 1000)) now[id] = {queued, 0};
-            for (const std::string& id : redis_store_->ids(JobState::running, 1000)) {
-                const auto p = redis_store_->live_progress(id);
-                now[id] = {running, p ? p->samples : 0};
-            }
-            // The newest jobs, whatever their state: one that came and went between two looks.
-            for (const std::string& id : redis_store_->ids(std::nullopt, 50)) now.emplace(id, std::pair{other, uint64_t(0)});
+            FarmLook now = look_at_farm();
             const bool listening = events_.subscribers() > 0;
             std::vector<std::pair<std::string, const char*>> changes;
             // Unfinished before, out of sight now: it finished, and 50 newer jobs came since.
             for (const auto& [id, before] : seen)
-                if (!now.count(id) && before.first != other) changes.push_back({id, "state"});
-            if (!first)
+                if (!now.count(id) && before.first != FarmSeen::other) changes.push_back({id, "state"});
+            if (!baseline)
                 for (const auto& [id, state] : now) {
                     auto it = seen.find(id);
                     if (it == seen.end()) changes.push_back({id, "created"});
                     else if (it->second.first != state.first) changes.push_back({id, "state"});
-                    else if (state.first == running && it->second.second != state.second) changes.push_back({id, "progress"});
+                    else if (state.first == FarmSeen::running && it->second.second != state.second) changes.push_back({id, "progress"});
                 }
             seen = std::move(now);
-            first = false;
+            baseline = false;
             if (!listening) continue;
             for (const auto& [id, type] : changes) {
                 const std::optional<JobRecord> rec = store_->get(id);

@@ -10,6 +10,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <mutex>
 #include <set>
 #include <string>
@@ -135,8 +136,14 @@ private:
     // The job's status as stored now, published (a state change); store errors are logged only.
     void publish_state(const std::string& id);
     // A farm's API node does not run the jobs: it turns changes it sees in the store into
-    // events while someone listens.
-    void watch_farm();
+    // events while someone listens. Each job as one look saw it: queued, running (with its
+    // samples) or other.
+    enum class FarmSeen { queued, running, other };
+    using FarmLook = std::map<std::string, std::pair<FarmSeen, uint64_t>>;
+    FarmLook look_at_farm();
+    // `first`: the first look, taken before the server answers anyone, so that a job submitted
+    // as soon as it listens is new to the watcher (none: Redis did not answer then).
+    void watch_farm(std::optional<FarmLook> first);
     std::string job_dir(const std::string& id) const;
     std::string scene_source(const std::string& scene);
     void publish_scene(const std::string& id, const std::string& scene);
