@@ -38,5 +38,6 @@ int bench_convergence(int argc, char** argv);
 int bench_leave_out(int argc, char** argv);
 int bench_rays(int argc, char** argv);
 int bench_cluster(int argc, char** argv);
+int bench_materials(int argc, char** argv);
 
 }  // namespace tessera::cli

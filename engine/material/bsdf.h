@@ -72,7 +72,7 @@ namespace bsdf_detail {
 // Lambertian base. The base takes what the dielectric's specular lobe leaves, by that lobe's
 // directional albedo E at both ends, (1 − E(μo))(1 − E(μi)) / (1 − E_avg), rather than by glTF's
 // sample 1 − F(v·h): reciprocal, and white dielectrics then reflect at most what arrives
-// (glTF's sample formula reflects up to 1.46 at grazing incidence; docs/materials.md).
+// (glTF's sample formula reflects up to 1.57 at grazing incidence; docs/materials.md).
 struct MetallicRoughness {
     glm::vec3 f0, f90;
     float d_f0, d_f90;   // the dielectric's
