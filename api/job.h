@@ -46,6 +46,9 @@ struct RenderJob {
     RenderSceneOptions scene_options;  // BVH and triangle test
     int priority = 0;
     std::string reference;             // a finished job whose image the error is measured against
+    // An environment map (lat-long EXR or HDR) lighting the scene from infinity: a file path
+    // (CLI) or a name from the server's catalog folders; empty: none.
+    std::string environment;
 };
 
 // One configuration of a comparison: a label and the render fields it sets (the rest are the

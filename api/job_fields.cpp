@@ -230,6 +230,26 @@ const Field<RenderJob> kRenderFields[] = {
         f.get = &get_adaptive;
         return f;
     }(),
+    number<RenderJob, &RenderJob::render, &RenderSettings::lens_radius>(
+        "lens_radius", 0, 1e6, "0", "Thin-lens radius in scene units (CS184 -b); 0: a pinhole.", "-b,--lens-radius"),
+    number<RenderJob, &RenderJob::render, &RenderSettings::focal_distance>(
+        "focal_distance", 0, 1e9, "0", "Distance of the plane in focus along the view (CS184 -d); 0: the camera's look-at point.",
+        "-d,--focal-distance"),
+    [] {
+        Field<RenderJob> f = field<RenderJob>(
+            "environment", FieldKind::text,
+            "A latitude-longitude environment map (.exr or .hdr) lighting the scene from infinity (CS184 -e): a name "
+            "from the server's scene folders, or (CLI) a file; null: none.",
+            "null");
+        f.cli = "-e,--environment";
+        f.nullable = true;
+        f.min_int = 1;
+        f.max_int = 4096;
+        f.set = &set_text<RenderJob, &RenderJob::environment>;
+        f.get = &get_nullable_text<RenderJob, &RenderJob::environment>;
+        f.per_config = false;
+        return f;
+    }(),
     integer<RenderJob, &RenderJob::render, &RenderSettings::tile_size>("tile_size", 1, 4096, "32", "Tile edge in pixels.",
                                                                       "--tile"),
     not_per_config(integer<RenderJob, &RenderJob::render, &RenderSettings::seed>(

@@ -1,5 +1,7 @@
 #include "api/job_runner.h"
 
+#include "engine/scene/environment.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -28,6 +30,23 @@ void write_text(const std::string& path, const std::string& text) {
     out << text;
     out.flush();
     if (!out) throw std::runtime_error("cannot write " + path);
+}
+
+std::shared_ptr<const EnvironmentMap> load_environment(const std::string& path) {
+    const std::string ext = std::filesystem::path(path).extension().string();
+    if (ext != ".exr" && ext != ".hdr")
+        throw SceneError(SourceLocation{path, 0, ""}, "an environment map must be a latitude-longitude .exr or .hdr file");
+    Image img;
+    try {
+        img = read_image(path);
+    } catch (const std::exception& e) {
+        throw SceneError(SourceLocation{path, 0, ""}, std::string("cannot read the environment map: ") + e.what());
+    }
+    try {
+        return std::make_shared<const EnvironmentMap>(build_environment(img.width, img.height, img.rgb, path));
+    } catch (const std::invalid_argument& e) {
+        throw SceneError(SourceLocation{path, 0, ""}, e.what());
+    }
 }
 
 JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutputs& out, const RunCallbacks& cb) {
@@ -74,6 +93,7 @@ JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutp
             v.film.resolve_into(*img);
             cb.pass(PassSnapshot{v.index, v.spp, v.point, img});
         };
+    if (!opt.environment_file.empty()) settings.environment = load_environment(opt.environment_file);
     if (!opt.reference_image.empty()) {
         if (!std::filesystem::exists(opt.reference_image)) throw std::runtime_error("the reference job's image was deleted");
         reference = read_image(opt.reference_image);
@@ -174,6 +194,14 @@ JobOutcome write_render(const FinishedRender& done, const RunOptions& opt, const
     rep.bvh = scene.tri_bvh_stats;
     rep.accel_bytes = scene.triangle_accel_bytes();
     rep.scene_build = scene.report;
+    if (done.settings.environment) {
+        // The scene's "no lights" is not this render's: the environment lights it.
+        auto& w = rep.scene_build.warnings;
+        w.erase(std::remove_if(w.begin(), w.end(), [](const std::string& s) { return s.find("no lights") != std::string::npos; }), w.end());
+        rep.scene_build.built.push_back("environment light: " + done.settings.environment->source + " (" +
+                                        std::to_string(done.settings.environment->width) + "x" +
+                                        std::to_string(done.settings.environment->height) + ", sampled by luminance)");
+    }
     rep.render_built = result.built;
     rep.render_left_out = result.left_out;
     rep.curve = result.curve;

@@ -33,6 +33,10 @@ std::shared_ptr<PreparedScene> prepare_scene(const std::string& source, const Lo
 using ScenePreparer =
     std::function<std::pair<std::shared_ptr<const PreparedScene>, bool>(const std::string& source, const RenderSceneOptions& options)>;
 
+// A lat-long environment map read from an .exr or .hdr file. Throws SceneError naming the
+// file (unreadable, another format, negative or non-finite pixels).
+std::shared_ptr<const EnvironmentMap> load_environment(const std::string& path);
+
 // How this runner runs the job: not part of the job (the same job gives the same image with
 // any of these).
 struct RunOptions {
@@ -41,6 +45,7 @@ struct RunOptions {
     int threads = 0;                // 0: all cores
     std::string job_id;             // names the job in metadata and plot titles; "" for none
     std::string reference_image;    // the reference job's EXR (RenderJob::reference, resolved)
+    std::string environment_file;   // RenderJob::environment, resolved to a file; empty: none
     bool record_convergence = true; // keep the half buffers and report the estimated error
     ScenePreparer prepare;          // a server's cache of prepared scenes; unset: prepared for this job
 };

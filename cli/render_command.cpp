@@ -32,6 +32,7 @@ int fail(int status, const std::string& why) {
 void print_report(const api::RenderReport& r, const std::string& output) {
     const api::RenderJob& job = r.job;
     const RenderStats& st = r.stats;
+    for (const auto& w : r.scene_build.built) std::printf("built: %s\n", w.c_str());
     for (const auto& w : r.scene_build.left_out) std::printf("left out: %s\n", w.c_str());
     for (const auto& w : r.render_left_out) std::printf("left out: %s\n", w.c_str());
     const double mrays = st.render_seconds > 0 ? double(st.rays()) / st.render_seconds * 1e-6 : 0.0;
@@ -177,6 +178,7 @@ int render_command(int argc, char** argv) {
 
     api::RunOptions options;
     options.scene_source = job.scene;
+    options.environment_file = job.environment;  // the CLI's -e names a file
     options.threads = threads;
     options.record_convergence = false;  // one pass, as the CS184 app renders
     api::RunOutputs outputs;

@@ -166,6 +166,15 @@ json JobService::submit(const json& body) {
     } else if (base != job.scene) {
         throw Problem(404, "unknown-scene", "Unknown scene", "only built-in scenes take parameters").with_field("/scene");
     }
+    if (!job.environment.empty()) {
+        if (redis_store_)
+            throw Problem(400, "invalid-field", "Invalid job", "environment maps are not available on a render farm yet")
+                .with_field("/environment");
+        if (!catalog_.find_environment(job.environment))
+            throw Problem(404, "unknown-environment", "Unknown environment map",
+                          "no environment map named '" + job.environment + "' (an .exr or .hdr file in the scene folders)")
+                .with_field("/environment");
+    }
     if (!job.reference.empty()) {
         std::optional<JobRecord> ref;
         try {
@@ -504,6 +513,11 @@ void JobService::run(const JobRecord& rec, Running& running) {
             running.sample_budget = double(r->render.spp) * r->render.width * r->render.height;
             running.max_spp = r->render.spp;
             if (!r->reference.empty()) opt.reference_image = (fs::path(job_dir(r->reference)) / "image.exr").string();
+            if (!r->environment.empty()) {
+                const auto env = catalog_.find_environment(r->environment);
+                if (!env) throw std::runtime_error("environment map '" + r->environment + "' is no longer in the scene folders");
+                opt.environment_file = env->path;
+            }
         }
         const std::string dir = job_dir(rec.id);
         fs::create_directories(dir);

@@ -497,7 +497,7 @@ struct RenderNode::Impl {
         auto late = [&] { return deadline && now_ms() > deadline; };
         auto interrupted = [&] { return cancel.load() || stopping.load(); };
         const auto t0 = Clock::now();
-        const Camera camera = make_camera(prepared->scene.camera, s.width, s.height);  // the context keeps a reference
+        const Camera camera = camera_for(prepared->scene, s);  // the context keeps a reference
         TileContext ctx(prepared->scene, s, camera);
         bool timed_out = late();
         json sums;  // straight through: per pass target, the tile's error sums and when it got there

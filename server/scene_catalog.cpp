@@ -16,10 +16,21 @@ namespace fs = std::filesystem;
 
 namespace {
 
-bool scene_extension(const fs::path& p) {
+std::string lower_extension(const fs::path& p) {
     std::string e = p.extension().string();
     std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    return e;
+}
+
+bool scene_extension(const fs::path& p) {
+    const std::string e = lower_extension(p);
     return e == ".dae" || e == ".gltf" || e == ".glb";
+}
+
+// Lat-long environment maps (CS184 -e), named like scenes: their path without the extension.
+bool environment_extension(const fs::path& p) {
+    const std::string e = lower_extension(p);
+    return e == ".exr" || e == ".hdr";
 }
 
 std::string random_hex(size_t n) {
@@ -44,6 +55,7 @@ void SceneCatalog::refresh() {
 
 void SceneCatalog::scan_locked() {
     entries_.clear();
+    environments_.clear();
     for (const char* b : {"builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace", "builtin:many_lights",
                           "builtin:displaced_sphere"})
         entries_[b] = {b, b, "builtin"};
@@ -53,11 +65,13 @@ void SceneCatalog::scan_locked() {
         for (auto it = fs::recursive_directory_iterator(dir, fs::directory_options::skip_permission_denied, ec);
              !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
             if (it.depth() > 8) { it.disable_recursion_pending(); continue; }
-            if (!it->is_regular_file(ec) || !scene_extension(it->path())) continue;
+            if (!it->is_regular_file(ec)) continue;
+            const bool scene = scene_extension(it->path()), environment = environment_extension(it->path());
+            if (!scene && !environment) continue;
             fs::path rel = fs::relative(it->path(), dir, ec);
             if (ec) continue;
             std::string name = prefix + (rel.parent_path() / rel.stem()).generic_string();
-            entries_.try_emplace(name, CatalogEntry{name, it->path().string(), source});
+            (scene ? entries_ : environments_).try_emplace(name, CatalogEntry{name, it->path().string(), source});
         }
     };
     add_dir(project_dir_, "project", "");
@@ -72,6 +86,17 @@ std::optional<CatalogEntry> SceneCatalog::find(const std::string& name) {
         scan_locked();  // a file added since the last scan
         it = entries_.find(name);
         if (it == entries_.end()) return std::nullopt;
+    }
+    return it->second;
+}
+
+std::optional<CatalogEntry> SceneCatalog::find_environment(const std::string& name) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = environments_.find(name);
+    if (it == environments_.end()) {
+        scan_locked();
+        it = environments_.find(name);
+        if (it == environments_.end()) return std::nullopt;
     }
     return it->second;
 }

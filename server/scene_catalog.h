@@ -26,6 +26,8 @@ public:
     // Rescans the folders (uploads included).
     void refresh();
     std::optional<CatalogEntry> find(const std::string& name);
+    // An environment map (.exr, .hdr) in the same folders, named like a scene.
+    std::optional<CatalogEntry> find_environment(const std::string& name);
     std::vector<CatalogEntry> entries();
     // Counts and bounds of a scene, loading it once (cached by path and modification time).
     // Throws SceneError for a broken file.
@@ -41,6 +43,7 @@ private:
     std::string upload_dir_;
     std::mutex mutex_;
     std::map<std::string, CatalogEntry> entries_;
+    std::map<std::string, CatalogEntry> environments_;
     std::map<std::string, std::pair<long long, nlohmann::json>> details_;  // path → (mtime, details)
 };
 

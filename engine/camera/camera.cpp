@@ -27,6 +27,17 @@ Camera make_camera(const CameraDesc& desc, int width, int height) {
     return c;
 }
 
+void set_thin_lens(Camera& c, const CameraDesc& desc, float radius, float distance) {
+    c.lens_radius = std::max(0.f, radius);
+    if (distance > 0.f) {
+        c.focal_distance = distance;
+    } else {
+        // The look-at point's depth along the view, or 1 where the two coincide.
+        const float depth = glm::dot(desc.look_at - desc.position, c.forward);
+        c.focal_distance = depth > 0.f ? depth : 1.f;
+    }
+}
+
 bool frame_camera(const std::optional<CameraDesc>& from_file, const Aabb& bounds, CameraDesc& out) {
     const glm::vec3 center = bounds.empty() ? glm::vec3(0.f) : bounds.centroid();
     const float diag = bounds.empty() ? 1.f : std::max(glm::length(bounds.extent()), 1e-30f);

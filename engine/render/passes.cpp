@@ -56,9 +56,14 @@ void describe_render(const RenderScene& scene, const RenderSettings& settings, c
         (settings.max_depth > 1 ? built : left_out)
             .push_back(settings.max_depth > 1 ? "indirect bounces up to depth " + std::to_string(settings.max_depth)
                                               : std::string("indirect bounces (max_depth <= 1)"));
-        if (!scene.has_lights()) left_out.push_back("direct lighting: no lights or emitters, no shadow rays");
+        if (!scene.has_lights() && !settings.environment) left_out.push_back("direct lighting: no lights or emitters, no shadow rays");
         else if (settings.direct == DirectLighting::mis) built.push_back("MIS: light and BSDF samples");
         if (settings.russian_roulette <= 0.f || settings.max_depth <= 1) left_out.push_back("Russian roulette");
+        if (settings.lens_radius > 0.f)
+            built.push_back("thin lens: radius " + std::to_string(settings.lens_radius) + ", focused " +
+                            (settings.focal_distance > 0.f ? "at " + std::to_string(settings.focal_distance) : std::string("on the look-at point")));
+        else
+            left_out.push_back("thin lens: a pinhole camera, no lens sample");
     } else {
         left_out.push_back("light transport (normal shading)");
     }

@@ -14,6 +14,7 @@
 #include "engine/render/renderer.h"
 #include "engine/sampling/sampler.h"
 #include "engine/sampling/warp.h"
+#include "engine/scene/environment.h"
 #include "engine/scene/intersect.h"
 
 namespace tessera {
@@ -21,11 +22,12 @@ namespace tessera {
 class PathIntegrator {
 public:
     PathIntegrator(const RenderScene& scene, const RenderSettings& settings, RenderStats& stats)
-        : s_(scene), st_(settings), stats_(stats) {}
+        : s_(scene), st_(settings), stats_(stats),
+          env_(settings.environment && !settings.environment->empty() ? settings.environment.get() : nullptr) {}
 
     glm::vec3 radiance(Ray ray, Sampler& rng) {
         Hit hit;
-        if (!intersect(s_, ray, hit, stats_.traversal)) return include(0) ? sky(ray.d) : glm::vec3(0.f);
+        if (!intersect(s_, ray, hit, stats_.traversal)) return include(0) ? background(glm::normalize(ray.d)) : glm::vec3(0.f);
         SurfaceInteraction si = surface_at(s_, ray, hit);
         glm::vec3 wo = -glm::normalize(ray.d);
         glm::vec3 L = include(0) ? emitted(si, hit, wo) : glm::vec3(0.f);
@@ -64,7 +66,7 @@ public:
             Ray next = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri);
             ++stats_.bounce_rays;
             if (!intersect(s_, next, hit, stats_.traversal)) {
-                if (delta && include(depth)) L += beta * sky(wi);
+                if (delta && include(depth)) L += beta * background(wi);
                 break;
             }
             si = surface_at(s_, next, hit);
@@ -85,6 +87,12 @@ private:
     }
 
     glm::vec3 sky(const glm::vec3& d) const { return (s_.has_sky && d.y > 0.f) ? s_.sky : glm::vec3(0.f); }
+    // What a ray that leaves the scene sees: the CS184 sky and the environment map.
+    glm::vec3 background(const glm::vec3& d) const {
+        glm::vec3 L = sky(d);
+        if (env_) L += environment_radiance(*env_, d);
+        return L;
+    }
 
     // Emission leaving the hit toward wo: triangles of lights only (spheres are not lights yet).
     glm::vec3 emitted(const SurfaceInteraction& si, const Hit& hit, const glm::vec3& wo) const {
@@ -122,7 +130,7 @@ private:
     // Direct lighting at a vertex whose BSDF has no delta lobe. A Lambertian BSDF keeps its
     // constant f and cosine density without a call per sample.
     glm::vec3 direct(const SurfaceInteraction& si, const Bsdf& b, const Frame& frame, const glm::vec3& wo_l, Sampler& rng) {
-        if (!s_.has_lights()) return glm::vec3(0.f);
+        if (!s_.has_lights() && !env_) return glm::vec3(0.f);
         const bool lambert = b.kind == BsdfKind::lambertian;
         const glm::vec3 f_lambert = b.albedo * kInvPi;
         auto f = [&](const glm::vec3& wi) { return lambert ? f_lambert : bsdf_f(b, wo_l, frame.to_local(wi)); };
@@ -151,7 +159,7 @@ private:
         }
         const int n = std::max(1, st_.light_rays);
         if (st_.direct == DirectLighting::hemisphere) {
-            const int count = n * int(s_.area_lights.size() + (s_.has_sky ? 1 : 0));
+            const int count = n * int(s_.area_lights.size() + (s_.has_sky ? 1 : 0) + (env_ ? 1 : 0));
             for (int i = 0; i < count; ++i) {
                 const glm::vec2 u = rng.next_2d();
                 const glm::vec3 wi = frame.to_world(sample_uniform_hemisphere(u.x, u.y));
@@ -161,7 +169,7 @@ private:
                 Hit h;
                 glm::vec3 Le;
                 if (intersect(s_, r, h, stats_.traversal)) Le = emitted(surface_at(s_, r, h), h, -wi);
-                else Le = sky(wi);
+                else Le = background(wi);
                 Ld += f(wi) * Le * (glm::dot(si.ns, wi) / (uniform_hemisphere_pdf() * float(count)));
             }
             return Ld;
@@ -210,7 +218,22 @@ private:
             for (const AreaLight& light : s_.area_lights)
                 for (int i = 0; i < n; ++i) light_sample(light, 1.f);
         }
-        if (mis && !s_.area_lights.empty()) {
+        if (env_) {
+            // The environment is one more light: `n` samples by its luminance.
+            for (int i = 0; i < n; ++i) {
+                const glm::vec2 u = rng.next_2d();
+                glm::vec3 wi, Le;
+                float pdf;
+                if (!sample_environment(*env_, u, wi, pdf, Le)) continue;
+                const float c = glm::dot(si.ns, wi);
+                if (c <= 0.f || glm::dot(si.ng, wi) <= 0.f) continue;
+                ++stats_.shadow_rays;
+                if (occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri), stats_.traversal)) continue;
+                const float w = mis ? power_heuristic(pdf, pdf_bsdf(wi, c)) : 1.f;
+                Ld += f(wi) * Le * (w * c / (pdf * float(n)));
+            }
+        }
+        if (mis && (!s_.area_lights.empty() || env_)) {
             // BSDF samples, shared by all area lights; each hit counts for the light it found.
             for (int i = 0; i < n; ++i) {
                 glm::vec3 wl, weight;  // weight: f·cos/pdf
@@ -232,7 +255,12 @@ private:
                 Ray r = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri);
                 ++stats_.shadow_rays;
                 Hit h;
-                if (!intersect(s_, r, h, stats_.traversal) || h.sphere) continue;
+                if (!intersect(s_, r, h, stats_.traversal)) {
+                    // Left the scene: the environment's share of this sample.
+                    if (env_) Ld += environment_radiance(*env_, wi) * weight * (power_heuristic(pdf_b, environment_pdf(*env_, wi)) / float(n));
+                    continue;
+                }
+                if (h.sphere) continue;
                 const uint32_t lti = s_.tri_shading[h.prim].light;
                 if (lti == kNoLight) continue;
                 const uint32_t li = s_.light_triangles[lti].light;
@@ -285,6 +313,7 @@ private:
     const RenderScene& s_;
     const RenderSettings& st_;
     RenderStats& stats_;
+    const EnvironmentMap* env_;  // none: black beyond the scene
 };
 
 }  // namespace tessera

@@ -2,11 +2,14 @@
 // What a render does, as plain data with defaults; validated once at the edge (api/, CLI).
 // A job's defaults are api/job_fields.cpp's; these agree with them (tests/api/job_fields_test.cpp).
 #include <cstdint>
+#include <memory>
 #include <optional>
 
 #include "engine/sampling/sampler.h"
 
 namespace tessera {
+
+struct EnvironmentMap;  // engine/scene/environment.h
 
 enum class Integrator { normals, path };
 enum class DirectLighting { hemisphere, importance, mis };
@@ -38,6 +41,13 @@ struct RenderSettings {
     LightSelection light_selection = LightSelection::all;
     SamplerKind sampler = SamplerKind::sobol;  // engine/sampling/sampler.h
     std::optional<AdaptiveSettings> adaptive;
+    // Thin lens (CS184 -b, -d): a lens of this radius focused at this distance along the view;
+    // radius 0 is the pinhole (no lens sample is drawn); distance 0 focuses on the camera's
+    // look-at point.
+    float lens_radius = 0.f;
+    float focal_distance = 0.f;
+    // An environment light around the scene (CS184 -e), loaded by the caller; none: black.
+    std::shared_ptr<const EnvironmentMap> environment;
     int tile_size = 32;
     uint64_t seed = 0;
     int threads = 0;          // 0: all hardware threads

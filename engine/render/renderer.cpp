@@ -13,6 +13,12 @@
 
 namespace tessera {
 
+Camera camera_for(const RenderScene& scene, const RenderSettings& settings) {
+    Camera camera = make_camera(scene.camera, settings.width, settings.height);
+    set_thin_lens(camera, scene.camera, settings.lens_radius, settings.focal_distance);
+    return camera;
+}
+
 void RenderStats::add(const RenderStats& o) {
     camera_rays += o.camera_rays;
     shadow_rays += o.shadow_rays;
@@ -35,7 +41,7 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
     const PassPlan plan = plan_passes(settings, reference != nullptr, bool(callbacks.on_pass));
     Film film(settings.width, settings.height, plan.half_buffer, plan.adaptive);
     describe_render(scene, settings, film, result.built, result.left_out);
-    const Camera camera = make_camera(scene.camera, settings.width, settings.height);
+    const Camera camera = camera_for(scene, settings);
     const std::vector<TileRect> tiles = make_tiles(settings.width, settings.height, settings.tile_size);
     result.stats.tile_seconds.assign(tiles.size(), 0.0);
 

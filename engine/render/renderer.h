@@ -71,4 +71,7 @@ struct RenderResult {
 
 RenderResult render(const RenderScene& scene, const RenderSettings& settings, const RenderCallbacks& callbacks = {});
 
+// The camera a render of `settings` sees the scene through: its size and thin lens.
+Camera camera_for(const RenderScene& scene, const RenderSettings& settings);
+
 }  // namespace tessera

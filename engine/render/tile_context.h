@@ -8,6 +8,7 @@
 #include "engine/render/film.h"
 #include "engine/render/image.h"
 #include "engine/render/integrators.h"
+#include "engine/sampling/warp.h"
 #include "engine/render/render_settings.h"
 #include "engine/render/renderer.h"
 #include "engine/sampling/sampler.h"
@@ -42,7 +43,14 @@ public:
             Sampler rng(settings_.sampler, settings_.seed, pixel, uint64_t(s));
             const glm::vec2 j = rng.next_2d();
             const float jx = j.y, jy = j.x;  // independent: the first number drawn goes to x, as it always did
-            Ray ray = generate_ray(camera_, (float(x) + jx) * inv_w, 1.f - (float(y) + jy) * inv_h);
+            const float u = (float(x) + jx) * inv_w, v = 1.f - (float(y) + jy) * inv_h;
+            Ray ray;
+            if (camera_.lens_radius > 0.f) {
+                const glm::vec2 l = rng.next_2d();
+                ray = generate_ray(camera_, u, v, sample_concentric_disk(l.x, l.y));
+            } else {
+                ray = generate_ray(camera_, u, v);  // a pinhole draws no lens sample
+            }
             ++stats.camera_rays;
             glm::vec3 L = integrator_.radiance(ray, rng);
             if (!(std::isfinite(L.x) && std::isfinite(L.y) && std::isfinite(L.z))) {

@@ -1,5 +1,7 @@
 #include "engine/scene/procedural.h"
 
+#include "engine/scene/environment.h"
+
 #include <algorithm>
 #include <cmath>
 #include <unordered_map>
@@ -271,6 +273,26 @@ SceneDescription builtin_scene(const std::string& name) {
     if (name == "builtin:many_lights") return many_lights();
     if (name == "builtin:scattered_lights") return scattered_lights();
     return displaced_sphere(displaced_sphere_triangles(name));
+}
+
+std::vector<float> sky_environment(int width, int height) {
+    std::vector<float> rgb(size_t(width) * height * 3);
+    const glm::vec2 azimuth = glm::normalize(glm::vec2(0.5f, -0.8f));
+    const glm::vec3 sun = glm::normalize(glm::vec3(azimuth.x, std::tan(glm::radians(35.f)), azimuth.y));
+    const float sun_cos = std::cos(glm::radians(2.f));
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+            const glm::vec3 d = environment_direction((float(x) + 0.5f) / float(width), (float(y) + 0.5f) / float(height));
+            glm::vec3 c;
+            if (d.y > 0.f) c = glm::mix(glm::vec3(0.75f, 0.85f, 1.f), glm::vec3(0.2f, 0.35f, 0.8f), d.y);
+            else c = glm::vec3(0.25f, 0.23f, 0.2f);
+            if (glm::dot(d, sun) > sun_cos) c = glm::vec3(10000.f, 9000.f, 7500.f);
+            float* px = &rgb[(size_t(y) * width + x) * 3];
+            px[0] = c.x;
+            px[1] = c.y;
+            px[2] = c.z;
+        }
+    return rgb;
 }
 
 }  // namespace tessera

@@ -35,4 +35,9 @@ SceneDescription builtin_scene(const std::string& name);
 // Checks a built-in name and its parameters without building the scene; throws SceneError.
 void check_builtin_name(const std::string& name);
 
+// A lat-long sky for the environment light (engine/scene/environment.h): a blue gradient over
+// a grey ground and a sun of angular radius 2° at 35° elevation whose radiance is 10,000 times
+// the sky's, so that sampling by luminance matters. width × height × 3 linear floats.
+std::vector<float> sky_environment(int width = 256, int height = 128);
+
 }  // namespace tessera

@@ -352,6 +352,35 @@ TEST_F(Server, BrokenSceneFailsWithItsLocation) {
     ASSERT_TRUE(health && health->status == 200);
 }
 
+// An environment map from the scene folders lights a job (CS184 -e); an unknown name is 404
+// naming /environment before anything runs; a broken map fails its job with the file's name,
+// and the server goes on.
+TEST_F(Server, EnvironmentMapsLightJobsAndBadOnesAreRefused) {
+    start();
+    json job = kSmallJob;
+    job["environment"] = "sky";  // scenes/sky.exr
+    job["lens_radius"] = 0.02;
+    job["max_depth"] = 2;
+    const json s = wait_state(submit(job), {"failed", "succeeded"});
+    ASSERT_EQ(s["state"], "succeeded") << s.dump();
+    EXPECT_EQ(s["settings"]["environment"], "sky");
+    auto report = client_->Get("/v1/jobs/" + s["id"].get<std::string>() + "/report.json");
+    ASSERT_TRUE(report && report->status == 200);
+    EXPECT_NE(report->body.find("environment light: "), std::string::npos);
+    EXPECT_NE(report->body.find("thin lens: radius"), std::string::npos);
+    expect_problem(post_job({{"scene", "cornell_box"}, {"environment", "no_such_sky"}}), 404, "/environment");
+    expect_problem(post_job({{"scene", "cornell_box"}, {"environment", "../../etc/passwd"}}), 404, "/environment");
+    expect_problem(post_job({{"scene", "cornell_box"}, {"environment", 3}}), 400, "/environment");
+    fs::create_directories(dir_ / "uploads" / "0000000000000001");
+    std::ofstream(dir_ / "uploads" / "0000000000000001" / "broken.exr") << "not an EXR at all";
+    job["environment"] = "upload/0000000000000001/broken";
+    const json f = wait_state(submit(job), {"failed", "succeeded"});
+    EXPECT_EQ(f["state"], "failed");
+    EXPECT_NE(f["error"].get<std::string>().find("broken.exr"), std::string::npos) << f.dump();
+    auto health = client_->Get("/healthz");
+    ASSERT_TRUE(health && health->status == 200);
+}
+
 // Error against run time: a job measured against a finished reference job reports relMSE,
 // MSE and MAE after every pass, serves the curve as CSV and SVG, and stops at a target error.
 TEST_F(Server, ConvergenceAgainstAReferenceAndTargetError) {
