@@ -180,6 +180,21 @@ inline float bsdf_pdf(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi) {
     return 0.f;
 }
 
+namespace bsdf_detail {
+
+// A sampled reflection direction s.wi given its density and weight from bsdf_pdf and bsdf_f
+// (mixtures and lobes clipped by the horizon: the density is the whole sampling routine's).
+inline bool weigh(const Bsdf& b, const glm::vec3& wo, BsdfSample& s) {
+    if (s.wi.z <= 0.f) return false;
+    s.pdf = bsdf_pdf(b, wo, s.wi);
+    if (!(s.pdf > 0.f)) return false;
+    s.weight = bsdf_f(b, wo, s.wi) * (s.wi.z / s.pdf);
+    s.delta = false;
+    return true;
+}
+
+}  // namespace bsdf_detail
+
 // `uc` is read only where bsdf_chooses_lobe(b). False: no direction (the path ends there).
 inline bool bsdf_sample(const Bsdf& b, const glm::vec3& wo, float uc, glm::vec2 u, BsdfSample& s) {
     if (wo.z <= 0.f) return false;
@@ -214,29 +229,18 @@ inline bool bsdf_sample(const Bsdf& b, const glm::vec3& wo, float uc, glm::vec2 
             return s.wi.z < 0.f;
         }
         case BsdfKind::conductor: {
-            const float alpha = std::max(b.alpha, kMinAlpha);
-            const glm::vec3 h = beckmann_sample_h(u, alpha);
+            const glm::vec3 h = beckmann_sample_h(u, std::max(b.alpha, kMinAlpha));
             const float oh = glm::dot(wo, h);
             if (oh <= 0.f) return false;
             s.wi = 2.f * oh * h - wo;
-            if (s.wi.z <= 0.f) return false;
-            s.pdf = beckmann_pdf_h(h, alpha) / (4.f * oh);
-            if (!(s.pdf > 0.f)) return false;
-            s.weight = bsdf_f(b, wo, s.wi) * (s.wi.z / s.pdf);
-            s.delta = false;
-            return true;
+            return bsdf_detail::weigh(b, wo, s);
         }
         case BsdfKind::phong: {
             const float c = std::pow(u.x, 1.f / (b.exponent + 1.f));
             const float sn = std::sqrt(std::max(0.f, 1.f - c * c));
             const float phi = 2.f * kPi * u.y;
             s.wi = Frame(reflect_local(wo)).to_world({sn * std::cos(phi), sn * std::sin(phi), c});
-            if (s.wi.z <= 0.f) return false;
-            s.pdf = bsdf_pdf(b, wo, s.wi);
-            if (!(s.pdf > 0.f)) return false;
-            s.weight = bsdf_f(b, wo, s.wi) * (s.wi.z / s.pdf);
-            s.delta = false;
-            return true;
+            return bsdf_detail::weigh(b, wo, s);
         }
         case BsdfKind::metallic_roughness: {
             const bsdf_detail::MetallicRoughness m(b, wo);
@@ -248,12 +252,7 @@ inline bool bsdf_sample(const Bsdf& b, const glm::vec3& wo, float uc, glm::vec2 
             } else {
                 s.wi = sample_cosine_hemisphere(u.x, u.y);
             }
-            if (s.wi.z <= 0.f) return false;
-            s.pdf = bsdf_pdf(b, wo, s.wi);
-            if (!(s.pdf > 0.f)) return false;
-            s.weight = bsdf_f(b, wo, s.wi) * (s.wi.z / s.pdf);
-            s.delta = false;
-            return true;
+            return bsdf_detail::weigh(b, wo, s);
         }
     }
     return false;

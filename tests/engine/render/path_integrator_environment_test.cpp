@@ -13,7 +13,7 @@
 namespace tessera {
 namespace {
 
-constexpr DirectLighting kStrategies[] = {DirectLighting::hemisphere, DirectLighting::importance, DirectLighting::mis};
+using test::kStrategies;
 
 // A floor of albedo `albedo` at y = 0, far wider than the view, seen from `eye`.
 SceneDescription floor_scene(float albedo, glm::vec3 eye, glm::vec3 look_at) {
@@ -87,11 +87,7 @@ TEST(PathIntegratorEnvironment, StrategiesAgreeUnderTheSun) {
     for (int i = 0; i < 3; ++i) {
         RenderSettings st = settings(2, kStrategies[i], sky);
         st.spp = i == 0 ? 256 / test::kWorkScale : 32 / test::kWorkScale + 4;
-        st.seed = 1;
-        const Image a = render(scene, st).image;
-        st.seed = 2;
-        const Image b = render(scene, st).image;
-        const test::MeanEstimate m = test::paired_mean(a, b);
+        const test::MeanEstimate m = test::mean_of_two_seeds(scene, st);
         means[i] = m.mean;
         ses[i] = m.se;
     }

@@ -12,10 +12,8 @@
 namespace tessera {
 namespace {
 
-constexpr DirectLighting kStrategies[] = {DirectLighting::hemisphere, DirectLighting::importance, DirectLighting::mis};
-const char* name(DirectLighting d) {
-    return d == DirectLighting::hemisphere ? "hemisphere" : d == DirectLighting::importance ? "importance" : "mis";
-}
+using test::kStrategies;
+using test::name;
 
 // An enclosure that emits 1 and reflects nothing, around a sphere of `m` in front of the camera.
 SceneDescription furnace_with(const MaterialDesc& m) {
@@ -120,11 +118,7 @@ TEST(PathIntegratorMaterials, StrategiesAgreeOnGlossyMaterials) {
         st.light_rays = 2;
         st.max_depth = 3;
         st.direct = kStrategies[i];
-        st.seed = 1;
-        const Image a = render(scene, st).image;
-        st.seed = 2;
-        const Image b = render(scene, st).image;
-        const test::MeanEstimate m = test::paired_mean(a, b);
+        const test::MeanEstimate m = test::mean_of_two_seeds(scene, st);
         means[i] = m.mean;
         ses[i] = m.se;
     }

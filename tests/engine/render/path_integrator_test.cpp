@@ -11,10 +11,8 @@
 namespace tessera {
 namespace {
 
-constexpr DirectLighting kStrategies[] = {DirectLighting::hemisphere, DirectLighting::importance, DirectLighting::mis};
-const char* name(DirectLighting d) {
-    return d == DirectLighting::hemisphere ? "hemisphere" : d == DirectLighting::importance ? "importance" : "mis";
-}
+using test::kStrategies;
+using test::name;
 
 RenderSettings furnace_settings(DirectLighting direct, int depth, float rr) {
     RenderSettings s;
@@ -146,11 +144,7 @@ TEST(PathIntegrator, StrategiesAgreeOnCBspheresLambertian) {
         st.light_rays = 2;
         st.max_depth = 2;
         st.direct = kStrategies[i];
-        st.seed = 1;
-        const Image a = render(scene, st).image;
-        st.seed = 2;
-        const Image b = render(scene, st).image;
-        const test::MeanEstimate m = test::paired_mean(a, b);
+        const test::MeanEstimate m = test::mean_of_two_seeds(scene, st);
         means[i] = m.mean;
         ses[i] = m.se;
     }

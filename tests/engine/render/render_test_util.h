@@ -42,6 +42,20 @@ inline MeanEstimate paired_mean(const Image& a, const Image& b) {
     return {s / double(n), std::sqrt(var) / double(n)};
 }
 
+// One image's mean from two renders of `st` with seeds 1 and 2 (paired_mean's noise estimate).
+inline MeanEstimate mean_of_two_seeds(const RenderScene& scene, RenderSettings st) {
+    st.seed = 1;
+    const Image a = render(scene, st).image;
+    st.seed = 2;
+    const Image b = render(scene, st).image;
+    return paired_mean(a, b);
+}
+
+inline constexpr DirectLighting kStrategies[] = {DirectLighting::hemisphere, DirectLighting::importance, DirectLighting::mis};
+inline const char* name(DirectLighting d) {
+    return d == DirectLighting::hemisphere ? "hemisphere" : d == DirectLighting::importance ? "importance" : "mis";
+}
+
 inline RenderResult render_desc(const SceneDescription& d, const RenderSettings& st, RenderSceneOptions o = {}) {
     return render(build_render_scene(d, o), st);
 }
