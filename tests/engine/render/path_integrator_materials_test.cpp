@@ -79,7 +79,7 @@ TEST(PathIntegratorMaterials, RoughConductorLosesOnlyMaskedEnergy) {
         const Image img = test::render_desc(furnace_with(c), furnace_settings(8, d)).image;
         const test::MeanEstimate m = test::iid_pixel_mean(img);
         EXPECT_LE(m.mean, 1.0 + 5 * m.se) << name(d);
-        EXPECT_GT(m.mean, 0.95) << name(d);
+        EXPECT_GT(m.mean + 5 * m.se, 0.95) << name(d) << " se " << m.se;
     }
 }
 
