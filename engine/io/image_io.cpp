@@ -140,7 +140,7 @@ Image read_image(const std::string& path) {
     auto in = OIIO::ImageInput::open(path);
     if (!in) throw std::runtime_error(path + ": " + OIIO::geterror());
     const OIIO::ImageSpec& spec = in->spec();
-    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels < 3 || int64_t(spec.width) * spec.height > (1ll << 28))
+    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels < 3 || spec.nchannels > 64 || int64_t(spec.width) * spec.height > (1ll << 28))
         throw std::runtime_error(path + ": not an RGB image of a sensible size");
     std::vector<float> all(size_t(spec.width) * spec.height * spec.nchannels);
     if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, all.data()))

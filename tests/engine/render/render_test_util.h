@@ -56,6 +56,22 @@ inline const char* name(DirectLighting d) {
     return d == DirectLighting::hemisphere ? "hemisphere" : d == DirectLighting::importance ? "importance" : "mis";
 }
 
+// Hemisphere, light and MIS sampling of `st` (its `direct` ignored) give the same mean within
+// five combined standard errors, and the image is not black.
+inline void expect_strategies_agree(const RenderScene& scene, RenderSettings st) {
+    double means[3], ses[3];
+    for (int i = 0; i < 3; ++i) {
+        st.direct = kStrategies[i];
+        const MeanEstimate m = mean_of_two_seeds(scene, st);
+        means[i] = m.mean;
+        ses[i] = m.se;
+    }
+    for (int i = 1; i < 3; ++i)
+        EXPECT_NEAR(means[i], means[0], 5 * std::hypot(ses[i], ses[0]))
+            << name(kStrategies[i]) << " vs hemisphere: " << means[i] << " vs " << means[0];
+    EXPECT_GT(means[0], 0.01);
+}
+
 inline RenderResult render_desc(const SceneDescription& d, const RenderSettings& st, RenderSceneOptions o = {}) {
     return render(build_render_scene(d, o), st);
 }
