@@ -32,6 +32,14 @@ void write_text(const std::string& path, const std::string& text) {
     if (!out) throw std::runtime_error("cannot write " + path);
 }
 
+// A scene without lights (most glTF models) is lit by a uniform white sky of radiance 1, and
+// the report says so, rather than rendered black.
+std::shared_ptr<const EnvironmentMap> default_environment() {
+    static const auto env = std::make_shared<const EnvironmentMap>(
+        build_environment(1, 1, {1.f, 1.f, 1.f}, "default uniform white sky of radiance 1 (the scene has no lights)"));
+    return env;
+}
+
 std::shared_ptr<const EnvironmentMap> load_environment(const std::string& path) {
     const std::string ext = std::filesystem::path(path).extension().string();
     if (ext != ".exr" && ext != ".hdr")
@@ -94,6 +102,7 @@ JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutp
             cb.pass(PassSnapshot{v.index, v.spp, v.point, img});
         };
     if (!opt.environment_file.empty()) settings.environment = load_environment(opt.environment_file);
+    else if (!scene.has_lights()) settings.environment = default_environment();
     if (!opt.reference_image.empty()) {
         if (!std::filesystem::exists(opt.reference_image)) throw std::runtime_error("the reference job's image was deleted");
         reference = read_image(opt.reference_image);

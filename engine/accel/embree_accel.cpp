@@ -72,13 +72,14 @@ RTCDevice device(int threads) {
 bool embree_available() { return true; }
 
 std::shared_ptr<EmbreeAccel> build_embree(std::span<const TriangleVerts> tris, EmbreeQuality quality, double& build_seconds,
-                                          int threads) {
+                                          int threads, bool filtered) {
     RTCDevice dev = device(threads);
     std::lock_guard lock(g_embree_build);
     const int64_t before = g_embree_bytes;
     const auto t0 = std::chrono::steady_clock::now();
     auto accel = std::make_shared<EmbreeAccel>();
     accel->scene = rtcNewScene(dev);
+    if (filtered) rtcSetSceneFlags(accel->scene, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
     rtcSetSceneBuildQuality(accel->scene, quality == EmbreeQuality::low ? RTC_BUILD_QUALITY_LOW
                                           : quality == EmbreeQuality::high ? RTC_BUILD_QUALITY_HIGH : RTC_BUILD_QUALITY_MEDIUM);
     RTCGeometry geom = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
@@ -107,9 +108,37 @@ std::shared_ptr<EmbreeAccel> build_embree(std::span<const TriangleVerts> tris, E
 
 size_t embree_memory_bytes(const EmbreeAccel& accel) { return accel.bytes; }
 
-bool embree_intersect(const EmbreeAccel& accel, Ray& ray, uint32_t& prim, float& b1, float& b2) {
+namespace {
+
+// The context Embree hands the filter, with our filter behind it (Embree's documented way to pass
+// per-query data: a context extended at its end).
+struct FilterContext {
     RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
+    const EmbreeHitFilter* filter;
+};
+
+void run_filter(const RTCFilterFunctionNArguments* args) {
+    const auto* fc = reinterpret_cast<const FilterContext*>(args->context);
+    for (unsigned i = 0; i < args->N; ++i) {
+        if (!args->valid[i]) continue;
+        const uint32_t prim = RTCHitN_primID(args->hit, args->N, i);
+        if (!fc->filter->accept(fc->filter->user, prim, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i)))
+            args->valid[i] = 0;
+    }
+}
+
+void init_context(FilterContext& fc, const EmbreeHitFilter* filter) {
+    rtcInitIntersectContext(&fc.ctx);
+    fc.filter = filter;
+    if (filter) fc.ctx.filter = run_filter;
+}
+
+}  // namespace
+
+bool embree_intersect(const EmbreeAccel& accel, Ray& ray, uint32_t& prim, float& b1, float& b2, const EmbreeHitFilter* filter) {
+    FilterContext fc;
+    init_context(fc, filter);
+    RTCIntersectContext& ctx = fc.ctx;
     RTCRayHit rh;
     rh.ray.org_x = ray.o.x; rh.ray.org_y = ray.o.y; rh.ray.org_z = ray.o.z;
     rh.ray.dir_x = ray.d.x; rh.ray.dir_y = ray.d.y; rh.ray.dir_z = ray.d.z;
@@ -130,9 +159,10 @@ bool embree_intersect(const EmbreeAccel& accel, Ray& ray, uint32_t& prim, float&
     return true;
 }
 
-bool embree_occluded(const EmbreeAccel& accel, const Ray& ray) {
-    RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
+bool embree_occluded(const EmbreeAccel& accel, const Ray& ray, const EmbreeHitFilter* filter) {
+    FilterContext fc;
+    init_context(fc, filter);
+    RTCIntersectContext& ctx = fc.ctx;
     RTCRay r;
     r.org_x = ray.o.x; r.org_y = ray.o.y; r.org_z = ray.o.z;
     r.dir_x = ray.d.x; r.dir_y = ray.d.y; r.dir_z = ray.d.z;
@@ -152,12 +182,12 @@ struct EmbreeAccel {};
 
 bool embree_available() { return false; }
 
-std::shared_ptr<EmbreeAccel> build_embree(std::span<const TriangleVerts>, EmbreeQuality, double&, int) {
+std::shared_ptr<EmbreeAccel> build_embree(std::span<const TriangleVerts>, EmbreeQuality, double&, int, bool) {
     throw std::runtime_error("this build of tessera has no Embree (install libembree-dev and rebuild)");
 }
 size_t embree_memory_bytes(const EmbreeAccel&) { return 0; }
-bool embree_intersect(const EmbreeAccel&, Ray&, uint32_t&, float&, float&) { return false; }
-bool embree_occluded(const EmbreeAccel&, const Ray&) { return false; }
+bool embree_intersect(const EmbreeAccel&, Ray&, uint32_t&, float&, float&, const EmbreeHitFilter*) { return false; }
+bool embree_occluded(const EmbreeAccel&, const Ray&, const EmbreeHitFilter*) { return false; }
 
 #endif
 

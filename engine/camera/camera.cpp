@@ -51,8 +51,7 @@ bool frame_camera(const std::optional<CameraDesc>& from_file, const Aabb& bounds
         return false;
     }
     CameraDesc c;
-    const float tan_v = std::tan(glm::radians(c.vfov_deg) * 0.5f);
-    c.focal_px = 300.f / tan_v;  // the CS184 default fitted to 800x600
+    c.focal_px = 0.f;  // the field of view fits any output size (a fixed focal length crops small images)
     c.look_at = center;
     c.position = center + 1.5f * diag * glm::normalize(glm::vec3(0.35f, 0.3f, 1.f));
     c.znear = 1e-4f * diag;

@@ -7,10 +7,11 @@
 // which would otherwise refer to stb image functions that are not compiled.
 #define TINYGLTF_NO_STB_IMAGE
 #define TINYGLTF_NO_STB_IMAGE_WRITE
-#define TINYGLTF_NO_EXTERNAL_IMAGE
 #include <tiny_gltf.h>
 
 #include <nlohmann/json.hpp>
+
+#include "engine/io/texture_decode.h"
 
 #include <algorithm>
 #include <bit>
@@ -35,7 +36,7 @@ static_assert(std::endian::native == std::endian::little, "glTF buffers are litt
 constexpr int kMaxJsonDepth = 128;
 // Extensions whose content is read; anything else in extensionsRequired is refused.
 constexpr const char* kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_ior",
-                                                "KHR_materials_specular"};
+                                                "KHR_materials_specular", "KHR_texture_transform"};
 
 constexpr const char* kVerticesLeft = "vertices left under LoadLimits::max_vertices";
 // Each primitive instance becomes a MeshDesc with its own overhead; bounds memory for files that
@@ -201,8 +202,27 @@ bool guard_read(std::vector<unsigned char>* out, std::string* err, const std::st
     return true;
 }
 
-// Textures are not rendered: accept every image without decoding it, so broken ones never matter.
-bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
+// Each image decoded as tinygltf reaches it, into our own list (tinygltf's Image keeps nothing).
+// A failure is kept, not raised: it matters only if a material uses the image, and then the
+// error names it.
+struct DecodedImages {
+    const LoadLimits* limits = nullptr;
+    uint64_t budget = 0;
+    std::vector<std::shared_ptr<const TextureImage>> images;
+    std::vector<std::string> errors;
+};
+
+bool decode_image(tinygltf::Image*, const int index, std::string*, std::string*, int, int, const unsigned char* bytes,
+                  int size, void* user) {
+    auto* d = static_cast<DecodedImages*>(user);
+    if (index < 0) return true;
+    const size_t i = size_t(index);
+    if (d->images.size() <= i) d->images.resize(i + 1), d->errors.resize(i + 1);
+    try {
+        d->images[i] = decode_texture({bytes, size_t(std::max(size, 0))}, *d->limits, d->budget);
+    } catch (const std::exception& e) {
+        d->errors[i] = e.what();
+    }
     return true;
 }
 
@@ -218,7 +238,7 @@ void add_lines(std::vector<std::string>& to, const std::string& text) {
 }
 
 tinygltf::Model read_model(std::string_view bytes, bool binary, const std::string& base_dir, const std::string& file,
-                           const LoadLimits& limits, std::vector<std::string>& warnings) {
+                           const LoadLimits& limits, std::vector<std::string>& warnings, DecodedImages& images) {
     if (bytes.size() > limits.max_file_bytes)
         fail(file, "", "input of " + str(bytes.size()) + " bytes is above the limit of " + str(limits.max_file_bytes));
     if (bytes.size() >= std::numeric_limits<uint32_t>::max()) fail(file, "", "inputs of 4 GiB or more are not supported");
@@ -238,7 +258,9 @@ tinygltf::Model read_model(std::string_view bytes, bool binary, const std::strin
         if (guard.prefix.empty() || guard.prefix.back() != '/') guard.prefix += '/';
     }
     tinygltf::TinyGLTF reader;
-    reader.SetImageLoader(skip_image, nullptr);
+    images.limits = &limits;
+    images.budget = limits.max_texture_bytes;
+    reader.SetImageLoader(decode_image, &images);
     reader.SetFsCallbacks({guard_exists, guard_expand, guard_read, nullptr, &guard});
 
     tinygltf::Model model;
@@ -267,6 +289,10 @@ struct Ctx {
     const std::string& file;
     const LoadLimits& limits;
     SceneDescription& out;
+    const DecodedImages& decoded;
+    std::vector<int> texture_index{};  // glTF texture -> SceneDescription::textures, -1 before use
+    std::vector<int> image_index{};    // glTF image -> SceneDescription::images
+    int uv_sets_above_1 = 0, missing_uv = 0;
     uint64_t vertices = 0, triangles = 0;
     std::vector<char> on_path{}, visited{};
     int points_lines = 0, no_position = 0, spots = 0, extra_cameras = 0, dropped_normals = 0;
@@ -368,6 +394,58 @@ uint32_t read_index(const AccessorView& v, size_t k) {
 
 bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
+// Component j of element k: a float, or a normalized unsigned byte or short as glTF allows for
+// texture coordinates and colours.
+float read_component(const AccessorView& v, size_t k, int j) {
+    const unsigned char* p = v.data + k * v.stride;
+    switch (v.component_type) {
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return p[j] / 255.f;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+            uint16_t u;
+            std::memcpy(&u, p + 2 * j, 2);
+            return u / 65535.f;
+        }
+        default: {
+            float f;
+            std::memcpy(&f, p + 4 * j, 4);
+            return f;
+        }
+    }
+}
+
+// An optional per-vertex attribute of `components` numbers per element (texture coordinates,
+// colours, tangents), checked against POSITION's count and for finite values.
+template <class Vec>
+std::vector<Vec> read_attribute(Ctx& c, const tinygltf::Primitive& prim, const char* name, const std::string& pp,
+                                size_t vertices, std::initializer_list<int> types, std::initializer_list<int> components) {
+    const auto it = prim.attributes.find(name);
+    if (it == prim.attributes.end()) return {};
+    const std::string ref = pp + "/attributes/" + name;
+    const int index = it->second;
+    if (index < 0 || static_cast<size_t>(index) >= c.m.accessors.size())
+        fail(c, ref, "refers to accessor " + std::to_string(index) + ", but the file has " + str(c.m.accessors.size()));
+    const tinygltf::Accessor& a = c.m.accessors[static_cast<size_t>(index)];
+    int type = *types.begin();
+    for (int t : types)
+        if (a.type == t) type = t;
+    const AccessorView v = view_accessor(c, index, ref, name, type, components, vertices, kVerticesLeft);
+    if (v.count != vertices)
+        fail(c, ref, std::string(name) + " has " + str(v.count) + " elements but POSITION has " + str(vertices));
+    if (v.component_type != TINYGLTF_COMPONENT_TYPE_FLOAT && !a.normalized)
+        fail(c, "/accessors/" + std::to_string(index), std::string(name) + " with integer components must be normalized");
+    const int n = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(type));
+    std::vector<Vec> out(vertices, Vec(1.f));
+    for (size_t k = 0; k < vertices; ++k) {
+        for (int j = 0; j < n && j < Vec::length(); ++j) {
+            const float x = read_component(v, k, j);
+            if (!std::isfinite(x))
+                fail(c, "/accessors/" + std::to_string(index), std::string(name) + " element " + str(k) + " is not finite");
+            out[k][j] = x;
+        }
+    }
+    return out;
+}
+
 uint64_t left(uint64_t limit, uint64_t used) { return used >= limit ? 0 : limit - used; }
 
 void emit_primitive(Ctx& c, size_t mi, size_t pi, const glm::dmat4& world) {
@@ -454,6 +532,35 @@ void emit_primitive(Ctx& c, size_t mi, size_t pi, const glm::dmat4& world) {
             }
         }
     }
+
+    // What the material reads (and COLOR_0, which always multiplies the base colour).
+    const MaterialDesc* md = prim.material >= 0 ? &c.out.materials[static_cast<size_t>(prim.material)] : nullptr;
+    constexpr auto kFloat = TINYGLTF_COMPONENT_TYPE_FLOAT, kU8 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                   kU16 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    if (md && md->textured()) {
+        bool set_used[2] = {false, false};
+        for (const TextureSlot* t : {&md->base_color_tex, &md->metallic_roughness_tex, &md->emissive_tex, &md->normal_tex})
+            if (t->used()) set_used[t->texcoord] = true;
+        for (int set = 0; set < 2; ++set) {
+            if (!set_used[set]) continue;
+            const std::string name = "TEXCOORD_" + std::to_string(set);
+            out.uv[set] = read_attribute<glm::vec2>(c, prim, name.c_str(), pp, pos.count, {TINYGLTF_TYPE_VEC2}, {kFloat, kU8, kU16});
+            if (out.uv[set].empty()) ++c.missing_uv;
+        }
+        if (md->normal_tex.used()) {
+            out.tangents = read_attribute<glm::vec4>(c, prim, "TANGENT", pp, pos.count, {TINYGLTF_TYPE_VEC4}, {kFloat});
+            const glm::dmat3 m3(world);
+            for (glm::vec4& t : out.tangents) {
+                const glm::dvec3 w = m3 * glm::dvec3(t.x, t.y, t.z);
+                const double len = glm::length(w);
+                // Mirroring flips the bitangent's side (the faces were re-wound above).
+                const float sign = (t.w < 0.f ? -1.f : 1.f) * (glm::determinant(m3) < 0 ? -1.f : 1.f);
+                t = len > 1e-30 && std::isfinite(len) ? glm::vec4(glm::vec3(w / len), sign) : glm::vec4(0.f);
+            }
+        }
+    }
+    out.colors = read_attribute<glm::vec4>(c, prim, "COLOR_0", pp, pos.count, {TINYGLTF_TYPE_VEC3, TINYGLTF_TYPE_VEC4},
+                                           {kFloat, kU8, kU16});
 
     std::vector<uint32_t> corner(corners);
     for (size_t k = 0; k < corners; ++k) {
@@ -616,8 +723,95 @@ void visit(Ctx& c, int node, const glm::dmat4& parent, int depth, const std::str
     c.on_path[ni] = 0;
 }
 
+Wrap wrap_mode(const Ctx& c, int mode, const std::string& ref) {
+    switch (mode) {
+        case TINYGLTF_TEXTURE_WRAP_REPEAT: return Wrap::repeat;
+        case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE: return Wrap::clamp;
+        case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT: return Wrap::mirror;
+        default: fail(c, ref, "unknown wrap mode " + std::to_string(mode));
+    }
+}
+
+// The SceneDescription texture of glTF texture `ti`, converted (and its image taken) on first use.
+int use_texture(Ctx& c, int ti, const std::string& ref) {
+    if (ti < 0 || static_cast<size_t>(ti) >= c.m.textures.size())
+        fail(c, ref, "refers to texture " + std::to_string(ti) + ", but the file has " + str(c.m.textures.size()));
+    int& slot = c.texture_index[static_cast<size_t>(ti)];
+    if (slot >= 0) return slot;
+    const tinygltf::Texture& t = c.m.textures[static_cast<size_t>(ti)];
+    const std::string tp = "/textures/" + std::to_string(ti);
+    if (t.source < 0 || static_cast<size_t>(t.source) >= c.m.images.size())
+        fail(c, tp, "has no image in PNG or JPEG (source " + std::to_string(t.source) + "; image extensions such as "
+                    "KHR_texture_basisu and EXT_texture_webp are not supported)");
+    const size_t ii = static_cast<size_t>(t.source);
+    int& image = c.image_index[ii];
+    if (image < 0) {
+        const bool have = ii < c.decoded.images.size() && c.decoded.images[ii];
+        if (!have) {
+            const std::string why = ii < c.decoded.errors.size() && !c.decoded.errors[ii].empty() ? c.decoded.errors[ii]
+                                                                                                   : "it has no data";
+            fail(c, "/images/" + str(ii), "cannot be used as a texture: " + clip(why));
+        }
+        image = static_cast<int>(c.out.images.size());
+        c.out.images.push_back(c.decoded.images[ii]);
+    }
+    Texture tex;
+    tex.image = static_cast<uint32_t>(image);
+    if (t.sampler >= 0) {
+        if (static_cast<size_t>(t.sampler) >= c.m.samplers.size())
+            fail(c, tp + "/sampler", "refers to sampler " + std::to_string(t.sampler) + ", but the file has " + str(c.m.samplers.size()));
+        const tinygltf::Sampler& smp = c.m.samplers[static_cast<size_t>(t.sampler)];
+        const std::string sp = "/samplers/" + std::to_string(t.sampler);
+        tex.wrap_s = wrap_mode(c, smp.wrapS, sp + "/wrapS");
+        tex.wrap_t = wrap_mode(c, smp.wrapT, sp + "/wrapT");
+        tex.nearest = smp.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST;
+    }
+    slot = static_cast<int>(c.out.textures.size());
+    c.out.textures.push_back(tex);
+    return slot;
+}
+
+// A material's textureInfo: the texture, its coordinate set and KHR_texture_transform.
+TextureSlot read_slot(Ctx& c, int index, int texcoord, const tinygltf::ExtensionMap& ext, const std::string& ref) {
+    TextureSlot slot;
+    if (index < 0) return slot;
+    slot.texture = use_texture(c, index, ref + "/index");
+    const auto tt = ext.find("KHR_texture_transform");
+    if (tt != ext.end() && tt->second.IsObject()) {
+        const tinygltf::Value& v = tt->second;
+        const std::string xp = ref + "/extensions/KHR_texture_transform";
+        auto pair = [&](const char* key, glm::vec2 fallback) {
+            if (!v.Has(key)) return fallback;
+            const tinygltf::Value& a = v.Get(key);
+            if (!a.IsArray() || a.ArrayLen() != 2 || !a.Get(0).IsNumber() || !a.Get(1).IsNumber())
+                fail(c, xp + "/" + key, "must hold 2 numbers");
+            const glm::dvec2 d(a.Get(0).GetNumberAsDouble(), a.Get(1).GetNumberAsDouble());
+            if (!std::isfinite(d.x) || !std::isfinite(d.y) || std::abs(d.x) > 1e9 || std::abs(d.y) > 1e9)
+                fail(c, xp + "/" + key, "must hold 2 finite numbers of magnitude at most 1e9");
+            return glm::vec2(d);
+        };
+        double rotation = 0.0;
+        if (v.Has("rotation")) {
+            const tinygltf::Value& r = v.Get("rotation");
+            if (!r.IsNumber() || !std::isfinite(r.GetNumberAsDouble()) || std::abs(r.GetNumberAsDouble()) > 1e6)
+                fail(c, xp + "/rotation", "must be a finite number of radians");
+            rotation = r.GetNumberAsDouble();
+        }
+        set_texture_transform(slot, pair("offset", glm::vec2(0.f)), static_cast<float>(rotation), pair("scale", glm::vec2(1.f)));
+        if (v.Has("texCoord") && v.Get("texCoord").IsNumber()) texcoord = static_cast<int>(v.Get("texCoord").GetNumberAsDouble());
+    }
+    if (texcoord < 0 || texcoord > 1) {
+        ++c.uv_sets_above_1;
+        texcoord = 0;
+    }
+    slot.texcoord = static_cast<uint8_t>(texcoord);
+    return slot;
+}
+
 void convert_materials(Ctx& c) {
-    std::vector<std::string> textured;
+    c.texture_index.assign(c.m.textures.size(), -1);
+    c.image_index.assign(c.m.images.size(), -1);
+    std::vector<std::string> occluded;
     for (size_t i = 0; i < c.m.materials.size(); ++i) {
         const tinygltf::Material& mat = c.m.materials[i];
         const std::string mp = "/materials/" + str(i);
@@ -626,6 +820,7 @@ void convert_materials(Ctx& c) {
         d.origin = at(c.file, mp);
         const auto& pbr = mat.pbrMetallicRoughness;
         if (pbr.baseColorFactor.size() >= 3) d.albedo = glm::vec3(glm::dvec3(pbr.baseColorFactor[0], pbr.baseColorFactor[1], pbr.baseColorFactor[2]));
+        if (pbr.baseColorFactor.size() == 4) d.alpha = static_cast<float>(pbr.baseColorFactor[3]);
         auto unit = [&](double v, const char* name) {
             if (!(v >= 0.0 && v <= 1.0)) fail(c, mp + "/pbrMetallicRoughness/" + name, "must be a number in [0, 1]");
             return static_cast<float>(v);
@@ -652,19 +847,37 @@ void convert_materials(Ctx& c) {
         if (d.metallic > 0.f || d.specular > 0.f) d.kind = MaterialKind::metallic_roughness;
         else d.kind = d.emits() ? MaterialKind::emission : MaterialKind::diffuse;
         d.double_sided = mat.doubleSided;
-        if (mat.pbrMetallicRoughness.baseColorTexture.index >= 0 || mat.emissiveTexture.index >= 0 ||
-            mat.pbrMetallicRoughness.metallicRoughnessTexture.index >= 0 || mat.normalTexture.index >= 0 ||
-            mat.occlusionTexture.index >= 0)
-            textured.push_back("'" + d.name + "'");
+        d.base_color_tex = read_slot(c, pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord, pbr.baseColorTexture.extensions,
+                                     mp + "/pbrMetallicRoughness/baseColorTexture");
+        d.metallic_roughness_tex = read_slot(c, pbr.metallicRoughnessTexture.index, pbr.metallicRoughnessTexture.texCoord,
+                                             pbr.metallicRoughnessTexture.extensions, mp + "/pbrMetallicRoughness/metallicRoughnessTexture");
+        // Emissive texels only scale an emission the factors already give (black stays black).
+        if (d.emits())
+            d.emissive_tex = read_slot(c, mat.emissiveTexture.index, mat.emissiveTexture.texCoord, mat.emissiveTexture.extensions,
+                                       mp + "/emissiveTexture");
+        d.normal_tex = read_slot(c, mat.normalTexture.index, mat.normalTexture.texCoord, mat.normalTexture.extensions,
+                                 mp + "/normalTexture");
+        if (d.normal_tex.used()) {
+            if (!std::isfinite(mat.normalTexture.scale)) fail(c, mp + "/normalTexture/scale", "must be a finite number");
+            d.normal_tex.scale = static_cast<float>(mat.normalTexture.scale);
+        }
+        if (mat.alphaMode == "MASK") d.alpha_mode = AlphaMode::mask;
+        else if (mat.alphaMode == "BLEND") d.alpha_mode = AlphaMode::blend;
+        else if (!mat.alphaMode.empty() && mat.alphaMode != "OPAQUE")
+            fail(c, mp + "/alphaMode", "unknown alpha mode '" + clip(mat.alphaMode) + "' (OPAQUE, MASK or BLEND)");
+        if (!(mat.alphaCutoff >= 0.0) || !std::isfinite(mat.alphaCutoff)) fail(c, mp + "/alphaCutoff", "must be a number >= 0");
+        d.alpha_cutoff = static_cast<float>(mat.alphaCutoff);
+        if (!(d.alpha >= 0.f && d.alpha <= 1.f)) fail(c, mp + "/pbrMetallicRoughness/baseColorFactor", "alpha must lie in [0, 1]");
+        if (mat.occlusionTexture.index >= 0) occluded.push_back("'" + d.name + "'");
         c.out.materials.push_back(std::move(d));
     }
-    if (textured.empty()) return;
-    std::string names;
-    for (size_t i = 0; i < textured.size() && i < 5; ++i) names += (i ? ", " : "") + textured[i];
-    if (textured.size() > 5) names += " and " + str(textured.size() - 5) + " more";
-    c.out.warnings.push_back(textured.size() == 1
-                                 ? "textures are not supported yet; material " + names + " uses its factors"
-                                 : "textures are not supported yet; materials " + names + " use their factors");
+    if (!occluded.empty()) {
+        std::string names;
+        for (size_t i = 0; i < occluded.size() && i < 5; ++i) names += (i ? ", " : "") + occluded[i];
+        if (occluded.size() > 5) names += " and " + str(occluded.size() - 5) + " more";
+        c.out.warnings.push_back("occlusion textures are not used (path tracing computes occlusion): material" +
+                                 std::string(occluded.size() > 1 ? "s " : " ") + names);
+    }
 }
 
 void check_extensions(Ctx& c) {
@@ -715,6 +928,12 @@ void summarise(Ctx& c) {
         w.push_back("zero-length normals or a singular transform: normals of mesh '" + c.first_dropped + "'" +
                     (c.dropped_normals > 1 ? " and " + str(static_cast<size_t>(c.dropped_normals) - 1) + " more" : "") +
                     " are dropped");
+    if (c.missing_uv)
+        w.push_back(str(static_cast<size_t>(c.missing_uv)) + " textured primitive(s) lack the texture coordinates their "
+                    "material reads: they are textured at coordinate (0, 0)");
+    if (c.uv_sets_above_1)
+        w.push_back(str(static_cast<size_t>(c.uv_sets_above_1)) + " texture(s) read coordinate sets above 1, which are not "
+                    "supported: set 0 is used");
     if (c.spots) w.push_back("spot lights are rendered as point lights for now (cone angles are ignored)");
     if (c.extra_cameras)
         w.push_back("the scene has " + str(static_cast<size_t>(c.extra_cameras) + 1) + " perspective cameras; the first is used");
@@ -745,8 +964,9 @@ SceneDescription parse_gltf(std::string_view bytes, bool binary, const std::stri
                             const std::string& source_name, const LoadLimits& limits) {
     SceneDescription scene;
     scene.source = source_name;
-    const tinygltf::Model model = read_model(bytes, binary, base_dir, source_name, limits, scene.warnings);
-    Ctx c{model, source_name, limits, scene};
+    DecodedImages images;
+    const tinygltf::Model model = read_model(bytes, binary, base_dir, source_name, limits, scene.warnings, images);
+    Ctx c{model, source_name, limits, scene, images};
     check_extensions(c);
     convert_materials(c);
     traverse_scene(c);

@@ -8,10 +8,23 @@
 
 namespace tessera {
 
+inline constexpr uint32_t kNoTextures = ~0u;
+
+// What a material reads per hit (engine/scene/surface_textures.h): its glTF textures, alpha and
+// the meshes' vertex colours.
+struct MaterialTextures {
+    TextureSlot base_color, metallic_roughness, emissive, normal;
+    float alpha = 1.f;        // baseColorFactor's alpha
+    AlphaMode alpha_mode = AlphaMode::opaque;
+    float alpha_cutoff = 0.5f;
+    bool vertex_colors = false;  // a mesh with this material has COLOR_0
+};
+
 struct Material {
     Bsdf bsdf;
     glm::vec3 emission{0.f};
     bool double_sided = false;
+    uint32_t textures = kNoTextures;  // into RenderScene::material_textures; none: the constants above are all
     bool emissive() const { return emission.x > 0.f || emission.y > 0.f || emission.z > 0.f; }
 };
 

@@ -19,7 +19,9 @@ struct LightSample {
     glm::vec3 wi;    // unit, from the shading point to `point`
     float dist2;
     float pdf_w;     // solid-angle density
-    glm::vec3 Le;
+    glm::vec3 Le;    // the light's constant; a textured emitter's is read at (prim, b1, b2)
+    uint32_t prim = ~0u;
+    float b1 = 0.f, b2 = 0.f;
 };
 
 // The direction and distance from a shading point (anchor + local, see SurfaceInteraction) to a
@@ -50,6 +52,9 @@ inline bool sample_on_triangle(const LightTriangle& tri, glm::vec2 uv, float are
     if (cos_l == 0.f || (!double_sided && cos_l < 0.f)) return false;
     out.pdf_w = out.dist2 / (std::abs(cos_l) * area);
     out.Le = radiance;
+    out.prim = tri.prim;
+    out.b1 = b1;
+    out.b2 = b2;
     return true;
 }
 

@@ -16,6 +16,7 @@
 #include "engine/sampling/warp.h"
 #include "engine/scene/environment.h"
 #include "engine/scene/intersect.h"
+#include "engine/scene/surface_textures.h"
 
 namespace tessera {
 
@@ -33,8 +34,17 @@ public:
         glm::vec3 L = include(0) ? emitted(si, hit, wo) : glm::vec3(0.f);
         glm::vec3 beta(1.f);
         for (int depth = 1; depth <= st_.max_depth; ++depth) {
+            const Material& mat = s_.materials[si.material];
+            Bsdf textured;
+            const Bsdf* bsdf = &mat.bsdf;
+            if (mat.textures != kNoTextures && !hit.sphere) {
+                // Normal maps bend ns as the surface was modelled, before it is turned to wo.
+                textured = mat.bsdf;
+                apply_textures(s_, s_.material_textures[mat.textures], hit.prim, hit.b1, hit.b2, textured, si.ns, si.ng);
+                bsdf = &textured;
+            }
             const bool back = face(si, wo);
-            const Bsdf& b = s_.materials[si.material].bsdf;
+            const Bsdf& b = *bsdf;
             if (bsdf_is_black(b)) break;  // nothing is reflected from here on
             const Frame frame(si.ns);
             const glm::vec3 wo_l = frame.to_local(wo);
@@ -100,7 +110,7 @@ private:
         const Material& m = s_.materials[si.material];
         if (!m.emissive()) return glm::vec3(0.f);
         if (!m.double_sided && glm::dot(si.ng, wo) <= 0.f) return glm::vec3(0.f);
-        return m.emission;
+        return m.textures == kNoTextures ? m.emission : emission_at(s_, m, hit.prim, hit.b1, hit.b2);
     }
 
     // Two-sided shading: both normals turned toward the viewer. True when they were turned: wo
@@ -185,7 +195,10 @@ private:
             if (occluded(s_, spawn_ray_between(si.p, si.p_err, si.ng, ls.point, ls.point_err, ls.n, si.tri), stats_.traversal)) return;
             const float pdf = ls.pdf_w * pick;
             const float w = mis ? power_heuristic(pdf, pdf_bsdf(ls.wi, c)) : 1.f;
-            Ld += f(ls.wi) * ls.Le * (w * c / (pdf * float(n)));
+            const glm::vec3 Le = s_.textured_emission
+                                     ? emission_at(s_, s_.materials[s_.tri_shading[ls.prim].material], ls.prim, ls.b1, ls.b2)
+                                     : ls.Le;
+            Ld += f(ls.wi) * Le * (w * c / (pdf * float(n)));
         };
         auto light_sample = [&](const AreaLight& light, float pick) {
             LightSample ls;

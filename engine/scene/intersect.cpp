@@ -4,6 +4,7 @@
 #include "engine/core/float_util.h"
 #include "engine/geometry/sphere.h"
 #include "engine/geometry/triangle.h"
+#include "engine/scene/surface_textures.h"
 
 namespace tessera {
 
@@ -28,6 +29,10 @@ bool test_blocks(const RenderScene& scene, const Triangle4Ray& r4, uint32_t firs
                 h.t[l] = th.t; h.b1[l] = th.b1; h.b2[l] = th.b2;
             }
         }
+        if (scene.has_alpha && h.mask) {
+            for (int l = 0; l < 4; ++l)
+                if ((h.mask >> l & 1) && !alpha_passes(scene, ray, block.prim[l], h.b1[l], h.b2[l])) h.mask &= ~(1 << l);
+        }
         if (!h.mask) continue;
         if constexpr (kAnyHit) return true;
         else {
@@ -40,6 +45,19 @@ bool test_blocks(const RenderScene& scene, const Triangle4Ray& r4, uint32_t firs
     return found;
 }
 
+// Embree's side of alpha_passes: the scene and the ray being traced.
+struct AlphaQuery {
+    const RenderScene& scene;
+    const Ray& ray;
+    EmbreeHitFilter filter() const {
+        return {[](const void* user, uint32_t prim, float b1, float b2) {
+                    const auto* q = static_cast<const AlphaQuery*>(user);
+                    return alpha_passes(q->scene, q->ray, prim, b1, b2);
+                },
+                this};
+    }
+};
+
 }  // namespace
 
 bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& counters) {
@@ -47,7 +65,10 @@ bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& 
     if (scene.embree) {
         uint32_t prim;
         float b1, b2;
-        if (embree_intersect(*scene.embree, ray, prim, b1, b2)) {
+        const Ray traced = ray;  // the filter hashes the ray as given, before tmax is lowered
+        const AlphaQuery q{scene, traced};
+        const EmbreeHitFilter f = q.filter();
+        if (embree_intersect(*scene.embree, ray, prim, b1, b2, scene.has_alpha ? &f : nullptr)) {
             hit = Hit{ray.tmax, prim, b1, b2, false, prim};
             found = true;
         }
@@ -84,7 +105,11 @@ bool occluded(const RenderScene& scene, const Ray& ray, TraversalCounters& count
             return true;
     }
     if (!scene.triangle_count()) return false;
-    if (scene.embree) return embree_occluded(*scene.embree, ray);
+    if (scene.embree) {
+        const AlphaQuery q{scene, ray};
+        const EmbreeHitFilter f = q.filter();
+        return embree_occluded(*scene.embree, ray, scene.has_alpha ? &f : nullptr);
+    }
     const Triangle4Ray r4 = make_triangle4_ray(ray);
     return wide_any_hit(scene.tri_wide, ray, [&](uint32_t first, uint32_t count, const Ray& r) {
         return test_blocks<true>(scene, r4, first, count, r, [](uint32_t, uint32_t, float, float, float) {});

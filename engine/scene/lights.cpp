@@ -57,8 +57,8 @@ void add_delta_lights(const SceneDescription& desc, RenderScene& s) {
     }
 }
 
-uint32_t add_area_light(const MeshDesc& mesh, const Material& material, RenderScene& s) {
-    AreaLight al{uint32_t(s.light_triangles.size()), 0, 0.f, material.emission, material.double_sided, 0.f, 0.f};
+uint32_t add_area_light(const MeshDesc& mesh, const Material& material, uint32_t material_index, RenderScene& s) {
+    AreaLight al{uint32_t(s.light_triangles.size()), 0, 0.f, material.emission, material.double_sided, 0.f, 0.f, material_index};
     for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
         const glm::vec3& p0 = mesh.positions[mesh.indices[i]];
         const glm::vec3 e1 = mesh.positions[mesh.indices[i + 1]] - p0, e2 = mesh.positions[mesh.indices[i + 2]] - p0;

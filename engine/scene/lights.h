@@ -27,6 +27,7 @@ struct LightTriangle {
     float cdf;    // cumulative area fraction within its light, ending at 1
     uint32_t light;  // its AreaLight
     float area;
+    uint32_t prim = ~0u;  // the triangle (index of RenderScene::tri_shading), for textured emission
 };
 struct AreaLight {
     uint32_t first, count;  // into RenderScene::light_triangles
@@ -35,6 +36,7 @@ struct AreaLight {
     bool double_sided;
     float power_cdf;        // cumulative share of the total emitted power, ending at 1
     float power_pmf;        // this light's share
+    uint32_t material = 0;  // its Material (textured emission reads it)
 };
 enum class DeltaKind { point, directional };
 struct DeltaLight {
@@ -53,7 +55,7 @@ std::vector<MeshDesc> cs184_lamps_as_meshes(const SceneDescription& desc, std::v
 void add_delta_lights(const SceneDescription& desc, RenderScene& scene);
 // The area light of one emissive mesh (its non-degenerate triangles, picked by area); returns
 // its index, or kNoLight when the mesh has no area to sample.
-uint32_t add_area_light(const MeshDesc& mesh, const Material& material, RenderScene& scene);
+uint32_t add_area_light(const MeshDesc& mesh, const Material& material, uint32_t material_index, RenderScene& scene);
 // Each area light's share of the emitted power (luminance × area × π, doubled for two-sided
 // emitters), for selection by power.
 void build_power_table(std::vector<AreaLight>& lights);

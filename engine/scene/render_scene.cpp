@@ -8,6 +8,7 @@
 #include "engine/accel/triangle4_leaves.h"
 #include "engine/core/parallel.h"
 #include "engine/geometry/triangle.h"
+#include "engine/scene/surface_textures.h"
 
 namespace tessera {
 namespace {
@@ -103,8 +104,9 @@ LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& 
     std::vector<uint32_t> mesh_light(meshes.size(), kNoLight);
     for (size_t k = 0; k < meshes.size(); ++k) {
         const uint32_t m = mat(meshes[k]->material);
-        if (s.materials[m].emissive()) mesh_light[k] = add_area_light(*meshes[k], s.materials[m], s);
+        if (s.materials[m].emissive()) mesh_light[k] = add_area_light(*meshes[k], s.materials[m], m, s);
     }
+    gather_vertex_attributes(meshes, first_vertex, s);
 
     LargeVector<TriangleVerts> triangles(ntri);
     s.tri_shading.resize(ntri);
@@ -134,7 +136,10 @@ LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& 
         uint32_t next = s.area_lights[mesh_light[k]].first;
         for (size_t t = first_tri[k]; t < first_tri[k + 1]; ++t) {
             const TriangleVerts& v = triangles[t];
-            if (0.5f * glm::length(glm::cross(v.p1 - v.p0, v.p2 - v.p0)) > 0.f) s.tri_shading[t].light = next++;
+            if (0.5f * glm::length(glm::cross(v.p1 - v.p0, v.p2 - v.p0)) > 0.f) {
+                s.light_triangles[next].prim = uint32_t(t);
+                s.tri_shading[t].light = next++;
+            }
         }
     }
     return triangles;
@@ -148,7 +153,7 @@ void build_triangle_accel(std::span<const TriangleVerts> triangles, const Render
     if (triangles.empty()) {
         options_for(0, options, "triangles", s.report);
     } else if (options.bvh.type == BvhType::embree) {
-        s.embree = build_embree(triangles, options.embree_quality, s.embree_build_seconds, threads);
+        s.embree = build_embree(triangles, options.embree_quality, s.embree_build_seconds, threads, s.has_alpha);
         clock.lap("embree build");
         s.tri_build_seconds = s.embree_build_seconds;
         s.tri_blocks = pack_triangle4_in_order(triangles, threads);  // where surface_at finds Embree's hits
@@ -216,6 +221,40 @@ void report_materials(const std::vector<Material>& materials, BuildReport& repor
         report.left_out.push_back("delta BSDF paths: no mirror or glass in the scene");
 }
 
+// What the materials read per hit (textures, alpha, vertex colours): one MaterialTextures each,
+// and the images they use; materials that read none keep the untextured path.
+void add_material_textures(const SceneDescription& desc, RenderScene& s) {
+    std::vector<char> coloured(desc.materials.size(), 0);
+    for (const MeshDesc& m : desc.meshes)
+        if (m.material >= 0 && !m.colors.empty()) coloured[size_t(m.material)] = 1;
+    size_t textured = 0;
+    for (size_t i = 0; i < desc.materials.size(); ++i) {
+        const MaterialDesc& d = desc.materials[i];
+        const bool alpha = d.alpha_mode != AlphaMode::opaque;
+        if (!d.textured() && !alpha && !coloured[i]) continue;
+        MaterialTextures mt{d.base_color_tex, d.metallic_roughness_tex, d.emissive_tex, d.normal_tex, d.alpha, d.alpha_mode,
+                            d.alpha_cutoff, coloured[i] != 0};
+        s.has_alpha |= alpha;
+        s.textured_emission |= d.emissive_tex.used() && d.emits();
+        textured += d.textured();
+        s.materials[i].textures = uint32_t(s.material_textures.size());
+        s.material_textures.push_back(mt);
+    }
+    if (textured) {
+        s.images = desc.images;
+        s.textures = desc.textures;
+        size_t bytes = 0;
+        for (const auto& img : s.images) bytes += img->rgba.size();
+        s.report.built.push_back("textures: " + std::to_string(s.textures.size()) + " over " + std::to_string(s.images.size()) +
+                                 " image(s), " + std::to_string(bytes >> 10) + " KiB of texels, read by " +
+                                 std::to_string(textured) + " material(s) (bilinear, no MIP maps)");
+    } else {
+        s.report.left_out.push_back("textures: no material reads one (no texture lookups, coordinates or tangent frames)");
+    }
+    if (!s.has_alpha) s.report.left_out.push_back("alpha tests: every material is opaque");
+    else s.report.built.push_back("alpha tests in intersection (alphaMode MASK and BLEND)");
+}
+
 }  // namespace
 
 RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOptions& options) {
@@ -227,6 +266,7 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
 
     for (const MaterialDesc& m : desc.materials)
         s.materials.push_back(make_material(m));
+    add_material_textures(desc, s);
     const std::vector<MeshDesc> lamps = cs184_lamps_as_meshes(desc, s.materials, s.report);
     add_delta_lights(desc, s);
     const uint32_t default_material = uint32_t(s.materials.size());

@@ -58,6 +58,17 @@ struct RenderScene {
     size_t triangle_count() const { return tri_shading.size(); }
     LargeVector<TriangleShading> tri_shading;   // input order, indexed by Triangle4::prim
     LargeVector<glm::vec3> normals;             // shared vertex normals
+    // Per vertex like normals, each filled only when a material reads it (empty otherwise):
+    // texture coordinate sets 0 and 1, COLOR_0 (white where a mesh has none), tangents (xyz,
+    // handedness in w; from the file or generated, engine/scene/surface_textures.h).
+    LargeVector<glm::vec2> uv[2];
+    LargeVector<glm::vec4> colors;
+    LargeVector<glm::vec4> tangents;
+    std::vector<std::shared_ptr<const TextureImage>> images;
+    std::vector<Texture> textures;
+    std::vector<MaterialTextures> material_textures;
+    bool has_alpha = false;                     // some material cuts out (MASK) or lets light through (BLEND)
+    bool textured_emission = false;             // some emitter's radiance varies over it (emissiveTexture)
     BvhBuildStats tri_bvh_stats;                // the binary tree as built
     WideBvh tri_wide;                           // that tree collapsed kBvhWidth-wide; leaves name blocks
     double tri_build_seconds = 0;               // build, collapse and packing (or Embree's build)

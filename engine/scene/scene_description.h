@@ -3,6 +3,7 @@
 // lights and camera, each remembering where it came from. Nothing here is built for speed;
 // RenderScene is built from it once per job.
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -10,12 +11,17 @@
 #include <glm/glm.hpp>
 
 #include "engine/core/scene_error.h"
+#include "engine/material/texture.h"
 
 namespace tessera {
 
 // emission: emits, and reflects as diffuse. metallic_roughness: glTF 2.0's model (albedo is the
 // base colour, roughness the perceptual roughness).
 enum class MaterialKind { diffuse, emission, mirror, glass, microfacet, glossy, metallic_roughness };
+
+// glTF alphaMode: opaque; mask: cut out where alpha < cutoff; blend: stochastically transparent
+// with probability 1 − alpha (each ray decides by a hash of itself, as pbrt-v4 does).
+enum class AlphaMode : uint8_t { opaque, mask, blend };
 
 struct MaterialDesc {
     std::string name;
@@ -30,7 +36,16 @@ struct MaterialDesc {
     float shininess = 0.0f;        // glossy
     glm::vec3 eta{0.0f}, k{0.0f};  // microfacet conductor
     bool double_sided = false;     // emission on both sides (glTF doubleSided)
+    // glTF textures (index into SceneDescription::textures) and alpha. Base colour and emissive
+    // multiply their factors; metallic-roughness multiplies metallic (blue) and roughness (green).
+    TextureSlot base_color_tex, metallic_roughness_tex, emissive_tex, normal_tex;
+    float alpha = 1.f;             // baseColorFactor's alpha
+    AlphaMode alpha_mode = AlphaMode::opaque;
+    float alpha_cutoff = 0.5f;
     SourceLocation origin;
+    bool textured() const {
+        return base_color_tex.used() || metallic_roughness_tex.used() || emissive_tex.used() || normal_tex.used();
+    }
     bool emits() const { return emission.x > 0.f || emission.y > 0.f || emission.z > 0.f; }
 };
 
@@ -43,6 +58,11 @@ struct MeshDesc {
     // vertex normals (what the CS184 loader does).
     bool flat_normals = false;
     std::vector<uint32_t> indices;   // three per triangle, all < positions.size()
+    // Per vertex like positions, each empty when the file had none: texture coordinates 0 and 1,
+    // COLOR_0 (multiplies the base colour) and tangents (xyz, handedness in w).
+    std::vector<glm::vec2> uv[2];
+    std::vector<glm::vec4> colors;
+    std::vector<glm::vec4> tangents;
     int material = -1;               // index into SceneDescription::materials, -1 = default grey
     SourceLocation origin;
 };
@@ -85,6 +105,8 @@ struct CameraDesc {
 struct SceneDescription {
     std::string source;                  // path or name it was loaded from
     std::vector<MaterialDesc> materials;
+    std::vector<std::shared_ptr<const TextureImage>> images;  // decoded, shared with the render scene
+    std::vector<Texture> textures;       // Texture::image indexes images
     std::vector<MeshDesc> meshes;
     std::vector<SphereDesc> spheres;
     std::vector<LightDesc> lights;
@@ -104,6 +126,8 @@ struct LoadLimits {
     uint64_t max_triangles = 50'000'000;
     uint64_t max_vertices = 50'000'000;
     int max_node_depth = 256;                 // nested scene-graph nodes
+    uint64_t max_texture_bytes = 1ull << 30;  // decoded texels of all images (4 bytes each)
+    int max_texture_size = 16384;             // width or height of one image
 };
 
 // Checks the invariants every consumer relies on (finite numbers, indices in range, positive

@@ -7,6 +7,19 @@ namespace tessera {
 namespace {
 
 bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+bool finite(const glm::vec2& v) { return std::isfinite(v.x) && std::isfinite(v.y); }
+bool finite(const glm::vec4& v) { return finite(glm::vec3(v)) && std::isfinite(v.w); }
+
+// A per-vertex array is empty or pairs with positions, with finite entries.
+template <class T>
+void check_vertex_array(const MeshDesc& mesh, const std::vector<T>& a, const char* what) {
+    if (a.empty()) return;
+    if (a.size() != mesh.positions.size())
+        throw SceneError(mesh.origin, "mesh '" + mesh.name + "' has " + std::to_string(a.size()) + " " + what + " for " +
+                                          std::to_string(mesh.positions.size()) + " vertices");
+    for (size_t i = 0; i < a.size(); ++i)
+        if (!finite(a[i])) throw SceneError(mesh.origin, "mesh '" + mesh.name + "' " + what + " " + std::to_string(i) + " is not finite");
+}
 
 std::string vec_str(const glm::vec3& v) {
     return "(" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " + std::to_string(v.z) + ")";
@@ -16,7 +29,25 @@ std::string vec_str(const glm::vec3& v) {
 
 void validate(const SceneDescription& scene) {
     const int nmat = static_cast<int>(scene.materials.size());
+    for (const auto& img : scene.images)
+        if (!img || img->width <= 0 || img->height <= 0 ||
+            img->rgba.size() != 4 * size_t(img->width) * size_t(img->height))
+            throw SceneError(SourceLocation{scene.source, 0, ""}, "an image's texels do not match its size");
+    for (const auto& t : scene.textures)
+        if (t.image >= scene.images.size())
+            throw SceneError(SourceLocation{scene.source, 0, ""}, "a texture refers to image " + std::to_string(t.image) +
+                                                                     " of " + std::to_string(scene.images.size()));
     for (const auto& m : scene.materials) {
+        for (const TextureSlot* slot : {&m.base_color_tex, &m.metallic_roughness_tex, &m.emissive_tex, &m.normal_tex}) {
+            if (slot->texture >= int(scene.textures.size()) || slot->texture < -1 || slot->texcoord > 1)
+                throw SceneError(m.origin, "material '" + m.name + "' refers to texture " + std::to_string(slot->texture) +
+                                               " (coordinate set " + std::to_string(slot->texcoord) + ") of " +
+                                               std::to_string(scene.textures.size()));
+            if (!finite(slot->row_u) || !finite(slot->row_v) || !std::isfinite(slot->scale))
+                throw SceneError(m.origin, "material '" + m.name + "' has a non-finite texture transform");
+        }
+        if (!std::isfinite(m.alpha) || !std::isfinite(m.alpha_cutoff) || m.alpha < 0 || m.alpha_cutoff < 0)
+            throw SceneError(m.origin, "material '" + m.name + "' has an alpha or alpha cutoff that is negative or not finite");
         if (!finite(m.albedo) || !finite(m.emission) || !finite(m.transmittance) || !std::isfinite(m.ior) ||
             !std::isfinite(m.roughness) || !finite(m.eta) || !finite(m.k) || !std::isfinite(m.metallic) ||
             !std::isfinite(m.specular) || !std::isfinite(m.shininess))
@@ -50,6 +81,10 @@ void validate(const SceneDescription& scene) {
         for (size_t i = 0; i < mesh.normals.size(); ++i)
             if (!finite(mesh.normals[i]))
                 throw SceneError(mesh.origin, "mesh '" + mesh.name + "' normal " + std::to_string(i) + " is not finite");
+        check_vertex_array(mesh, mesh.uv[0], "texture coordinates (set 0)");
+        check_vertex_array(mesh, mesh.uv[1], "texture coordinates (set 1)");
+        check_vertex_array(mesh, mesh.colors, "vertex colours");
+        check_vertex_array(mesh, mesh.tangents, "tangents");
         for (size_t i = 0; i < mesh.indices.size(); ++i)
             if (mesh.indices[i] >= mesh.positions.size())
                 throw SceneError(mesh.origin, "mesh '" + mesh.name + "' index " + std::to_string(i) + " = " +
