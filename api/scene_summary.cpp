@@ -14,6 +14,13 @@ nlohmann::json describe_scene(const SceneDescription& s) {
     for (const auto& m : s.meshes)
         if (m.material >= 0 && s.materials[size_t(m.material)].emits()) ++emissive;
     j["emissive_meshes"] = emissive;
+    size_t textured = 0, texel_bytes = 0;
+    for (const auto& m : s.materials) textured += m.textured();
+    for (const auto& img : s.images) texel_bytes += img->rgba.size();
+    j["materials"] = s.materials.size();
+    j["textured_materials"] = textured;
+    j["images"] = s.images.size();
+    j["texel_bytes"] = texel_bytes;
     if (!b.empty()) j["bounds"] = {{"min", {b.lo.x, b.lo.y, b.lo.z}}, {"max", {b.hi.x, b.hi.y, b.hi.z}}};
     else j["bounds"] = nullptr;
     return j;

@@ -1,5 +1,7 @@
 // `tessera bench materials`: the energy each BSDF keeps (directional albedo of white materials,
 // against glTF's sample formula), and the CS184 material scenes rendered with their time.
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -12,6 +14,7 @@
 #include "engine/io/scene_loader.h"
 #include "engine/material/bsdf.h"
 #include "engine/render/renderer.h"
+#include "engine/scene/environment.h"
 #include "engine/sampling/rng.h"
 #include "cli/bench_common.h"
 #include "server/command_line.h"
@@ -103,15 +106,56 @@ void energy_table(int n) {
     std::printf("\n\n");
 }
 
+// Each glTF sample model under the environment map (the models have no lights), with the
+// time of each stage and what the loader warned of.
+void gltf_pbr_renders(const std::string& dir, const std::string& env_path, const std::string& out, const RenderSettings& base) {
+    std::vector<std::filesystem::path> files;
+    for (const auto& e : std::filesystem::directory_iterator(dir))
+        if (e.path().extension() == ".gltf" || e.path().extension() == ".glb") files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    RenderSettings st = base;
+    const Image sky = read_image(env_path);
+    st.environment = std::make_shared<const EnvironmentMap>(build_environment(sky.width, sky.height, sky.rgb, env_path));
+    std::printf("glTF sample models (%s), %dx%d, %d spp, %d light rays, max depth %d, MIS, lit by %s\n\n", dir.c_str(),
+                st.width, st.height, st.spp, st.light_rays, st.max_depth, std::filesystem::path(env_path).filename().c_str());
+    std::printf("| model | triangles | images (KiB) | load (s) | build (s) | render (s) | built | warnings |\n"
+                "|---|---:|---:|---:|---:|---:|---|---|\n");
+    for (const auto& f : files) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const SceneDescription d = load_scene(f.string());
+        const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const RenderScene rs = build_render_scene(d, {});
+        const RenderResult r = render(rs, st);
+        size_t kib = 0;
+        for (const auto& img : d.images) kib += img->rgba.size() >> 10;
+        std::string built, warnings;
+        for (const std::string& b : rs.report.built)
+            if (b.rfind("textures", 0) == 0 || b.rfind("vertex attributes", 0) == 0 || b.rfind("alpha", 0) == 0)
+                built += (built.empty() ? "" : "; ") + b;
+        for (const std::string& w : d.warnings) warnings += (warnings.empty() ? "" : "; ") + w;
+        std::printf("| %s | %zu | %zu | %.2f | %.3f | %.2f | %s | %s |\n", f.stem().c_str(), d.triangle_count(), kib, load_s,
+                    rs.report.seconds, r.stats.render_seconds, built.c_str(), warnings.c_str());
+        if (r.stats.nonfinite_samples) std::printf("  (%llu non-finite samples dropped)\n", (unsigned long long)r.stats.nonfinite_samples);
+        if (!out.empty()) {
+            std::filesystem::create_directories(out + "/gltf-pbr");
+            write_png(out + "/gltf-pbr/" + f.stem().string() + ".jpg", r.image);
+        }
+    }
+}
+
 }  // namespace
 
 int bench_materials(int argc, char** argv) {
     std::string cs184 = default_cs184_dir();
+    std::string gltf_pbr = default_gltf_pbr_dir();
+    std::string environment = std::string(TESSERA_DEFAULT_SCENES_DIR) + "/sky.exr";
     std::string out;
     int samples = 200000, spp = 64, width = 480, height = 360, threads = 0;
     CLI::App app{"The energy each BSDF keeps, and the CS184 material scenes rendered (MIS, depth 5) with their time.",
                  "bench materials"};
     app.add_option("--cs184", cs184, "the CS184 scenes folder");
+    app.add_option("--gltf-pbr", gltf_pbr, "the glTF sample models folder (rendered under --environment)");
+    app.add_option("--environment", environment, "the environment map that lights the glTF models");
     app.add_option("--out", out, "write each scene's image here as PNG (none: no files)");
     app.add_option("--samples", samples, "BSDF samples per cell of the energy table")->check(CLI::Range(1000, 100000000));
     app.add_option("--spp", spp, "samples per pixel of the scene renders (0: table only)")->check(CLI::Range(0, 65536));
@@ -121,6 +165,20 @@ int bench_materials(int argc, char** argv) {
     if (const auto status = parse_args(app, argc, argv)) return *status;
     energy_table(samples);
     if (spp == 0) return 0;
+    if (std::filesystem::is_directory(gltf_pbr)) {
+        RenderSettings st;
+        st.width = width;
+        st.height = height;
+        st.spp = spp;
+        st.light_rays = 1;
+        st.max_depth = 5;
+        st.direct = DirectLighting::mis;
+        st.threads = threads;
+        gltf_pbr_renders(gltf_pbr, environment, out, st);
+        std::printf("\n");
+    } else {
+        std::printf("glTF sample models not found at %s: their renders are skipped\n", gltf_pbr.c_str());
+    }
     if (!std::filesystem::is_directory(cs184)) {
         std::printf("CS184 scenes not found at %s: scene renders skipped\n", cs184.c_str());
         return 0;

@@ -229,6 +229,7 @@ export function mount(root) {
       ['Triangles', sc.triangles != null ? fmtInt(sc.triangles) : null],
       ['Spheres', sc.spheres != null ? fmtInt(sc.spheres) : null],
       ['Lights', sc.lights != null ? `${fmtInt(sc.lights)} point or area lights, ${fmtInt(sc.emissive_meshes ?? 0)} emissive meshes` : null],
+      ['Textures', sc.images ? `${fmtInt(sc.images)} images (${fmtInt(Math.round((sc.texel_bytes ?? 0) / 1024))} KiB) read by ${fmtInt(sc.textured_materials ?? 0)} materials` : null],
       ['Bounds', sc.bounds ? `${fmtVec(sc.bounds.min)} to ${fmtVec(sc.bounds.max)}` : (sc.error ? null : 'empty scene')],
     ].filter(([, v]) => v != null);
     fill(sceneInfo,

@@ -33,9 +33,9 @@ public:
         glm::vec3 wo = -glm::normalize(ray.d);
         glm::vec3 L = include(0) ? emitted(si, hit, wo) : glm::vec3(0.f);
         glm::vec3 beta(1.f);
+        Bsdf textured;  // a textured material's BSDF at the current vertex
         for (int depth = 1; depth <= st_.max_depth; ++depth) {
             const Material& mat = s_.materials[si.material];
-            Bsdf textured;
             const Bsdf* bsdf = &mat.bsdf;
             if (mat.textures != kNoTextures && !hit.sphere) {
                 // Normal maps bend ns as the surface was modelled, before it is turned to wo.

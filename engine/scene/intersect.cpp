@@ -1,5 +1,7 @@
 #include "engine/scene/intersect.h"
 
+#include <type_traits>
+
 #include "engine/accel/wide_bvh_traverse.h"
 #include "engine/core/float_util.h"
 #include "engine/geometry/sphere.h"
@@ -10,7 +12,9 @@ namespace tessera {
 
 namespace {
 
-template <bool kAnyHit, class R, class OnHit>
+// kAlpha: some material is alpha-tested (RenderScene::has_alpha); a template parameter so that
+// the opaque scenes' traversal carries no test for it.
+template <bool kAnyHit, bool kAlpha, class R, class OnHit>
 bool test_blocks(const RenderScene& scene, const Triangle4Ray& r4, uint32_t first, uint32_t count, R& ray, OnHit&& on_hit) {
     bool found = false;
     for (uint32_t b = first; b < first + count; ++b) {
@@ -29,7 +33,7 @@ bool test_blocks(const RenderScene& scene, const Triangle4Ray& r4, uint32_t firs
                 h.t[l] = th.t; h.b1[l] = th.b1; h.b2[l] = th.b2;
             }
         }
-        if (scene.has_alpha && h.mask) {
+        if (kAlpha && h.mask) {
             for (int l = 0; l < 4; ++l)
                 if ((h.mask >> l & 1) && !alpha_passes(scene, ray, block.prim[l], h.b1[l], h.b2[l])) h.mask &= ~(1 << l);
         }
@@ -74,11 +78,14 @@ bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& 
         }
     } else if (scene.triangle_count()) {
         const Triangle4Ray r4 = make_triangle4_ray(ray);
-        found = wide_closest_hit(scene.tri_wide, ray, [&](uint32_t first, uint32_t count, Ray& r) {
-            return test_blocks<false>(scene, r4, first, count, r, [&](uint32_t prim, uint32_t slot, float t, float b1, float b2) {
-                hit = Hit{t, prim, b1, b2, false, slot};
-            });
-        }, counters);
+        auto closest = [&]<bool kAlpha>(std::bool_constant<kAlpha>) {
+            return wide_closest_hit(scene.tri_wide, ray, [&](uint32_t first, uint32_t count, Ray& r) {
+                return test_blocks<false, kAlpha>(scene, r4, first, count, r, [&](uint32_t prim, uint32_t slot, float t, float b1, float b2) {
+                    hit = Hit{t, prim, b1, b2, false, slot};
+                });
+            }, counters);
+        };
+        found = scene.has_alpha ? closest(std::true_type{}) : closest(std::false_type{});
     }
     if (!scene.spheres.empty()) {
         const Sphere* sph = scene.spheres.data();
@@ -111,9 +118,12 @@ bool occluded(const RenderScene& scene, const Ray& ray, TraversalCounters& count
         return embree_occluded(*scene.embree, ray, scene.has_alpha ? &f : nullptr);
     }
     const Triangle4Ray r4 = make_triangle4_ray(ray);
-    return wide_any_hit(scene.tri_wide, ray, [&](uint32_t first, uint32_t count, const Ray& r) {
-        return test_blocks<true>(scene, r4, first, count, r, [](uint32_t, uint32_t, float, float, float) {});
-    }, counters);
+    auto any = [&]<bool kAlpha>(std::bool_constant<kAlpha>) {
+        return wide_any_hit(scene.tri_wide, ray, [&](uint32_t first, uint32_t count, const Ray& r) {
+            return test_blocks<true, kAlpha>(scene, r4, first, count, r, [](uint32_t, uint32_t, float, float, float) {});
+        }, counters);
+    };
+    return scene.has_alpha ? any(std::true_type{}) : any(std::false_type{});
 }
 
 SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hit& hit) {

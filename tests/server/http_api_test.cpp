@@ -23,6 +23,7 @@
 
 #include "engine/io/gltf_writer.h"
 #include "engine/scene/procedural.h"
+#include "tests/test_paths.h"
 
 namespace tessera::server {
 namespace {
@@ -321,6 +322,36 @@ TEST_F(Server, UploadedScenesRenderAndHostileNamesAreRefused) {
     const json scenes = json::parse(list->body);
     for (const auto& s : scenes["scenes"]) found |= s["name"] == scene["id"];
     EXPECT_TRUE(found);
+}
+
+TEST_F(Server, UploadedTexturedGltfRendersWithItsTexturesAndBrokenImagesAreRefused) {
+    TESSERA_REQUIRE_SHARED_DIR(dir, gltf_pbr_dir, "the glTF PBR sample models (../shared/scenes/gltf-pbr)");
+    start();
+    std::ifstream in(*dir_opt + "/BoxTextured.gltf", std::ios::binary);
+    const std::string gltf((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    auto up = client_->Post("/v1/scenes?name=box_textured.gltf", gltf, "model/gltf+json");
+    ASSERT_TRUE(up);
+    ASSERT_EQ(up->status, 201) << up->body;
+    const json scene = json::parse(up->body);
+    EXPECT_EQ(scene["images"], 1);
+    EXPECT_EQ(scene["textured_materials"], 1);
+    EXPECT_EQ(scene["texel_bytes"], 256 * 256 * 4);
+    json job = kSmallJob;
+    job["scene"] = scene["id"];
+    const json done = wait_state(submit(job), {"succeeded", "failed"});
+    ASSERT_EQ(done["state"], "succeeded") << done.dump();
+    auto report = client_->Get("/v1/jobs/" + done["id"].get<std::string>() + "/report.json");
+    ASSERT_TRUE(report && report->status == 200);
+    EXPECT_NE(report->body.find("textures: 1 over 1 image(s)"), std::string::npos);
+    // The model has no lights: the report says which light was added.
+    EXPECT_NE(report->body.find("default uniform white sky"), std::string::npos);
+    // The same file with its image broken: refused on upload, naming the image.
+    json broken = json::parse(gltf);
+    broken["images"][0]["uri"] = "data:image/png;base64,iVBORw0KGgoAAAA";
+    auto bad = client_->Post("/v1/scenes?name=broken_texture.gltf", broken.dump(), "model/gltf+json");
+    ASSERT_TRUE(bad);
+    EXPECT_EQ(bad->status, 422);
+    EXPECT_NE(bad->body.find("/images/0"), std::string::npos) << bad->body;
 }
 
 TEST_F(Server, TimeLimitStopsWithTheImageAndSaysWhy) {
