@@ -10,7 +10,8 @@ build_only=0
 packages=(
   # toolchain
   build-essential cmake git pkg-config ninja-build
-  # the design card
+  # the design card; libstb-dev: the stb_image that tinygltf is written for, which decodes glTF's
+  # PNG and JPEG textures in memory (engine/io/texture_decode.cpp)
   libcpp-httplib-dev nlohmann-json3-dev libglm-dev libtinygltf-dev libstb-dev
   libopenimageio-dev openimageio-tools libspdlog-dev libfmt-dev libgtest-dev libgmock-dev
   # COLLADA is XML (pugixml); Google Benchmark for the micro benchmarks
