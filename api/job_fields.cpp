@@ -48,7 +48,8 @@ constexpr Named<BounceMode> kBounces[] = {{"accumulate", BounceMode::accumulate}
 constexpr Named<LightingOutput> kLighting[] = {
     {"all", LightingOutput::all}, {"direct", LightingOutput::direct}, {"indirect", LightingOutput::indirect}};
 constexpr Named<LightSelection> kSelection[] = {
-    {"all", LightSelection::all}, {"power", LightSelection::power}, {"tree", LightSelection::tree}};
+    {"all", LightSelection::all}, {"power", LightSelection::power}, {"tree", LightSelection::tree},
+    {"auto", LightSelection::automatic}};
 constexpr Named<SamplerKind> kSampler[] = {{"sobol", SamplerKind::sobol}, {"independent", SamplerKind::independent}};
 constexpr Named<Integrator> kIntegrator[] = {{"path", Integrator::path}, {"normals", Integrator::normals}};
 constexpr Named<TriangleTest> kTriangle[] = {
@@ -218,7 +219,7 @@ const Field<RenderJob> kRenderFields[] = {
     choice<RenderJob, kLighting, &RenderJob::render, &RenderSettings::output>(
         "lighting", "\"all\"", "all light, direct (bounces 0-1) or indirect (bounces 2 and up).", "--lighting"),
     choice<RenderJob, kSelection, &RenderJob::render, &RenderSettings::light_selection>(
-        "light_selection", "\"all\"", "Every area light light_rays times (all), light_rays in all by power, or light_rays in all by a light tree (tree: by estimated contribution at each point).",
+        "light_selection", "\"auto\"", "Every area light light_rays times (all), light_rays in all by power, light_rays in all by a light tree (tree: by estimated contribution at each point), or auto: the tree above 256 area lights, all otherwise (the report says which).",
         "--light-selection"),
     choice<RenderJob, kSampler, &RenderJob::render, &RenderSettings::sampler>(
         "sampler", "\"sobol\"", "Owen-scrambled Sobol points (stratified: less error per sample), or independent random numbers.",

@@ -32,14 +32,6 @@ void write_text(const std::string& path, const std::string& text) {
     if (!out) throw std::runtime_error("cannot write " + path);
 }
 
-// A scene without lights (most glTF models) is lit by a uniform white sky of radiance 1, and
-// the report says so, rather than rendered black.
-std::shared_ptr<const EnvironmentMap> default_environment() {
-    static const auto env = std::make_shared<const EnvironmentMap>(
-        build_environment(1, 1, {1.f, 1.f, 1.f}, "default uniform white sky of radiance 1 (the scene has no lights)"));
-    return env;
-}
-
 std::shared_ptr<const EnvironmentMap> load_environment(const std::string& path) {
     const std::string ext = std::filesystem::path(path).extension().string();
     if (ext != ".exr" && ext != ".hdr")
@@ -156,6 +148,14 @@ JobOutcome run_comparison_job(const ComparisonJob& job, const RunOptions& opt, c
 }
 
 }  // namespace
+
+// A scene without lights (most glTF models) is lit by a uniform white sky of radiance 1, and
+// the report says so, rather than rendered black.
+std::shared_ptr<const EnvironmentMap> default_environment() {
+    static const auto env = std::make_shared<const EnvironmentMap>(
+        build_environment(1, 1, {1.f, 1.f, 1.f}, "default uniform white sky of radiance 1 (the scene has no lights)"));
+    return env;
+}
 
 std::shared_ptr<PreparedScene> prepare_scene(const std::string& source, const LoadLimits& limits, const RenderSceneOptions& options) {
     auto p = std::make_shared<PreparedScene>();

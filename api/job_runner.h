@@ -36,6 +36,9 @@ using ScenePreparer =
 // A lat-long environment map read from an .exr or .hdr file. Throws SceneError naming the
 // file (unreadable, another format, negative or non-finite pixels).
 std::shared_ptr<const EnvironmentMap> load_environment(const std::string& path);
+// What lights a scene without lights when the job names no environment: a uniform white sky of
+// radiance 1 (most glTF models carry no lights), the same on one process and on a render farm.
+std::shared_ptr<const EnvironmentMap> default_environment();
 
 // How this runner runs the job: not part of the job (the same job gives the same image with
 // any of these).

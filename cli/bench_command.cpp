@@ -155,13 +155,14 @@ int bench_bvh(int argc, char** argv) {
     return 0;
 }
 
-// Light selection: every light sampled (CS184) against one light per sample chosen by power,
-// on a box lit by 32 lamps. Noise is measured as the mean per-pixel variance from two renders
-// with different seeds; efficiency = 1 / (variance × time), higher is better.
+// Light selection: every light sampled (CS184), one light per sample chosen by power, and one
+// emitting triangle per sample chosen through the light tree, on scenes lit by many lamps.
+// Noise is measured from two renders with different seeds, as the mean per-pixel variance and
+// as relative MSE; efficiency = 1 / (noise × time), higher is better.
 int bench_lights(int argc, char** argv) {
     int spp = 8, lamps = 32, rays = 4;
     std::pair<int, int> size{320, 240};
-    bool scattered = false;
+    bool scattered = false, field = false, open = false;
     CLI::App app{"Light selection: every light sampled, one light per sample chosen by power, and one emitting triangle "
                  "per sample chosen through the light tree, on a box lit by many lamps; noise, time and efficiency "
                  "1/(variance × time).", "bench lights"};
@@ -171,12 +172,19 @@ int bench_lights(int argc, char** argv) {
     app.add_option("--rays", rays, "light rays (per light with 'all', in all otherwise)")->check(CLI::Range(1, 64));
     app.add_option("-r", size, "image width and height")->type_name("W H")->check(CLI::Range(8, 4096));
     app.add_flag("--scattered", scattered, "lamps scattered through the box's volume (builtin:scattered_lights), not on its ceiling");
+    app.add_flag("--field", field, "equal lamps over a 40 m field among blocks (builtin:lamp_field)");
+    app.add_flag("--open", open, "with --field: the same lamps without the blocks (what occlusion costs)");
     if (const auto status = parse_args(app, argc, argv)) return *status;
-    const RenderScene scene = build_render_scene(scattered ? scattered_lights(lamps) : many_lights(lamps), RenderSceneOptions{});
-    std::printf("builtin:%s (%d lamps), %d×%d, %d spp, %d light rays, depth 1, light sampling, independent samples\n\n",
-                scattered ? "scattered_lights" : "many_lights", lamps, size.first, size.second, spp, rays);
-    std::printf("| selection | time (s) | shadow rays | mean | per-pixel variance | efficiency 1/(var·s) |\n|---|---:|---:|---:|---:|---:|\n");
-    double eff_all = 0;
+    const RenderScene scene = build_render_scene(field       ? lamp_field(lamps, !open)
+                                                 : scattered ? scattered_lights(lamps)
+                                                             : many_lights(lamps),
+                                                 RenderSceneOptions{});
+    std::printf("builtin:%s (%d lamps), %d×%d, %d spp, %d light rays, direct light only (bounce 1), light sampling, independent samples\n\n",
+                field ? (open ? "lamp_field without blocks" : "lamp_field") : scattered ? "scattered_lights" : "many_lights", lamps, size.first, size.second, spp, rays);
+    std::printf("| selection | time (s) | shadow rays | mean | per-pixel variance | efficiency 1/(var·s) | relMSE | 1/(relMSE·s) |\n"
+                "|---|---:|---:|---:|---:|---:|---:|---:|\n");
+    double eff_all = 0, rel_all = 0;
+    std::vector<double> reference;  // every light's two renders averaged: the least noisy image here
     for (LightSelection sel : {LightSelection::all, LightSelection::power, LightSelection::tree}) {
         RenderSettings st;
         st.width = size.first;
@@ -184,26 +192,38 @@ int bench_lights(int argc, char** argv) {
         st.spp = spp;
         st.light_rays = rays;
         st.sampler = SamplerKind::independent;  // the two seeds' difference is then pure noise
+        // Bounce 1 only: the lamps seen directly add the same pixel-integration noise to every
+        // selection and would hide the difference being measured.
         st.max_depth = 1;
+        st.bounces = BounceMode::nth;
         st.light_selection = sel;
         st.seed = 1;
         const RenderResult a = render(scene, st);
         st.seed = 2;
         const RenderResult b = render(scene, st);
-        double var = 0, mean = 0;
+        if (reference.empty())
+            for (size_t i = 0; i < a.image.rgb.size(); ++i) reference.push_back(0.5 * (double(a.image.rgb[i]) + b.image.rgb[i]));
+        // Each estimator is unbiased, so (a − b)²/2 estimates one render's variance, which is its
+        // MSE; relMSE divides it by a denominator independent of the two renders (the reference,
+        // ε = 0.01 as in bench convergence), so a firefly in one render counts in full instead of
+        // also inflating the mean it is divided by.
+        double var = 0, mean = 0, rel = 0;
         for (size_t i = 0; i < a.image.rgb.size(); ++i) {
             const double d = double(a.image.rgb[i]) - b.image.rgb[i];
             var += d * d / 2;
             mean += 0.5 * (double(a.image.rgb[i]) + b.image.rgb[i]);
+            rel += d * d / 2 / (reference[i] * reference[i] + 0.01);
         }
+        rel /= double(a.image.rgb.size());
         var /= double(a.image.rgb.size());
         mean /= double(a.image.rgb.size());
         const double time = 0.5 * (a.stats.render_seconds + b.stats.render_seconds);
         const double eff = 1.0 / (var * time);
-        if (sel == LightSelection::all) eff_all = eff;
-        std::printf("| %s | %.3f | %llu | %.4f | %.3g | %.3g (%.2f×) |\n",
+        if (sel == LightSelection::all) eff_all = eff, rel_all = 1.0 / (rel * time);
+        std::printf("| %s | %.3f | %llu | %.4f | %.3g | %.3g (%.2f×) | %.3g | %.3g (%.2f×) |\n",
                     sel == LightSelection::all ? "all" : sel == LightSelection::power ? "power" : "tree", time,
-                    (unsigned long long)a.stats.shadow_rays, mean, var, eff, eff / eff_all);
+                    (unsigned long long)a.stats.shadow_rays, mean, var, eff, eff / eff_all, rel, 1.0 / (rel * time),
+                    1.0 / (rel * time) / rel_all);
     }
     return 0;
 }

@@ -34,6 +34,7 @@ void print_report(const api::RenderReport& r, const std::string& output) {
     const RenderStats& st = r.stats;
     for (const auto& w : r.scene_build.built) std::printf("built: %s\n", w.c_str());
     for (const auto& w : r.scene_build.left_out) std::printf("left out: %s\n", w.c_str());
+    for (const auto& w : r.render_built) std::printf("built: %s\n", w.c_str());
     for (const auto& w : r.render_left_out) std::printf("left out: %s\n", w.c_str());
     const double mrays = st.render_seconds > 0 ? double(st.rays()) / st.render_seconds * 1e-6 : 0.0;
     const double per_ray = st.rays() ? 1.0 / double(st.rays()) : 0.0;

@@ -158,6 +158,14 @@ int tile_count(const RenderSettings& s) {
     return ((s.width + size - 1) / size) * ((s.height + size - 1) / size);
 }
 
+// A job's settings as its scene renders them: a scene without lights gets the default sky, as
+// the one-process server's runner gives it, so the farm's image is the same.
+RenderSettings lit(const RenderSettings& job, const RenderScene& scene) {
+    RenderSettings s = job;
+    if (!s.environment && !scene.has_lights()) s.environment = api::default_environment();
+    return s;
+}
+
 // A job the node cannot run (scene broken, reference gone): the job fails with this reason.
 struct JobFailure : std::runtime_error {
     using std::runtime_error::runtime_error;
@@ -485,7 +493,7 @@ struct RenderNode::Impl {
         if (!info) return false;
         const auto& rj = std::get<api::RenderJob>(info->job);
         const auto prepared = cache.get(r, info->ref, rj.scene_options);
-        const RenderSettings& s = info->settings;
+        const RenderSettings s = lit(info->settings, prepared->scene);
         const TileRect rect = tile_rect(s, t.tile);
         Film film = Film::tile(rect.x0, rect.y0, rect.width(), rect.height(), info->plan.half_buffer, info->plan.adaptive);
         if (t.pass > 0) {
@@ -633,7 +641,8 @@ struct RenderNode::Impl {
     void write_results(Redis& r, const Task& t, const JobInfo& info, Image image, const Film& buffers, const RedisValue& v, int n,
                        double seconds, RenderResult result, const ConvergencePoint& pt) {
         const auto& rj = std::get<api::RenderJob>(info.job);
-        const RenderSettings& s = info.settings;
+        const auto prepared = cache.get(r, info.ref, rj.scene_options);
+        const RenderSettings s = lit(info.settings, prepared->scene);
         result.image = std::move(image);
         RenderStats& st = result.stats;
         st.samples = uint64_t(v.items[6].as_int());
@@ -645,7 +654,6 @@ struct RenderNode::Impl {
         st.nonfinite_samples = uint64_t(v.items[12].as_int());
         st.max_sample = std::stof(v.items[13].text);
         st.render_seconds = seconds;
-        const auto prepared = cache.get(r, info.ref, rj.scene_options);
         describe_render(prepared->scene, s, buffers, result.built, result.left_out);
         const auto shares = r.pipeline({{"HGETALL", keys::node_tiles(t.job)}, {"HGETALL", keys::node_seconds(t.job)}});
         std::map<std::string, api::NodeShare> by_node;

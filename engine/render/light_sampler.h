@@ -6,6 +6,7 @@
 #include <type_traits>
 
 #include "engine/core/float_util.h"
+#include "engine/render/render_settings.h"
 #include "engine/sampling/sampler.h"
 #include "engine/sampling/warp.h"
 #include "engine/scene/intersect.h"
@@ -102,6 +103,18 @@ inline bool sample_light_triangle(const RenderScene& s, uint32_t index, glm::vec
     const LightTriangle& tri = s.light_triangles[index];
     const AreaLight& light = s.area_lights[tri.light];
     return sample_on_triangle(tri, uv, tri.area, light.radiance, light.double_sided, p_anchor, p_local, out);
+}
+
+// What `automatic` light selection picks: the light tree above kTreeAboveLights area lights,
+// every light (each `light_rays` times) up to it. Measured at equal time with `tessera bench
+// lights` (docs/benchmarks.md, "Automatic selection"): the tree wins from about 64 lamps spread
+// over a field among blocks, from about 300 scattered through a room, and never on a ceiling grid
+// of up to 1,024 (sampling each lamp once there is stratified over lamps that all matter);
+// every light costs one shadow ray per light per sample, so past a few hundred it is the tree.
+inline constexpr size_t kTreeAboveLights = 256;
+inline LightSelection chosen_light_selection(const RenderScene& s, LightSelection selection) {
+    if (selection != LightSelection::automatic) return selection;
+    return s.area_lights.size() > kTreeAboveLights && !s.light_tree.empty() ? LightSelection::tree : LightSelection::all;
 }
 
 // The density sample_area_light gives direction wi that reaches the light at distance `dist`

@@ -1,5 +1,7 @@
 #include "engine/render/passes.h"
 
+#include "engine/render/light_sampler.h"
+
 #include <algorithm>
 
 #include "engine/render/tile_context.h"
@@ -58,6 +60,15 @@ void describe_render(const RenderScene& scene, const RenderSettings& settings, c
                                               : std::string("indirect bounces (max_depth <= 1)"));
         if (!scene.has_lights() && !settings.environment) left_out.push_back("direct lighting: no lights or emitters, no shadow rays");
         else if (settings.direct == DirectLighting::mis) built.push_back("MIS: light and BSDF samples");
+        if (scene.area_lights.size() > 1 && settings.direct != DirectLighting::hemisphere) {
+            const LightSelection sel = chosen_light_selection(scene, settings.light_selection);
+            const char* name = sel == LightSelection::tree ? "light tree" : sel == LightSelection::power ? "by power" : "every light";
+            built.push_back(std::string("light selection: ") + name + " (" + std::to_string(scene.area_lights.size()) +
+                            " area lights" +
+                            (settings.light_selection == LightSelection::automatic
+                                 ? std::string(", chosen automatically: the tree above ") + std::to_string(kTreeAboveLights) + ")"
+                                 : std::string(")")));
+        }
         if (settings.russian_roulette <= 0.f || settings.max_depth <= 1) left_out.push_back("Russian roulette");
         if (settings.lens_radius > 0.f)
             built.push_back("thin lens: radius " + std::to_string(settings.lens_radius) + ", focused " +

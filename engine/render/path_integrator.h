@@ -24,7 +24,8 @@ class PathIntegrator {
 public:
     PathIntegrator(const RenderScene& scene, const RenderSettings& settings, RenderStats& stats)
         : s_(scene), st_(settings), stats_(stats),
-          env_(settings.environment && !settings.environment->empty() ? settings.environment.get() : nullptr) {}
+          env_(settings.environment && !settings.environment->empty() ? settings.environment.get() : nullptr),
+          selection_(chosen_light_selection(scene, settings.light_selection)) {}
 
     glm::vec3 radiance(Ray ray, Sampler& rng) {
         Hit hit;
@@ -185,8 +186,8 @@ private:
             return Ld;
         }
         const bool mis = st_.direct == DirectLighting::mis;
-        const bool by_power = st_.light_selection == LightSelection::power && s_.area_lights.size() > 1;
-        const bool by_tree = st_.light_selection == LightSelection::tree && !s_.light_tree.empty();
+        const bool by_power = selection_ == LightSelection::power && s_.area_lights.size() > 1;
+        const bool by_tree = selection_ == LightSelection::tree && !s_.light_tree.empty();
         // A light sample, its light chosen with probability `pick`.
         auto shade = [&](const LightSample& ls, float pick) {
             const float c = glm::dot(si.ns, ls.wi);
@@ -327,6 +328,7 @@ private:
     const RenderSettings& st_;
     RenderStats& stats_;
     const EnvironmentMap* env_;  // none: black beyond the scene
+    LightSelection selection_;   // `automatic` resolved for this scene
 };
 
 }  // namespace tessera

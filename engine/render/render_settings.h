@@ -17,7 +17,9 @@ enum class BounceMode { accumulate, nth };
 // How area lights share the light samples: `all` gives every light `light_rays` samples
 // (CS184); `power` draws `light_rays` samples in all, each from one light chosen with
 // probability proportional to its emitted power (better when there are many lights).
-enum class LightSelection { all, power, tree };
+// automatic: the tree where a scene has many area lights, every light otherwise
+// (chosen_light_selection in engine/render/light_sampler.h).
+enum class LightSelection { all, power, tree, automatic };
 // Which bounces reach the image (the write-ups' direct-only and indirect-only renders):
 // direct = bounces 0 and 1, indirect = bounces 2 and up.
 enum class LightingOutput { all, direct, indirect };
@@ -38,7 +40,7 @@ struct RenderSettings {
     float russian_roulette = 0.f;  // continuation probability; 0 disables
     BounceMode bounces = BounceMode::accumulate;
     LightingOutput output = LightingOutput::all;
-    LightSelection light_selection = LightSelection::all;
+    LightSelection light_selection = LightSelection::automatic;
     SamplerKind sampler = SamplerKind::sobol;  // engine/sampling/sampler.h
     std::optional<AdaptiveSettings> adaptive;
     // Thin lens (CS184 -b, -d): a lens of this radius focused at this distance along the view;

@@ -2,7 +2,8 @@
 // A light hierarchy (Conty Estevez & Kulla 2018, as pbrt-v4's BVHLightSampler): a binary tree
 // over every emitting triangle, each node bounding its triangles' positions, normals (a cone)
 // and power. A shading point walks it from the root, choosing each child in proportion to an
-// importance that bounds what the child's lights can send it (power, distance, orientation),
+// importance that estimates what the child's lights can send it (power, distance, orientation;
+// the average of two distance guesses' probabilities, as Cycles averages two bounds'),
 // so with many lights the samples go where the light comes from; the probability of any
 // triangle is the product of the choices on its path, which MIS evaluates the same way.
 #include <cstdint>
@@ -39,8 +40,14 @@ struct LightTree {
 LightTree build_light_tree(const RenderScene& s);
 
 // What a node's lights can send to point p on a surface with normal n (pbrt-v4's
-// LightBounds::Importance): 0 only where none of them can reach p.
-float light_importance(const LightTreeNode& node, const glm::vec3& p, const glm::vec3& n);
+// LightBounds::Importance), with two guesses at the node's distance: `span` from the nearest and
+// farthest points of its box, `centre` from its centre. Both 0 only where none of its lights can
+// reach p from above n (the side the direct-light estimate counts).
+struct LightImportance {
+    float span = 0.f, centre = 0.f;
+    bool any() const { return span > 0.f || centre > 0.f; }
+};
+LightImportance light_importance(const LightTreeNode& node, const glm::vec3& p, const glm::vec3& n);
 
 // Picks a light triangle for p with probability `pmf`; u in [0, 1) is consumed and returned
 // rescaled (so a stratified u stays stratified for what it samples next). False if no light

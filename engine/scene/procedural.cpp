@@ -110,6 +110,48 @@ SceneDescription scattered_lights(int lamps) {
     return s;
 }
 
+SceneDescription lamp_field(int lamps, bool blocks) {
+    SceneDescription s;
+    s.source = "builtin:lamp_field";
+    const int ground = add_material(s, "ground", glm::vec3(0.6f));
+    const int block = add_material(s, "block", glm::vec3(0.5f, 0.45f, 0.4f));
+    const float half = 20.f;  // a 40 × 40 field
+    add_quad(s, "ground", ground, {-half, 0, half}, {half, 0, half}, {half, 0, -half}, {-half, 0, -half});
+    Pcg32 rng(23, 7);
+    // Blocks on a jittered grid: geometry that hides most lamps from most points.
+    for (int i = 0; i < 12; ++i)
+        for (int j = 0; j < 12; ++j) {
+            const float cx = -half + (i + 0.5f) * (2 * half / 12) + 0.8f * (rng.next_float() - 0.5f);
+            const float cz = -half + (j + 0.5f) * (2 * half / 12) + 0.8f * (rng.next_float() - 0.5f);
+            const float w = 0.4f + 0.5f * rng.next_float(), h = 0.5f + 2.5f * rng.next_float();
+            const glm::vec3 lo(cx - w, 0.f, cz - w), hi(cx + w, h, cz + w);
+            if (!blocks) continue;  // the same lamps either way: the rng has moved on alike
+            const std::string name = "block" + std::to_string(i * 12 + j);
+            add_quad(s, name, block, {lo.x, hi.y, hi.z}, {hi.x, hi.y, hi.z}, {hi.x, hi.y, lo.z}, {lo.x, hi.y, lo.z});  // top
+            add_quad(s, name, block, {lo.x, lo.y, hi.z}, {hi.x, lo.y, hi.z}, {hi.x, hi.y, hi.z}, {lo.x, hi.y, hi.z});  // +z
+            add_quad(s, name, block, {hi.x, lo.y, lo.z}, {lo.x, lo.y, lo.z}, {lo.x, hi.y, lo.z}, {hi.x, hi.y, lo.z});  // −z
+            add_quad(s, name, block, {hi.x, lo.y, hi.z}, {hi.x, lo.y, lo.z}, {hi.x, hi.y, lo.z}, {hi.x, hi.y, hi.z});  // +x
+            add_quad(s, name, block, {lo.x, lo.y, lo.z}, {lo.x, lo.y, hi.z}, {lo.x, hi.y, hi.z}, {lo.x, hi.y, lo.z});  // −x
+        }
+    // Equal lamps: selection by power is then uniform, and what matters is where a lamp is.
+    const int m = add_material(s, "lamp", glm::vec3(0.f), glm::vec3(300.f));
+    s.materials[size_t(m)].double_sided = true;
+    for (int i = 0; i < lamps; ++i) {
+        const glm::vec3 c(-half + 2 * half * rng.next_float(), 0.2f + 3.f * rng.next_float(), -half + 2 * half * rng.next_float());
+        const float e = 0.05f;
+        add_quad(s, "lamp" + std::to_string(i), m, c + glm::vec3(-e, 0, e), c + glm::vec3(-e, 0, -e), c + glm::vec3(e, 0, -e),
+                 c + glm::vec3(e, 0, e));
+    }
+    CameraDesc c;
+    c.position = {0.f, 9.f, 24.f};
+    c.look_at = {0.f, 0.f, 2.f};
+    c.vfov_deg = 50.f;
+    c.hfov_deg = 63.f;
+    c.origin = here("camera");
+    s.camera = c;
+    return s;
+}
+
 SceneDescription furnace_box(float albedo, float emission, float half, glm::vec3 center) {
     SceneDescription s;
     s.source = "builtin:furnace";
@@ -254,7 +296,7 @@ uint64_t displaced_sphere_triangles(const std::string& name) {
 }
 
 const char* const kBuiltins[] = {"builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace", "builtin:many_lights",
-                                 "builtin:scattered_lights"};
+                                 "builtin:scattered_lights", "builtin:lamp_field"};
 
 }  // namespace
 
@@ -262,7 +304,8 @@ void check_builtin_name(const std::string& name) {
     for (const char* b : kBuiltins) if (name == b) return;
     if (displaced_sphere_triangles(name)) return;
     throw SceneError(SourceLocation{name, 0, ""}, "unknown built-in scene (builtin:cornell_box, builtin:cornell_spheres, "
-                                                  "builtin:furnace, builtin:many_lights, builtin:displaced_sphere?triangles=N)");
+                                                  "builtin:furnace, builtin:many_lights, builtin:scattered_lights, builtin:lamp_field, "
+                                                  "builtin:displaced_sphere?triangles=N)");
 }
 
 SceneDescription builtin_scene(const std::string& name) {
@@ -272,6 +315,7 @@ SceneDescription builtin_scene(const std::string& name) {
     if (name == "builtin:furnace") return furnace_box(0.5f, 1.f);
     if (name == "builtin:many_lights") return many_lights();
     if (name == "builtin:scattered_lights") return scattered_lights();
+    if (name == "builtin:lamp_field") return lamp_field();
     return displaced_sphere(displaced_sphere_triangles(name));
 }
 

@@ -20,6 +20,11 @@ SceneDescription many_lights(int lamps = 32);
 // through its volume at random places and orientations, radiance 1 to 100 (a light hierarchy's
 // test: most lamps matter little at any one point).
 SceneDescription scattered_lights(int lamps = 1000);
+// `lamps` equal small lamps (radiance 300, 10 cm, both sides) hovering at random over a 40 × 40
+// field among 144 blocks, seen from above one end: most lamps are far from, or hidden from, most
+// points, which is what a light hierarchy is for (a street or a hall at night). Without
+// `blocks`, the same lamps over an open field (what occlusion costs a light tree).
+SceneDescription lamp_field(int lamps = 1000, bool blocks = true);
 // A closed cube of half-size `half` centred at `center` whose walls all emit `emission` and
 // reflect with `albedo` (white furnace); the camera looks from inside.
 SceneDescription furnace_box(float albedo, float emission, float half = 1.f, glm::vec3 center = glm::vec3(0.f));
@@ -30,6 +35,7 @@ SceneDescription furnace_sphere(float albedo, float emission, float radius = 1.f
 SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed = 1);
 
 // "builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace", "builtin:many_lights", "builtin:scattered_lights",
+// "builtin:lamp_field",
 // "builtin:displaced_sphere?triangles=N" (N ≤ 20 million). Throws SceneError for other names.
 SceneDescription builtin_scene(const std::string& name);
 // Checks a built-in name and its parameters without building the scene; throws SceneError.

@@ -10,6 +10,7 @@
 #   poison_task       a task whose nodes keep dying fails its job with the reason, instead of looping
 #   random_kills      3 nodes (API + render each), 50 jobs, random kill -9 and restarts: every job
 #                     accounted for, every image identical to one process's
+#   no_lights         a scene without lights: the default sky on the farm's nodes, the same image
 #   events            GET /v1/events on an API node that did not take the job: its life as events
 #                     (what the web page follows in a farm), and the page served there
 set -u
@@ -49,6 +50,23 @@ events)
   echo "$types" | grep -q progress || fail "no progress event for a 256-spp job on one node"
   code=$(api -o "$work/page.html" -w '%{http_code}' "$(url api2)/")
   [ "$code" = 200 ] && grep -q "<html" "$work/page.html" || fail "the web page on an API node: $code"
+  ;;
+no_lights)
+  # A scene without lights is lit by the default sky on the farm's nodes as in one process:
+  # the Cornell box with its lamp turned off, from a scene folder both servers read.
+  mkdir -p "$work/scenes"
+  sed 's/"emissiveStrength": 10.0/"emissiveStrength": 0.0/' "$(dirname "$0")/../../scenes/cornell_box.gltf" > "$work/scenes/dark_box.gltf"
+  grep -q '"emissiveStrength": 0.0' "$work/scenes/dark_box.gltf" || fail "the lamp of scenes/cornell_box.gltf was not found to turn off"
+  export TESSERA_SCENES="$work/scenes"
+  dark='{"scene":"dark_box","width":64,"height":48,"spp":16,"max_depth":2,"tile_size":16}'
+  ref=$(reference "$dark")
+  start_api api
+  start_worker w1 --threads 2
+  id=$(submit api "$dark")
+  [ -n "$id" ] || fail "job not accepted"
+  wait_state_on api "$id" 60 succeeded
+  same_image api "$id" "$ref"
+  api "$(url api)/v1/jobs/$id/report.json" | grep -q "default uniform white sky" || fail "the farm's report does not name the default sky"
   ;;
 kill_render_node)
   ref=$(reference "$job")

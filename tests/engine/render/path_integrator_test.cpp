@@ -307,5 +307,45 @@ TEST(PathIntegrator, LightTreeAndEveryLightAgree) {
     expect_equal_means(all, mean_over_seeds(scene, s), "every light against the tree");
 }
 
+// The same on the lamp field, where what matters is distance and occlusion (lamps among
+// blocks): light sampling and MIS, the tree against every lamp.
+TEST(PathIntegrator, LightTreeAndEveryLightAgreeAmongBlocks) {
+    const RenderScene scene = build_render_scene(lamp_field(150), {});
+    for (DirectLighting d : {DirectLighting::importance, DirectLighting::mis}) {
+        RenderSettings s;
+        s.width = 32;
+        s.height = 24;
+        s.spp = 8;
+        s.max_depth = 2;
+        s.direct = d;
+        s.light_selection = LightSelection::all;
+        const test::MeanEstimate all = mean_over_seeds(scene, s);
+        s.light_selection = LightSelection::tree;
+        expect_equal_means(all, mean_over_seeds(scene, s), d == DirectLighting::mis ? "MIS" : "light sampling");
+    }
+}
+
+// Automatic selection takes the tree above kTreeAboveLights area lights and every light up to
+// it, and renders exactly what the explicit choice renders.
+TEST(PathIntegrator, AutomaticLightSelectionFollowsTheLightCount) {
+    const RenderScene few = build_render_scene(many_lights(int(kTreeAboveLights)), {});
+    const RenderScene many = build_render_scene(many_lights(int(kTreeAboveLights) + 1), {});
+    ASSERT_EQ(few.area_lights.size(), kTreeAboveLights);
+    EXPECT_EQ(chosen_light_selection(few, LightSelection::automatic), LightSelection::all);
+    EXPECT_EQ(chosen_light_selection(many, LightSelection::automatic), LightSelection::tree);
+    EXPECT_EQ(chosen_light_selection(many, LightSelection::power), LightSelection::power);
+    RenderSettings s;
+    s.width = 24;
+    s.height = 16;
+    s.spp = 2;
+    s.direct = DirectLighting::mis;
+    for (const RenderScene* scene : {&few, &many}) {
+        s.light_selection = LightSelection::automatic;
+        const Image a = render(*scene, s).image;
+        s.light_selection = chosen_light_selection(*scene, LightSelection::automatic);
+        EXPECT_EQ(a.rgb, render(*scene, s).image.rgb) << scene->area_lights.size() << " lights";
+    }
+}
+
 }  // namespace
 }  // namespace tessera

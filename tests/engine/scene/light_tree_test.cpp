@@ -19,35 +19,53 @@ glm::vec3 random_direction(Pcg32& r) {
     return {s * std::cos(phi), z, s * std::sin(phi)};
 }
 
-// The tree's probabilities over all light triangles sum to one wherever any light can reach.
+// The tree's probabilities over all light triangles sum to one where every light is in front
+// of the surface (points on the floor facing up), and to at most one elsewhere: a walk can end
+// where both children lie behind the surface although their parent's box did not (a sample
+// spent on nothing, as one sent to a light behind the surface would be; never a bias).
 TEST(LightTree, PmfSumsToOne) {
     const RenderScene s = build_render_scene(scattered_lights(200), {});
     ASSERT_EQ(s.light_triangles.size(), 400u);
     ASSERT_EQ(s.light_tree.nodes.size(), 799u);
     Pcg32 r(3, 4);
+    double lost = 0;
     for (int k = 0; k < 50; ++k) {
+        const glm::vec3 floor(-0.95f + 1.9f * r.next_float(), 0.02f, -0.95f + 1.9f * r.next_float());
         const glm::vec3 p(-0.95f + 1.9f * r.next_float(), 0.02f + 1.45f * r.next_float(), -0.95f + 1.9f * r.next_float());
         const glm::vec3 n = random_direction(r);
-        double sum = 0;
-        for (uint32_t i = 0; i < s.light_triangles.size(); ++i) sum += light_tree_pmf(s.light_tree, p, n, i);
-        EXPECT_NEAR(sum, 1.0, 1e-4) << "point " << k;
+        double on_floor = 0, anywhere = 0;
+        for (uint32_t i = 0; i < s.light_triangles.size(); ++i) {
+            on_floor += light_tree_pmf(s.light_tree, floor, glm::vec3(0.f, 1.f, 0.f), i);
+            anywhere += light_tree_pmf(s.light_tree, p, n, i);
+        }
+        EXPECT_NEAR(on_floor, 1.0, 1e-4) << "point " << k;
+        EXPECT_LE(anywhere, 1.0 + 1e-4) << "point " << k;
+        lost += (1 - anywhere) / 50;
     }
+    // Half the lights lie behind a random plane through the box; little of that is lost.
+    EXPECT_LT(lost, 0.15);
 }
 
 // Sampling picks each triangle as often as its pmf says (every triangle within 5 standard
-// errors of its expected count), and reports that pmf.
+// errors of its expected count), reports that pmf, and fails as often as the pmfs fall short
+// of one.
 TEST(LightTree, SamplingFollowsThePmf) {
     const RenderScene s = build_render_scene(scattered_lights(100), {});
     const glm::vec3 p(0.1f, 0.7f, -0.2f), n = glm::normalize(glm::vec3(0.3f, 1.f, 0.2f));
     const size_t m = s.light_triangles.size();
     std::vector<double> pmf(m), count(m, 0.0);
-    for (uint32_t i = 0; i < m; ++i) pmf[i] = light_tree_pmf(s.light_tree, p, n, i);
+    double total = 0;
+    for (uint32_t i = 0; i < m; ++i) total += pmf[i] = light_tree_pmf(s.light_tree, p, n, i);
     Pcg32 r(5, 6);
     const int draws = 400000 / test::kWorkScale;
+    double failed = 0;
     for (int k = 0; k < draws; ++k) {
         float u = r.next_float(), q = 0.f;
         uint32_t lt = 0;
-        ASSERT_TRUE(sample_light_tree(s.light_tree, p, n, u, lt, q));
+        if (!sample_light_tree(s.light_tree, p, n, u, lt, q)) {
+            ++failed;
+            continue;
+        }
         ASSERT_NEAR(q, pmf[lt], 1e-5 * pmf[lt] + 1e-9);
         ASSERT_GE(u, 0.f);
         ASSERT_LT(u, 1.f);
@@ -57,6 +75,8 @@ TEST(LightTree, SamplingFollowsThePmf) {
         const double expect = pmf[i] * draws, sd = std::sqrt(std::max(expect * (1 - pmf[i]), 1.0));
         EXPECT_NEAR(count[i], expect, 5 * sd + 1) << "triangle " << i;
     }
+    const double expect_failed = (1 - total) * draws;
+    EXPECT_NEAR(failed, expect_failed, 5 * std::sqrt(std::max(expect_failed, 1.0)) + 1);
 }
 
 // The bounds are conservative: wherever a point on a light triangle sends light to p (its face
@@ -81,6 +101,35 @@ TEST(LightTree, NeverRulesOutALightThatReaches) {
         }
     }
     EXPECT_GT(reaching, 10000);
+}
+
+// The receiver is one-sided, like the direct-light estimate: from under the ceiling's lamps a
+// surface facing down can be reached by none of them, one facing up by all, one facing sideways
+// by none of those well behind it.
+TEST(LightTree, LightsBehindTheSurfaceGetNothing) {
+    const RenderScene s = build_render_scene(many_lights(32), {});
+    const glm::vec3 p(0.f, 0.5f, 0.f);
+    float u = 0.5f, pmf = 0.f;
+    uint32_t lt = 0;
+    EXPECT_FALSE(sample_light_tree(s.light_tree, p, glm::vec3(0.f, -1.f, 0.f), u, lt, pmf));
+    double up = 0, side = 0;
+    size_t on_side = 0;
+    for (uint32_t i = 0; i < s.light_triangles.size(); ++i) {
+        const LightTriangle& t = s.light_triangles[i];
+        EXPECT_EQ(light_tree_pmf(s.light_tree, p, glm::vec3(0.f, -1.f, 0.f), i), 0.f);
+        up += light_tree_pmf(s.light_tree, p, glm::vec3(0.f, 1.f, 0.f), i);
+        const float q = light_tree_pmf(s.light_tree, p, glm::vec3(1.f, 0.f, 0.f), i);
+        side += q;
+        const float x_max = std::max({t.p0.x, t.p0.x + t.e1.x, t.p0.x + t.e2.x});
+        // Wholly behind by more than a lamp's size (a leaf bounds its triangle by a sphere).
+        if (x_max < p.x - 0.2f) EXPECT_EQ(q, 0.f) << "triangle " << i << " lies wholly behind";
+        if (x_max > p.x) ++on_side;
+    }
+    EXPECT_NEAR(up, 1.0, 1e-4);
+    EXPECT_LE(side, 1.0 + 1e-4);
+    EXPECT_GT(side, 0.5);
+    EXPECT_GT(on_side, 0u);
+    EXPECT_LT(on_side, s.light_triangles.size());
 }
 
 }  // namespace
