@@ -32,23 +32,6 @@ void write_text(const std::string& path, const std::string& text) {
     if (!out) throw std::runtime_error("cannot write " + path);
 }
 
-std::shared_ptr<const EnvironmentMap> load_environment(const std::string& path) {
-    const std::string ext = std::filesystem::path(path).extension().string();
-    if (ext != ".exr" && ext != ".hdr")
-        throw SceneError(SourceLocation{path, 0, ""}, "an environment map must be a latitude-longitude .exr or .hdr file");
-    Image img;
-    try {
-        img = read_image(path);
-    } catch (const std::exception& e) {
-        throw SceneError(SourceLocation{path, 0, ""}, std::string("cannot read the environment map: ") + e.what());
-    }
-    try {
-        return std::make_shared<const EnvironmentMap>(build_environment(img.width, img.height, img.rgb, path));
-    } catch (const std::invalid_argument& e) {
-        throw SceneError(SourceLocation{path, 0, ""}, e.what());
-    }
-}
-
 JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutputs& out, const RunCallbacks& cb) {
     const auto t0 = Clock::now();
     std::shared_ptr<const PreparedScene> prepared;
@@ -148,6 +131,23 @@ JobOutcome run_comparison_job(const ComparisonJob& job, const RunOptions& opt, c
 }
 
 }  // namespace
+
+std::shared_ptr<const EnvironmentMap> load_environment(const std::string& path) {
+    const std::string ext = std::filesystem::path(path).extension().string();
+    if (ext != ".exr" && ext != ".hdr")
+        throw SceneError(SourceLocation{path, 0, ""}, "an environment map must be a latitude-longitude .exr or .hdr file");
+    Image img;
+    try {
+        img = read_image(path);
+    } catch (const std::exception& e) {
+        throw SceneError(SourceLocation{path, 0, ""}, std::string("cannot read the environment map: ") + e.what());
+    }
+    try {
+        return std::make_shared<const EnvironmentMap>(build_environment(img.width, img.height, img.rgb, path));
+    } catch (const std::invalid_argument& e) {
+        throw SceneError(SourceLocation{path, 0, ""}, e.what());
+    }
+}
 
 // A scene without lights (most glTF models) is lit by a uniform white sky of radiance 1, and
 // the report says so, rather than rendered black.

@@ -29,6 +29,9 @@ inline std::string node_seconds(const std::string& id) { return prefix + "nodese
 inline std::string curve(const std::string& id) { return prefix + "curve:" + id; }
 // What a job's scene is (SceneRef::encode), written by the API node before the job is queued.
 inline std::string job_scene(const std::string& id) { return prefix + "jobscene:" + id; }
+// A job's environment map, when it names one (SceneRef::encode of the .exr/.hdr file, whose
+// bytes are kept under scene(hash) like a scene's), written with job_scene.
+inline std::string job_environment(const std::string& id) { return prefix + "jobenv:" + id; }
 // Scene files by content hash.
 inline std::string scene(const std::string& hash) { return prefix + "scene:" + hash; }
 // Live render nodes: hash name → JSON of its metrics, with a heartbeat time.

@@ -141,6 +141,25 @@ void JobService::publish_scene(const std::string& id, const std::string& scene) 
     redis_store_->put_scene(id, ref, &bytes);
 }
 
+// A render farm's nodes read the job's environment map from Redis, as they read its scene (the
+// catalog's folders need not be theirs).
+void JobService::publish_environment(const std::string& id, const std::string& name) {
+    const auto entry = catalog_.find_environment(name);
+    if (!entry)
+        throw Problem(404, "unknown-environment", "Unknown environment map", "no environment map named '" + name + "'")
+            .with_field("/environment");
+    std::ifstream in(entry->path, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (!in.good() && !in.eof())
+        throw Problem(503, "scene-unreadable", "Scene unreadable", "cannot read environment map '" + name + "'");
+    SceneRef ref;
+    ref.source = entry->path;
+    ref.hash = content_hash(bytes);
+    ref.ext = fs::path(entry->path).extension().string();
+    for (char& c : ref.ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    redis_store_->put_environment(id, ref, bytes);
+}
+
 std::string JobService::job_dir(const std::string& id) const { return (fs::path(config_.data_dir) / "jobs" / id).string(); }
 
 json JobService::submit(const json& body) {
@@ -167,9 +186,6 @@ json JobService::submit(const json& body) {
         throw Problem(404, "unknown-scene", "Unknown scene", "only built-in scenes take parameters").with_field("/scene");
     }
     if (!job.environment.empty()) {
-        if (redis_store_)
-            throw Problem(400, "invalid-field", "Invalid job", "environment maps are not available on a render farm yet")
-                .with_field("/environment");
         if (!catalog_.find_environment(job.environment))
             throw Problem(404, "unknown-environment", "Unknown environment map",
                           "no environment map named '" + job.environment + "' (an .exr or .hdr file in the scene folders)")
@@ -207,6 +223,8 @@ json JobService::enqueue(const api::Job& job) {
                 throw Problem(429, "queue-full", "The queue is full",
                               "the queue holds " + std::to_string(queued) + " jobs, its limit").with_retry_after(10);
             publish_scene(rec.id, api::scene_of(job));
+            if (const auto* rj = std::get_if<api::RenderJob>(&job); rj && !rj->environment.empty())
+                publish_environment(rec.id, rj->environment);
             store_->insert(rec);  // durable in Redis, and its first task queued, before it is acknowledged
         } catch (const StoreError& e) {
             ++metrics_.store_errors;

@@ -147,6 +147,7 @@ private:
     std::string job_dir(const std::string& id) const;
     std::string scene_source(const std::string& scene);
     void publish_scene(const std::string& id, const std::string& scene);
+    void publish_environment(const std::string& id, const std::string& name);
 
     ServiceConfig config_;
     std::unique_ptr<JobStore> store_;

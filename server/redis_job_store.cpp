@@ -215,7 +215,7 @@ bool RedisJobStore::remove_final(const std::string& id) {
     return locked("remove", [&] {
         return redis_.eval(kRemoveFinal,
                            {keys::film(id), keys::deliveries(id), keys::node_tiles(id), keys::node_seconds(id), keys::curve(id),
-                            keys::job_scene(id), keys::sums(id)},
+                            keys::job_scene(id), keys::job_environment(id), keys::sums(id)},
                            {keys::prefix, id})
                    .as_int() == 1;
     });
@@ -231,6 +231,13 @@ void RedisJobStore::put_scene(const std::string& job_id, const SceneRef& ref, co
         if (bytes) cmds.push_back({"SET", keys::scene(ref.hash), *bytes, "NX"});
         cmds.push_back({"SET", keys::job_scene(job_id), ref.encode()});
         redis_.pipeline(cmds);
+        return 0;
+    });
+}
+
+void RedisJobStore::put_environment(const std::string& job_id, const SceneRef& ref, const std::string& bytes) {
+    locked("publish environment", [&] {
+        redis_.pipeline({{"SET", keys::scene(ref.hash), bytes, "NX"}, {"SET", keys::job_environment(job_id), ref.encode()}});
         return 0;
     });
 }

@@ -42,6 +42,8 @@ public:
     // Farm side. Publishes what a job's scene is (and the file's bytes, once per content) before
     // the job is queued, so render nodes load exactly the bytes the job named.
     void put_scene(const std::string& job_id, const SceneRef& ref, const std::string* bytes);
+    // The job's environment map: its bytes under its content hash, and the job's reference to it.
+    void put_environment(const std::string& job_id, const SceneRef& ref, const std::string& bytes);
     struct LiveProgress {
         size_t tiles_done = 0, tiles_total = 0;
         uint64_t samples = 0;

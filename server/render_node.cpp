@@ -19,6 +19,7 @@
 #include "engine/io/image_io.h"
 #include "engine/render/passes.h"
 #include "engine/render/tile_context.h"
+#include "engine/scene/environment.h"
 #include "server/cluster_keys.h"
 #include "server/cluster_lua.h"
 #include "server/film_codec.h"
@@ -224,7 +225,7 @@ struct RenderNode::Impl {
             auto it = jobs.find(id);
             if (it != jobs.end()) return it->second;
         }
-        const auto v = r.pipeline({{"HGET", keys::job(id), "spec"}, {"GET", keys::job_scene(id)}});
+        const auto v = r.pipeline({{"HGET", keys::job(id), "spec"}, {"GET", keys::job_scene(id)}, {"GET", keys::job_environment(id)}});
         if (v[0].is_nil()) return nullptr;
         auto info = std::make_shared<JobInfo>();
         info->job = api::job_from_json(json::parse(v[0].text));
@@ -234,6 +235,15 @@ struct RenderNode::Impl {
             info->settings = rj->render;
             info->settings.threads = 1;
             info->settings.estimate_error = true;  // as the server's runner: the error curve is reported
+            // The environment map the API node published; a file that does not load fails the job.
+            if (!rj->environment.empty()) {
+                if (v[2].is_nil()) throw JobFailure("the job's environment map '" + rj->environment + "' is missing from Redis");
+                const SceneRef env = SceneRef::decode(v[2].text);
+                // Named by the API node's path, as one process's report names it.
+                auto map = std::make_shared<EnvironmentMap>(*api::load_environment(cache.file_for(r, env)));
+                map->source = env.source;
+                info->settings.environment = std::move(map);
+            }
             if (!rj->reference.empty()) {
                 const fs::path ref = fs::path(cfg.data_dir) / "jobs" / rj->reference / "image.exr";
                 if (!fs::exists(ref)) throw JobFailure("the reference job's image was deleted");

@@ -10,6 +10,7 @@
 #   poison_task       a task whose nodes keep dying fails its job with the reason, instead of looping
 #   random_kills      3 nodes (API + render each), 50 jobs, random kill -9 and restarts: every job
 #                     accounted for, every image identical to one process's
+#   environment       a job with an environment map: published through Redis, the same image
 #   no_lights         a scene without lights: the default sky on the farm's nodes, the same image
 #   events            GET /v1/events on an API node that did not take the job: its life as events
 #                     (what the web page follows in a farm), and the page served there
@@ -25,6 +26,22 @@ mkdir -p "$work/data"
 
 # Long enough to be interrupted mid-pass on one thread per node, short enough for CI.
 job='{"scene":"cornell_spheres","width":160,"height":120,"spp":256,"max_depth":4,"tile_size":16}'
+
+# One API node and one render node render the job as one process does, bit for bit, and the
+# farm's report says what the pattern matches. The render node starts after the job is queued,
+# and after `between` (a command) has run.
+farm_renders_as_one_process() {  # job-json report-pattern [between]
+  local ref id
+  ref=$(reference "$1")
+  start_api api
+  id=$(submit api "$1")
+  [ -n "$id" ] || fail "job not accepted"
+  [ -z "${3:-}" ] || eval "$3"
+  start_worker w1 --threads 2
+  wait_state_on api "$id" 60 succeeded
+  same_image api "$id" "$ref"
+  api "$(url api)/v1/jobs/$id/report.json" | grep -q "$2" || fail "the farm's report does not say '$2'"
+}
 
 case "$scenario" in
 events)
@@ -51,6 +68,20 @@ events)
   code=$(api -o "$work/page.html" -w '%{http_code}' "$(url api2)/")
   [ "$code" = 200 ] && grep -q "<html" "$work/page.html" || fail "the web page on an API node: $code"
   ;;
+environment)
+  # An environment map on the farm: published by the API node with the job, read by the render
+  # node from Redis (the file is gone from disk before the node starts), the image the same as
+  # one process's.
+  mkdir -p "$work/envs"
+  cp "$(dirname "$0")/../../scenes/sky.exr" "$work/envs/night.exr"
+  export TESSERA_SCENES="$work/envs"
+  farm_renders_as_one_process \
+    '{"scene":"cornell_box","environment":"night","width":64,"height":48,"spp":16,"max_depth":2,"tile_size":16}' \
+    "environment light: .*night.exr" 'rm "$work/envs/night.exr"'
+  code=$(api -o "$work/unknown.json" -w '%{http_code}' -X POST -H 'Content-Type: application/json' \
+    -d '{"scene":"cornell_box","environment":"no_such_sky"}' "$(url api)/v1/jobs")
+  [ "$code" = 404 ] && grep -q unknown-environment "$work/unknown.json" || fail "an unknown environment map on the farm: $code"
+  ;;
 no_lights)
   # A scene without lights is lit by the default sky on the farm's nodes as in one process:
   # the Cornell box with its lamp turned off, from a scene folder both servers read.
@@ -58,15 +89,8 @@ no_lights)
   sed 's/"emissiveStrength": 10.0/"emissiveStrength": 0.0/' "$(dirname "$0")/../../scenes/cornell_box.gltf" > "$work/scenes/dark_box.gltf"
   grep -q '"emissiveStrength": 0.0' "$work/scenes/dark_box.gltf" || fail "the lamp of scenes/cornell_box.gltf was not found to turn off"
   export TESSERA_SCENES="$work/scenes"
-  dark='{"scene":"dark_box","width":64,"height":48,"spp":16,"max_depth":2,"tile_size":16}'
-  ref=$(reference "$dark")
-  start_api api
-  start_worker w1 --threads 2
-  id=$(submit api "$dark")
-  [ -n "$id" ] || fail "job not accepted"
-  wait_state_on api "$id" 60 succeeded
-  same_image api "$id" "$ref"
-  api "$(url api)/v1/jobs/$id/report.json" | grep -q "default uniform white sky" || fail "the farm's report does not name the default sky"
+  farm_renders_as_one_process '{"scene":"dark_box","width":64,"height":48,"spp":16,"max_depth":2,"tile_size":16}' \
+    "default uniform white sky"
   ;;
 kill_render_node)
   ref=$(reference "$job")
