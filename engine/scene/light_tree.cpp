@@ -101,29 +101,37 @@ LightTree build_light_tree(const RenderScene& s) {
         b.centroid[i] = lt.p0 + (lt.e1 + lt.e2) * (1.f / 3.f);
     }
     b.build(0, n, 0, 0);
+    for (LightTreeNode& node : t.nodes) {
+        node.centre = node.bounds.centroid();
+        node.radius2 = 0.25f * glm::dot(node.bounds.extent(), node.bounds.extent());
+        node.radius = std::sqrt(node.radius2);
+        node.sin_o = safe_sqrt(1.f - node.cos_o * node.cos_o);
+    }
     return t;
 }
 
 LightImportance light_importance(const LightTreeNode& node, const glm::vec3& p, const glm::vec3& n) {
-    const glm::vec3 pc = node.bounds.centroid();
-    // The directions the node's bounds subtend from p (all, from inside its bounding sphere).
-    const float r2 = 0.25f * glm::dot(node.bounds.extent(), node.bounds.extent());
+    const glm::vec3& pc = node.centre;
+    const float r2 = node.radius2;
+    const glm::vec3 to_p = p - pc;
+    const float dc2 = glm::dot(to_p, to_p), dc = std::sqrt(dc2);
     // Wholly behind the receiving surface (its box's farthest corner along n below p's plane,
     // by more than rounding): nothing, as in Cycles for opaque surfaces. The box is much tighter
     // than the sphere for the flat, wide nodes that lamps along a ceiling or a street make.
     const glm::vec3 far_corner = glm::mix(node.bounds.lo, node.bounds.hi, glm::step(glm::vec3(0.f), n));
-    if (glm::dot(n, far_corner - p) < -1e-5f * (glm::length(pc - p) + std::sqrt(r2))) return {};
-    float cos_b = -1.f;
-    const float dc2 = glm::dot(p - pc, p - pc);
-    if (dc2 > r2) cos_b = safe_sqrt(1.f - r2 / dc2);
-    const float sin_b = safe_sqrt(1.f - cos_b * cos_b);
-    const glm::vec3 wi = dc2 > 0.f ? (p - pc) / std::sqrt(dc2) : glm::vec3(0.f, 0.f, 1.f);
+    if (glm::dot(n, far_corner - p) < -1e-5f * (dc + node.radius)) return {};
+    // The directions the node's bounding sphere subtends from p (all, from inside it).
+    float cos_b = -1.f, sin_b = 0.f;
+    if (dc2 > r2) {
+        sin_b = node.radius / dc;
+        cos_b = safe_sqrt(1.f - sin_b * sin_b);
+    }
+    const glm::vec3 wi = dc > 0.f ? to_p * (1.f / dc) : glm::vec3(0.f, 0.f, 1.f);
     float cos_w = glm::dot(node.axis, wi);
     if (node.two_sided) cos_w = std::abs(cos_w);
     const float sin_w = safe_sqrt(1.f - cos_w * cos_w);
-    const float sin_o = safe_sqrt(1.f - node.cos_o * node.cos_o);
-    const float cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, node.cos_o);
-    const float sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, node.cos_o);
+    const float cos_x = cos_sub_clamped(sin_w, cos_w, node.sin_o, node.cos_o);
+    const float sin_x = sin_sub_clamped(sin_w, cos_w, node.sin_o, node.cos_o);
     const float cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
     if (cos_p <= 0.f) return {};  // a Lambertian emitter sends nothing past its horizon (θe = π/2)
     // The receiving surface's cosine, bounded the same way and one-sided: light sampling counts

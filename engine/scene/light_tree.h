@@ -19,8 +19,12 @@ struct RenderScene;
 
 struct LightTreeNode {
     Aabb bounds;
+    // The bounds' centre and bounding sphere, kept with the node: a walk evaluates two nodes a
+    // level, and this is most of its time.
+    glm::vec3 centre{0.f};
+    float radius = 0.f, radius2 = 0.f;
     glm::vec3 axis{0.f, 0.f, 1.f};  // normals lie within acos(cos_o) of it
-    float cos_o = 1.f;
+    float cos_o = 1.f, sin_o = 0.f;
     float power = 0.f;              // luminance × area, doubled for two-sided emitters
     bool two_sided = false;
     uint32_t child = 0;             // inner: the second child (the first is the next node); leaf: the light triangle
