@@ -107,9 +107,9 @@ inline bool sample_light_triangle(const RenderScene& s, uint32_t index, glm::vec
 
 // What `automatic` light selection picks: the light tree above kTreeAboveLights area lights,
 // every light (each `light_rays` times) up to it. Measured at equal time with `tessera bench
-// lights` (docs/benchmarks.md, "Automatic selection"): the tree wins from about 64 lamps spread
-// over a field among blocks, from about 300 scattered through a room, and never on a ceiling grid
-// of up to 1,024 (sampling each lamp once there is stratified over lamps that all matter);
+// lights` (docs/benchmarks.md, "Automatic selection"): the tree wins below 64 lamps spread over
+// a field among blocks, between 128 and 256 scattered through a room, and never on a ceiling
+// grid of up to 1,024 (sampling each lamp once there is stratified over lamps that all matter);
 // every light costs one shadow ray per light per sample, so past a few hundred it is the tree.
 inline constexpr size_t kTreeAboveLights = 256;
 inline LightSelection chosen_light_selection(const RenderScene& s, LightSelection selection) {

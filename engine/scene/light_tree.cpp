@@ -4,6 +4,10 @@
 #include <cmath>
 #include <numeric>
 
+#if defined(__SSE__)
+#include <immintrin.h>
+#endif
+
 #include "engine/scene/render_scene.h"
 
 namespace tessera {
@@ -24,17 +28,17 @@ struct Builder {
     const RenderScene& s;
     std::vector<uint32_t> order;
     std::vector<glm::vec3> centroid;
-    LightTree& t;
+    std::vector<LightTreeNode>& nodes;  // the binary tree, depth first
 
-    // Builds the node for order[lo, hi) at `at`, depth `level`, path `bits`; returns it.
-    void build(uint32_t lo, uint32_t hi, int level, uint64_t bits) {
-        const uint32_t at = uint32_t(t.nodes.size());
-        t.nodes.emplace_back();
+    // Builds the node for order[lo, hi) at the end of `nodes`.
+    void build(uint32_t lo, uint32_t hi) {
+        const uint32_t at = uint32_t(nodes.size());
+        nodes.emplace_back();
         if (hi - lo == 1) {
             const uint32_t i = order[lo];
             const LightTriangle& lt = s.light_triangles[i];
             const AreaLight& al = s.area_lights[lt.light];
-            LightTreeNode& n = t.nodes[at];
+            LightTreeNode& n = nodes[at];
             n.leaf = true;
             n.child = i;
             n.bounds.expand(lt.p0);
@@ -45,8 +49,6 @@ struct Builder {
             n.two_sided = al.double_sided;
             const float lum = 0.2126f * al.radiance.x + 0.7152f * al.radiance.y + 0.0722f * al.radiance.z;
             n.power = lum * lt.area * (al.double_sided ? 2.f : 1.f);
-            t.path[i] = bits;
-            t.depth[i] = uint8_t(level);
             return;
         }
         Aabb cb;
@@ -56,11 +58,11 @@ struct Builder {
         const uint32_t mid = lo + (hi - lo) / 2;
         std::nth_element(order.begin() + lo, order.begin() + mid, order.begin() + hi,
                          [&](uint32_t a, uint32_t b) { return centroid[a][axis] < centroid[b][axis]; });
-        build(lo, mid, level + 1, bits);
-        const uint32_t second = uint32_t(t.nodes.size());
-        build(mid, hi, level + 1, bits | (uint64_t(1) << level));
-        const LightTreeNode& a = t.nodes[at + 1];
-        const LightTreeNode& b = t.nodes[second];
+        build(lo, mid);
+        const uint32_t second = uint32_t(nodes.size());
+        build(mid, hi);
+        const LightTreeNode& a = nodes[at + 1];
+        const LightTreeNode& b = nodes[second];
         LightTreeNode n;
         n.child = second;
         n.bounds = a.bounds;
@@ -81,7 +83,55 @@ struct Builder {
             n.axis = glm::vec3(0.f, 0.f, 1.f);
             n.cos_o = -1.f;
         }
-        t.nodes[at] = n;
+        nodes[at] = n;
+    }
+};
+
+// Folds the binary tree into four-wide nodes: lane by lane the grandchildren of binary node
+// `at` (or a child itself where it is a leaf).
+struct Folder {
+    const std::vector<LightTreeNode>& bin;
+    LightTree& t;
+
+    uint32_t fold(uint32_t at, int level, uint64_t bits) {
+        uint32_t lanes[4];
+        int count = 0;
+        const LightTreeNode& node = bin[at];
+        if (node.leaf) lanes[count++] = at;  // a tree of one light triangle
+        else
+            for (uint32_t c : {at + 1, node.child}) {
+                if (bin[c].leaf) lanes[count++] = c;
+                else lanes[count++] = c + 1, lanes[count++] = bin[c].child;
+            }
+        const uint32_t me = uint32_t(t.nodes.size());
+        t.nodes.emplace_back();
+        LightTreeNode4 w{};
+        for (int k = 0; k < count; ++k) {
+            const LightTreeNode& l = bin[lanes[k]];
+            for (int a = 0; a < 3; ++a) {
+                w.lo[a][k] = l.bounds.lo[a];
+                w.hi[a][k] = l.bounds.hi[a];
+                w.centre[a][k] = l.centre[a];
+                w.axis[a][k] = l.axis[a];
+            }
+            w.radius[k] = l.radius;
+            w.radius2[k] = l.radius2;
+            w.cos_o[k] = l.cos_o;
+            w.sin_o[k] = l.sin_o;
+            w.power[k] = l.power;
+            w.two_sided[k] = l.two_sided ? 1.f : 0.f;
+            const uint64_t path = bits | (uint64_t(k) << (2 * level));
+            if (l.leaf) {
+                w.leaf |= uint8_t(1u << k);
+                w.child[k] = l.child;
+                t.path[l.child] = path;
+                t.depth[l.child] = uint8_t(level + 1);
+            } else {
+                w.child[k] = fold(lanes[k], level + 1, path);
+            }
+        }
+        t.nodes[me] = w;
+        return me;
     }
 };
 
@@ -93,20 +143,23 @@ LightTree build_light_tree(const RenderScene& s) {
     if (n == 0) return t;
     t.path.assign(n, 0);
     t.depth.assign(n, 0);
-    t.nodes.reserve(size_t(2) * n);
-    Builder b{s, std::vector<uint32_t>(n), std::vector<glm::vec3>(n), t};
+    std::vector<LightTreeNode> bin;
+    bin.reserve(size_t(2) * n);
+    Builder b{s, std::vector<uint32_t>(n), std::vector<glm::vec3>(n), bin};
     std::iota(b.order.begin(), b.order.end(), 0u);
     for (uint32_t i = 0; i < n; ++i) {
         const LightTriangle& lt = s.light_triangles[i];
         b.centroid[i] = lt.p0 + (lt.e1 + lt.e2) * (1.f / 3.f);
     }
-    b.build(0, n, 0, 0);
-    for (LightTreeNode& node : t.nodes) {
+    b.build(0, n);
+    for (LightTreeNode& node : bin) {
         node.centre = node.bounds.centroid();
         node.radius2 = 0.25f * glm::dot(node.bounds.extent(), node.bounds.extent());
         node.radius = std::sqrt(node.radius2);
         node.sin_o = safe_sqrt(1.f - node.cos_o * node.cos_o);
     }
+    t.nodes.reserve(bin.size() / 2 + 1);
+    Folder{bin, t}.fold(0, 0, 0);
     return t;
 }
 
@@ -154,17 +207,100 @@ LightImportance light_importance(const LightTreeNode& node, const glm::vec3& p, 
     return {angular / std::max(std::sqrt(near2 * far2), 0.01f * r2), angular / std::max(dc2, 0.0625f * r2)};
 }
 
+LightTreeNode lane_node(const LightTreeNode4& w, int k) {
+    LightTreeNode l;
+    for (int a = 0; a < 3; ++a) {
+        l.bounds.lo[a] = w.lo[a][k];
+        l.bounds.hi[a] = w.hi[a][k];
+        l.centre[a] = w.centre[a][k];
+        l.axis[a] = w.axis[a][k];
+    }
+    l.radius = w.radius[k];
+    l.radius2 = w.radius2[k];
+    l.cos_o = w.cos_o[k];
+    l.sin_o = w.sin_o[k];
+    l.power = w.power[k];
+    l.two_sided = w.two_sided[k] != 0.f;
+    l.leaf = (w.leaf >> k) & 1;
+    l.child = w.child[k];
+    return l;
+}
+
 namespace {
 
-// The probability of the first child: the average of what the two distance guesses give.
-bool first_child_probability(const LightTreeNode& a, const LightTreeNode& b, const glm::vec3& p, const glm::vec3& n, float& pa) {
-    const LightImportance ia = light_importance(a, p, n), ib = light_importance(b, p, n);
-    const float span = ia.span + ib.span, centre = ia.centre + ib.centre;
-    const bool by_span = span > 0.f && std::isfinite(span), by_centre = centre > 0.f && std::isfinite(centre);
-    if (by_span && by_centre) pa = 0.5f * (ia.span / span + ia.centre / centre);
-    else if (by_span) pa = ia.span / span;
-    else if (by_centre) pa = ia.centre / centre;
-    else return false;
+// Four floats in one SIMD register (GCC's vector extension: SSE on x86-64, plain code where
+// there is none); comparisons give lane masks, `?:` selects lane by lane.
+typedef float f4 __attribute__((vector_size(16)));
+typedef int i4 __attribute__((vector_size(16)));
+
+f4 load4(const float* x) { f4 v; __builtin_memcpy(&v, x, sizeof v); return v; }
+f4 splat(float x) { return f4{x, x, x, x}; }
+f4 sqrt4(f4 x) {
+    x = x > 0.f ? x : 0.f;
+#if defined(__SSE__)
+    return (f4)_mm_sqrt_ps((__m128)x);
+#else
+    return f4{std::sqrt(x[0]), std::sqrt(x[1]), std::sqrt(x[2]), std::sqrt(x[3])};
+#endif
+}
+f4 cos_sub_clamped4(f4 sin_a, f4 cos_a, f4 sin_b, f4 cos_b) { return cos_a > cos_b ? splat(1.f) : cos_a * cos_b + sin_a * sin_b; }
+f4 sin_sub_clamped4(f4 sin_a, f4 cos_a, f4 sin_b, f4 cos_b) { return cos_a > cos_b ? splat(0.f) : sin_a * cos_b - cos_a * sin_b; }
+
+}  // namespace
+
+// light_importance, lane by lane: the same operations in the same order, so each lane gives
+// the scalar function's result (LightTree.FourLanesAreTheScalarImportance).
+void light_importance4(const LightTreeNode4& w, const glm::vec3& p, const glm::vec3& n, float span_out[4], float centre_out[4]) {
+    const f4 tx = splat(p.x) - load4(w.centre[0]), ty = splat(p.y) - load4(w.centre[1]), tz = splat(p.z) - load4(w.centre[2]);
+    const f4 r = load4(w.radius), r2 = load4(w.radius2);
+    const f4 dc2 = tx * tx + ty * ty + tz * tz, dc = sqrt4(dc2);
+    // The farthest corner along n: per axis the box's high side where n points up that axis.
+    const f4 fx = n.x >= 0.f ? load4(w.hi[0]) : load4(w.lo[0]), fy = n.y >= 0.f ? load4(w.hi[1]) : load4(w.lo[1]),
+             fz = n.z >= 0.f ? load4(w.hi[2]) : load4(w.lo[2]);
+    const i4 behind = splat(n.x) * (fx - p.x) + splat(n.y) * (fy - p.y) + splat(n.z) * (fz - p.z) < splat(-1e-5f) * (dc + r);
+    const i4 outside = dc2 > r2;
+    const f4 sin_b = outside ? r / dc : splat(0.f);
+    const f4 cos_b = outside ? sqrt4(1.f - sin_b * sin_b) : splat(-1.f);
+    const i4 away = dc > 0.f;
+    const f4 inv = away ? 1.f / dc : splat(0.f);
+    const f4 wx = tx * inv, wy = ty * inv, wz = away ? tz * inv : splat(1.f);
+    f4 cos_w = load4(w.axis[0]) * wx + load4(w.axis[1]) * wy + load4(w.axis[2]) * wz;
+    cos_w = load4(w.two_sided) != 0.f ? (cos_w < 0.f ? -cos_w : cos_w) : cos_w;
+    const f4 sin_w = sqrt4(1.f - cos_w * cos_w);
+    const f4 cos_o = load4(w.cos_o), sin_o = load4(w.sin_o);
+    const f4 cos_x = cos_sub_clamped4(sin_w, cos_w, sin_o, cos_o);
+    const f4 sin_x = sin_sub_clamped4(sin_w, cos_w, sin_o, cos_o);
+    const f4 cos_p = cos_sub_clamped4(sin_x, cos_x, sin_b, cos_b);
+    const f4 cos_i = -(wx * n.x + wy * n.y + wz * n.z);
+    const f4 sin_i = sqrt4(1.f - cos_i * cos_i);
+    const f4 angular = load4(w.power) * cos_p * cos_sub_clamped4(sin_i, cos_i, sin_b, cos_b);
+    const i4 lit = (behind == 0) & (cos_p > 0.f) & (angular > 0.f);
+    const f4 nx = load4(w.lo[0]) > p.x ? load4(w.lo[0]) : (load4(w.hi[0]) < p.x ? load4(w.hi[0]) : splat(p.x));
+    const f4 ny = load4(w.lo[1]) > p.y ? load4(w.lo[1]) : (load4(w.hi[1]) < p.y ? load4(w.hi[1]) : splat(p.y));
+    const f4 nz = load4(w.lo[2]) > p.z ? load4(w.lo[2]) : (load4(w.hi[2]) < p.z ? load4(w.hi[2]) : splat(p.z));
+    const f4 gx = splat(p.x) < load4(w.centre[0]) ? load4(w.hi[0]) : load4(w.lo[0]);
+    const f4 gy = splat(p.y) < load4(w.centre[1]) ? load4(w.hi[1]) : load4(w.lo[1]);
+    const f4 gz = splat(p.z) < load4(w.centre[2]) ? load4(w.hi[2]) : load4(w.lo[2]);
+    const f4 ax = p.x - nx, ay = p.y - ny, az = p.z - nz, bx = p.x - gx, by = p.y - gy, bz = p.z - gz;
+    const f4 near2 = ax * ax + ay * ay + az * az, far2 = bx * bx + by * by + bz * bz;
+    const f4 sd = sqrt4(near2 * far2), span_d = sd > 0.01f * r2 ? sd : 0.01f * r2;
+    const f4 centre_d = dc2 > 0.0625f * r2 ? dc2 : 0.0625f * r2;
+    const f4 span = lit ? angular / span_d : splat(0.f), centre = lit ? angular / centre_d : splat(0.f);
+    __builtin_memcpy(span_out, &span, sizeof span);
+    __builtin_memcpy(centre_out, &centre, sizeof centre);
+}
+
+namespace {
+
+// Each lane's probability at a wide node: the average of what the two distance guesses give.
+bool lane_probabilities(const LightTreeNode4& w, const glm::vec3& p, const glm::vec3& n, float prob[4]) {
+    float span[4], centre[4];
+    light_importance4(w, p, n, span, centre);
+    const float ss = (span[0] + span[1]) + (span[2] + span[3]), cs = (centre[0] + centre[1]) + (centre[2] + centre[3]);
+    const bool by_span = ss > 0.f && std::isfinite(ss), by_centre = cs > 0.f && std::isfinite(cs);
+    if (!by_span && !by_centre) return false;
+    for (int k = 0; k < 4; ++k)
+        prob[k] = by_span && by_centre ? 0.5f * (span[k] / ss + centre[k] / cs) : by_span ? span[k] / ss : centre[k] / cs;
     return true;
 }
 
@@ -174,39 +310,45 @@ bool sample_light_tree(const LightTree& t, const glm::vec3& p, const glm::vec3& 
     if (t.nodes.empty()) return false;
     uint32_t at = 0;
     pmf = 1.f;
-    if (t.nodes[0].leaf && !light_importance(t.nodes[0], p, n).any()) return false;
-    while (!t.nodes[at].leaf) {
-        const uint32_t a = at + 1, b = t.nodes[at].child;
-        float pa;
-        if (!first_child_probability(t.nodes[a], t.nodes[b], p, n, pa)) return false;
-        if (u < pa) {
-            u = std::min(u / pa, 0x1.fffffep-1f);
-            pmf *= pa;
-            at = a;
-        } else {
-            u = std::min((u - pa) / (1.f - pa), 0x1.fffffep-1f);
-            pmf *= 1.f - pa;
-            at = b;
+    for (;;) {
+        const LightTreeNode4& w = t.nodes[at];
+        float prob[4];
+        if (!lane_probabilities(w, p, n, prob)) return false;
+        // The lane u falls in; rounding that leaves u past the last lane's end takes the last
+        // lane with any probability.
+        int k = -1;
+        float before = 0.f;
+        for (int j = 0; j < 4; ++j) {
+            if (!(prob[j] > 0.f)) continue;
+            k = j;
+            if (u < before + prob[j]) break;
+            if (j < 3) before += prob[j];
         }
+        if (k < 0) return false;
+        u = std::min(std::max(u - before, 0.f) / prob[k], 0x1.fffffep-1f);
+        pmf *= prob[k];
+        if ((w.leaf >> k) & 1) {
+            light_triangle = w.child[k];
+            return pmf > 0.f;
+        }
+        at = w.child[k];
     }
-    light_triangle = t.nodes[at].child;
-    return pmf > 0.f;
 }
 
 float light_tree_pmf(const LightTree& t, const glm::vec3& p, const glm::vec3& n, uint32_t tri) {
     if (t.nodes.empty() || tri >= t.path.size()) return 0.f;
     uint32_t at = 0;
     float pmf = 1.f;
-    if (t.nodes[0].leaf) return light_importance(t.nodes[0], p, n).any() ? 1.f : 0.f;
-    for (int level = 0; !t.nodes[at].leaf; ++level) {
-        const uint32_t a = at + 1, b = t.nodes[at].child;
-        float pa;
-        if (!first_child_probability(t.nodes[a], t.nodes[b], p, n, pa)) return 0.f;
-        const bool second = (t.path[tri] >> level) & 1;
-        pmf *= second ? 1.f - pa : pa;
-        at = second ? b : a;
+    for (int level = 0;; ++level) {
+        const LightTreeNode4& w = t.nodes[at];
+        float prob[4];
+        if (!lane_probabilities(w, p, n, prob)) return 0.f;
+        const int k = int((t.path[tri] >> (2 * level)) & 3);
+        pmf *= prob[k];
+        if (!(pmf > 0.f)) return 0.f;
+        if ((w.leaf >> k) & 1) return w.child[k] == tri ? pmf : 0.f;
+        at = w.child[k];
     }
-    return pmf;
 }
 
 }  // namespace tessera
