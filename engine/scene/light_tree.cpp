@@ -125,7 +125,6 @@ struct Folder {
                 w.leaf |= uint8_t(1u << k);
                 w.child[k] = l.child;
                 t.path[l.child] = path;
-                t.depth[l.child] = uint8_t(level + 1);
             } else {
                 w.child[k] = fold(lanes[k], level + 1, path);
             }
@@ -142,7 +141,6 @@ LightTree build_light_tree(const RenderScene& s) {
     const uint32_t n = uint32_t(s.light_triangles.size());
     if (n == 0) return t;
     t.path.assign(n, 0);
-    t.depth.assign(n, 0);
     std::vector<LightTreeNode> bin;
     bin.reserve(size_t(2) * n);
     Builder b{s, std::vector<uint32_t>(n), std::vector<glm::vec3>(n), bin};

@@ -43,9 +43,8 @@ struct LightTreeNode4 {
 
 struct LightTree {
     std::vector<LightTreeNode4> nodes;  // depth first; the root is nodes[0]
-    // Per light triangle: its path from the root, two bits per level (the lane), and depth.
+    // Per light triangle: its path from the root, two bits per level (the lane).
     std::vector<uint64_t> path;
-    std::vector<uint8_t> depth;
     bool empty() const { return nodes.empty(); }
 };
 
