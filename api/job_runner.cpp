@@ -178,15 +178,23 @@ JobOutcome write_render(const FinishedRender& done, const RunOptions& opt, const
                      {"tessera:samples", std::to_string(st.samples)},
                      {"tessera:render_seconds", std::to_string(st.render_seconds)}};
     if (!opt.job_id.empty()) meta.insert(meta.begin(), {"tessera:job", opt.job_id});
-    if (!out.png.empty()) write_png(out.png, result.image, out.tone, meta);
-    if (!out.exr.empty()) write_exr(out.exr, result.image, meta);
-    if (!out.rate_png.empty()) write_rate_png(out.rate_png, result.image, done.settings.spp, meta);
-    write_text(out.convergence_csv, convergence_csv(result.curve));
-    if (!out.convergence_svg.empty()) {
-        const std::string who = opt.job_id.empty() ? std::string("Render") : "Job " + opt.job_id;
-        write_text(out.convergence_svg,
-                   convergence_svg({result.curve}, {job.reference.empty() ? "estimated (half buffers)" : "against job " + job.reference},
-                                   who + ": error against time (" + job.scene + ")"));
+    try {
+        // The folder is made again here: one removed while the job rendered (a user freeing space
+        // by hand) costs nothing but the write.
+        if (!out.directory.empty()) std::filesystem::create_directories(out.directory);
+        if (!out.png.empty()) write_png(out.png, result.image, out.tone, meta);
+        if (!out.exr.empty()) write_exr(out.exr, result.image, meta);
+        if (!out.rate_png.empty()) write_rate_png(out.rate_png, result.image, done.settings.spp, meta);
+        write_text(out.convergence_csv, convergence_csv(result.curve));
+        if (!out.convergence_svg.empty()) {
+            const std::string who = opt.job_id.empty() ? std::string("Render") : "Job " + opt.job_id;
+            write_text(out.convergence_svg,
+                       convergence_svg({result.curve}, {job.reference.empty() ? "estimated (half buffers)" : "against job " + job.reference},
+                                       who + ": error against time (" + job.scene + ")"));
+        }
+    } catch (const std::exception& e) {
+        // Whatever the image library says, the user is told it was the writing of results that failed.
+        throw std::runtime_error(std::string("cannot write results: ") + e.what());
     }
     const double write_s = seconds_between(t_write, Clock::now());
 
@@ -233,6 +241,7 @@ JobOutcome write_render(const FinishedRender& done, const RunOptions& opt, const
 RunOutputs RunOutputs::in_directory(const std::string& dir) {
     const std::filesystem::path d(dir);
     RunOutputs o;
+    o.directory = dir;
     o.png = (d / "image.png").string();
     o.exr = (d / "image.exr").string();
     o.rate_png = (d / "rate.png").string();

@@ -57,6 +57,7 @@ struct RunOptions {
 struct RunOutputs {
     std::string png, exr, rate_png, convergence_csv, convergence_svg, report_json;
     ToneCurve tone = ToneCurve::srgb;
+    std::string directory;          // in_directory's folder, made again before writing if it went away
     // Every result file in `dir` under the server's names (image.png, image.exr, ...).
     static RunOutputs in_directory(const std::string& dir);
 };

@@ -101,10 +101,28 @@ TEST_F(Runner, AnUnwritableResultFailsNamingTheFile) {
         FAIL() << "the write did not fail";
     } catch (const std::exception& e) {
         EXPECT_NE(std::string(e.what()).find("no_such_folder/image.png"), std::string::npos) << e.what();
+        EXPECT_EQ(std::string(e.what()).rfind("cannot write results: ", 0), 0u) << e.what();
     }
     RunOutputs report_only;
     report_only.report_json = (dir_ / "no_such_folder" / "report.json").string();
     EXPECT_THROW(run_job(job, options_for(job), report_only), std::runtime_error);
+}
+
+// A server's job folder removed while the job renders (someone freeing space by hand): the
+// results are written to the folder made again, not lost to an error.
+TEST_F(Runner, AJobFolderRemovedWhileRenderingIsMadeAgain) {
+    const RenderJob job = small_job();
+    const fs::path folder = dir_ / "jobs" / "0123456789abcdef";
+    fs::create_directories(folder);
+    std::atomic<bool> removed{false};
+    RunCallbacks cb;
+    cb.progress = [&](const RenderProgress&) {
+        if (!removed.exchange(true)) fs::remove_all(dir_ / "jobs");
+    };
+    const JobOutcome out = run_job(job, options_for(job), RunOutputs::in_directory(folder.string()), cb);
+    ASSERT_TRUE(removed.load());
+    ASSERT_FALSE(out.stopped);
+    for (const char* f : {"image.png", "image.exr", "rate.png", "report.json"}) EXPECT_TRUE(fs::exists(folder / f)) << f;
 }
 
 TEST_F(Runner, AMissingSceneIsASceneError) {
