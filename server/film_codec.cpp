@@ -9,7 +9,7 @@ namespace tessera::server {
 
 namespace {
 
-constexpr char kMagic[4] = {'T', 'F', 'L', '1'};
+constexpr char kMagic[4] = {'T', 'F', 'L', '2'};  // 2: the error estimate's prefix sums
 
 struct Header {
     char magic[4];
@@ -43,12 +43,16 @@ std::string encode_film(const Film& f) {
     h.height = f.height;
     h.x0 = f.x0;
     h.y0 = f.y0;
-    h.half_buffer = !f.sum_odd.empty();
+    h.half_buffer = !f.sum_half.empty();
     h.adaptive = !f.stats.empty();
     std::string out(reinterpret_cast<const char*>(&h), sizeof h);
     put(out, f.sum);
     put(out, f.count);
-    if (h.half_buffer) put(out, f.sum_odd);
+    if (h.half_buffer) {
+        put(out, f.sum_half);
+        put(out, f.sum_quarter);
+        put(out, f.sum_eighth);
+    }
     if (h.adaptive) {
         put(out, f.stats);
         put(out, f.done);
@@ -66,7 +70,11 @@ Film decode_film(const std::string& bytes) {
     size_t at = sizeof h;
     get(bytes, at, f.sum);
     get(bytes, at, f.count);
-    if (h.half_buffer) get(bytes, at, f.sum_odd);
+    if (h.half_buffer) {
+        get(bytes, at, f.sum_half);
+        get(bytes, at, f.sum_quarter);
+        get(bytes, at, f.sum_eighth);
+    }
     if (h.adaptive) {
         get(bytes, at, f.stats);
         get(bytes, at, f.done);

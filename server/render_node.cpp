@@ -524,7 +524,9 @@ struct RenderNode::Impl {
             for (int k : info->targets) {
                 if (!render_tile(ctx, rect, film, k, interrupted)) break;
                 const ErrorSums e = error_sums(film, ref);
-                sums.push_back({k, now_ms(), e.spp, e.est, e.rel, e.mse, e.mae, e.pixels, e.est_pixels, e.half_buffer, e.reference});
+                sums.push_back({k, now_ms(), e.spp, e.est, e.rel, e.mse, e.mae, e.pixels, e.est_pixels, e.half_buffer, e.reference,
+                                e.deep_outer, e.deep, e.deep_log_split, e.deep_pixels, e.shallow_outer, e.shallow,
+                                e.shallow_log_split, e.shallow_pixels});
             }
         } else if (!timed_out && !interrupted()) {
             timed_out = !render_tile(ctx, rect, film, target, [&] { return late() || interrupted(); }) && !interrupted();
@@ -628,6 +630,14 @@ struct RenderNode::Impl {
                 e.est_pixels = p[8];
                 e.half_buffer = p[9];
                 e.reference = p[10];
+                e.deep_outer = p[11];
+                e.deep = p[12];
+                e.deep_log_split = p[13];
+                e.deep_pixels = p[14];
+                e.shallow_outer = p[15];
+                e.shallow = p[16];
+                e.shallow_log_split = p[17];
+                e.shallow_pixels = p[18];
                 total[k].add(e);
                 reached[k] = std::max(reached[k], p[1].get<long long>());
                 ++tiles_at[k];

@@ -24,19 +24,40 @@ const char* to_string(StopReason r) {
 ErrorSums error_sums(const Film& film, const Image* reference) {
     ErrorSums e;
     e.pixels = film.sum.size();
-    e.half_buffer = !film.sum_odd.empty();
+    e.half_buffer = !film.sum_half.empty();
     e.reference = reference != nullptr;
     constexpr double eps = 0.01;
     for (size_t i = 0; i < film.sum.size(); ++i) {
-        const double c = double(film.count[i]);
+        const uint32_t count = film.count[i];
+        const double c = double(count);
         e.spp += c;
-        if (c == 0) continue;
+        if (count == 0) continue;
         const glm::dvec3 mean = film.sum[i] / c;
-        if (!film.sum_odd.empty() && film.count[i] >= 2) {
-            const double n_odd = std::floor(c / 2), n_even = c - n_odd;
-            const glm::dvec3 b = film.sum_odd[i] / n_odd, a = (film.sum[i] - film.sum_odd[i]) / n_even;
-            for (int k = 0; k < 3; ++k) e.est += (a[k] - b[k]) * (a[k] - b[k]) / 4.0 / (mean[k] * mean[k] + eps);
+        if (e.half_buffer && count >= 2) {
+            const uint32_t h = 1u << (31 - __builtin_clz(count - 1));  // the largest power of two below c
+            const double w = double(h) * double(count - h) / (c * c);
+            const glm::dvec3 a = film.sum_half[i] / double(h), b = (film.sum[i] - film.sum_half[i]) / double(count - h);
+            double outer = 0;
+            for (int k = 0; k < 3; ++k) outer += (a[k] - b[k]) * (a[k] - b[k]) * w / (mean[k] * mean[k] + eps);
+            e.est += outer;
             ++e.est_pixels;
+            auto difference = [&](const glm::dvec3& first, const glm::dvec3& both, double n) {  // two halves of n each
+                const glm::dvec3 x = first / n, y = (both - first) / n;
+                double d = 0;
+                for (int k = 0; k < 3; ++k) d += (x[k] - y[k]) * (x[k] - y[k]) / 4.0 / (mean[k] * mean[k] + eps);
+                return d;
+            };
+            if (h >= 4) {
+                e.deep += difference(film.sum_eighth[i], film.sum_quarter[i], double(h / 4));
+                e.deep_outer += outer;
+                e.deep_log_split += std::log(c / double(h));
+                ++e.deep_pixels;
+            } else if (h == 2) {
+                e.shallow += difference(film.sum_quarter[i], film.sum_half[i], 1.0);
+                e.shallow_outer += outer;
+                e.shallow_log_split += std::log(c / double(h));
+                ++e.shallow_pixels;
+            }
         }
         if (reference) {
             // The reference covers the image; the film may cover one tile of it.
@@ -56,6 +77,14 @@ ErrorSums error_sums(const Film& film, const Image* reference) {
 void ErrorSums::add(const ErrorSums& o) {
     spp += o.spp;
     est += o.est;
+    deep_outer += o.deep_outer;
+    deep += o.deep;
+    deep_log_split += o.deep_log_split;
+    deep_pixels += o.deep_pixels;
+    shallow_outer += o.shallow_outer;
+    shallow += o.shallow;
+    shallow_log_split += o.shallow_log_split;
+    shallow_pixels += o.shallow_pixels;
     rel += o.rel;
     mse += o.mse;
     mae += o.mae;
@@ -69,13 +98,44 @@ ConvergencePoint ErrorSums::point() const {
     ConvergencePoint pt;
     const double n = double(pixels);
     pt.spp_mean = pixels ? spp / n : 0;
-    if (half_buffer && est_pixels) pt.est_rel_mse = est / double(3 * est_pixels);
+    if (half_buffer && est_pixels) {
+        double factor = 1.0;
+        // The deeper ratio wherever pixels have the samples for it (most of them decide).
+        if (deep_pixels && deep_outer > 0 && deep > 0 && deep_pixels >= shallow_pixels) {
+            const double split = std::exp(deep_log_split / double(deep_pixels));
+            factor = stratification_factor(convergence_order(deep / deep_outer, split, 2), split);
+        } else if (shallow_pixels && shallow_outer > 0 && shallow > 0) {
+            const double split = std::exp(shallow_log_split / double(shallow_pixels));
+            factor = stratification_factor(convergence_order(shallow / shallow_outer, split, 1), split);
+        }
+        pt.est_rel_mse = est / double(3 * est_pixels) * factor;
+    }
     if (reference && pixels) {
         pt.rel_mse = rel / (3 * n);
         pt.mse = mse / (3 * n);
         pt.mae = mae / (3 * n);
     }
     return pt;
+}
+
+double stratification_factor(double alpha, double split) {
+    if (!(split > 1.0) || alpha <= 1.0) return 1.0;
+    return (split - 1.0) / (std::pow(split, alpha) - 1.0);
+}
+
+double convergence_order(double ratio, double split, int levels) {
+    // inner/outer = (2^α − 1)V(h/2^(levels−1)) / (V(c)/factor) = (2^α − 1) (2^(levels−1) split)^α
+    // factor(α, split): 2^(levels α) at split 2, increasing in α; solved by bisection.
+    const double reach = std::ldexp(split, levels - 1);
+    auto predicted = [&](double a) { return (std::exp2(a) - 1.0) * std::pow(reach, a) * stratification_factor(a, split); };
+    if (!(split > 1.0) || !(ratio > predicted(1.0))) return 1.0;
+    if (ratio >= predicted(3.0)) return 3.0;
+    double lo = 1.0, hi = 3.0;
+    for (int i = 0; i < 50; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (predicted(mid) < ratio ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
 }
 
 ConvergencePoint measure_error(const Film& film, const Image* reference) { return error_sums(film, reference).point(); }

@@ -1,6 +1,6 @@
 #pragma once
 // Per-pixel accumulation across rendering passes. Only the buffers a render needs exist: the
-// odd-sample half buffer only when the error is estimated, the running statistics only for
+// prefix sums of the error estimate only when the error is estimated, the running statistics only for
 // adaptive sampling.
 #include <cstdint>
 #include <string>
@@ -36,14 +36,21 @@ struct Film {
     int width = 0, height = 0;
     int x0 = 0, y0 = 0;                // the image pixel at the film's corner (a tile's film)
     std::vector<glm::dvec3> sum;       // all samples
-    std::vector<glm::dvec3> sum_odd;   // odd-numbered samples (error estimate only)
+    // Error estimate only: the sums of the pixel's first h, h/2 and h/4 samples, h the largest
+    // power of two below its count (see convergence.h). They depend only on the count, never on
+    // how passes, tiles or nodes split the samples.
+    std::vector<glm::dvec3> sum_half, sum_quarter, sum_eighth;
     std::vector<uint32_t> count;       // samples taken
     std::vector<RunningStats> stats;   // illuminance statistics (adaptive only)
     std::vector<uint8_t> done;         // adaptive: converged
 
     Film(int w, int h, bool half_buffer, bool adaptive)
         : width(w), height(h), sum(size_t(w) * h, glm::dvec3(0.0)), count(size_t(w) * h, 0) {
-        if (half_buffer) sum_odd.assign(size_t(w) * h, glm::dvec3(0.0));
+        if (half_buffer) {
+            sum_half.assign(size_t(w) * h, glm::dvec3(0.0));
+            sum_quarter.assign(size_t(w) * h, glm::dvec3(0.0));
+            sum_eighth.assign(size_t(w) * h, glm::dvec3(0.0));
+        }
         if (adaptive) { stats.resize(size_t(w) * h); done.assign(size_t(w) * h, 0); }
     }
     // A film of one tile's pixels, for a render node that renders one tile at a time.
@@ -55,7 +62,7 @@ struct Film {
     }
     void describe(std::vector<std::string>& built, std::vector<std::string>& left_out) const {
         built.push_back("film: sum and sample count per pixel");
-        (sum_odd.empty() ? left_out : built).push_back("half-sample buffer (error estimate)");
+        (sum_half.empty() ? left_out : built).push_back("half-sample buffers (error estimate)");
         (stats.empty() ? left_out : built).push_back("per-pixel variance statistics (adaptive sampling)");
     }
     Image resolve() const {

@@ -101,7 +101,11 @@ void for_tile_pixels(const TileRect& t, const Film& a, const Film& b, Fn&& fn) {
 void copy_entry(const Film& from, size_t i, Film& to, size_t j) {
     to.sum[j] = from.sum[i];
     to.count[j] = from.count[i];
-    if (!to.sum_odd.empty() && !from.sum_odd.empty()) to.sum_odd[j] = from.sum_odd[i];
+    if (!to.sum_half.empty() && !from.sum_half.empty()) {
+        to.sum_half[j] = from.sum_half[i];
+        to.sum_quarter[j] = from.sum_quarter[i];
+        to.sum_eighth[j] = from.sum_eighth[i];
+    }
     if (!to.stats.empty() && !from.stats.empty()) {
         to.stats[j] = from.stats[i];
         to.done[j] = from.done[i];

@@ -37,9 +37,20 @@ public:
         }
         const float inv_w = 1.f / float(settings_.width), inv_h = 1.f / float(settings_.height);
         glm::dvec3 sum = film.sum[p];
-        glm::dvec3 sum_odd = film.sum_odd.empty() ? glm::dvec3(0.0) : film.sum_odd[p];
+        const bool halves = !film.sum_half.empty();
+        glm::dvec3 half(0.0), quarter(0.0), eighth(0.0);
+        if (halves) {
+            half = film.sum_half[p];
+            quarter = film.sum_quarter[p];
+            eighth = film.sum_eighth[p];
+        }
         int s = int(film.count[p]);
         for (; s < target; ++s) {
+            if (halves && (s & (s - 1)) == 0) {  // s a power of two: the first s samples are a net
+                eighth = quarter;
+                quarter = half;
+                half = sum;
+            }
             Sampler rng(settings_.sampler, settings_.seed, pixel, uint64_t(s));
             const glm::vec2 j = rng.next_2d();
             const float jx = j.y, jy = j.x;  // independent: the first number drawn goes to x, as it always did
@@ -58,13 +69,16 @@ public:
                 L = glm::vec3(0.f);
             }
             sum += glm::dvec3(L);
-            if (s & 1) sum_odd += glm::dvec3(L);
             stats.max_sample = std::max(stats.max_sample, illuminance(L));
             if (adaptive) film.stats[p].add(illuminance(L));
         }
         stats.samples += uint64_t(s) - film.count[p];
         film.sum[p] = sum;
-        if (!film.sum_odd.empty()) film.sum_odd[p] = sum_odd;
+        if (halves) {
+            film.sum_half[p] = half;
+            film.sum_quarter[p] = quarter;
+            film.sum_eighth[p] = eighth;
+        }
         film.count[p] = uint32_t(s);
         if (adaptive && (s >= settings_.spp || film.stats[p].converged(settings_.adaptive->tolerance))) film.done[p] = 1;
     }

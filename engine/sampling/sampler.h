@@ -9,11 +9,12 @@
 // uniform scramble of the values and its own shuffle of the sample order ("padding"), so
 // dimensions are decorrelated without the higher Sobol dimensions' poorer 2-D projections.
 //
-// Two replicates: a pixel's even samples and its odd samples are two independently scrambled
-// sequences (sample s is point s/2 of replicate s&1). The film's half buffer (odd samples) and
-// its whole are then two independent estimates apart from the shared half, as the error
-// estimate assumes; one sequence would put every odd sample in one half of the first
-// dimension's range, and the estimate would report a difference of halves, not noise.
+// One sequence per pixel: sample s is point s. The first 2^k samples of every dimension are then
+// one (0,k,2)-net, not two independent nets of half the size (measured on the Cornell box at
+// depth 5: 1.32x less error at 16 spp, 1.11x at 64, than the two replicates this sampler
+// used to split a pixel's samples into). The error estimate copes with the correlation this
+// brings (engine/render/convergence.h): it compares the pixel's first 2^k samples with the rest,
+// both nets, and corrects for how fast the error falls.
 //
 // Everything depends only on (seed, pixel, sample index): the same image for any thread count,
 // tile size, pass split or render node.
@@ -82,11 +83,11 @@ inline uint32_t dim1(uint32_t i) {
     return kDim1.t[0][i & 255] ^ kDim1.t[1][(i >> 8) & 255] ^ kDim1.t[2][(i >> 16) & 255] ^ kDim1.t[3][i >> 24];
 }
 
-// One scramble seed per dimension of a pixel's replicate (`base` is already a mixed key).
+// One scramble seed per dimension of a pixel (`base` is already a mixed key).
 inline uint32_t dimension_seed(uint64_t base, uint32_t dim) { return uint32_t(mix64(base + dim) >> 32); }
 
 // The shuffled Sobol index of a dimension (Burley's "padding": each dimension sees the
-// replicate's points in its own order).
+// pixel's points in its own order).
 inline uint32_t shuffled_index(uint32_t index, uint32_t seed) { return nested_uniform_scramble(index, seed); }
 
 // Scrambled first dimension of point i: scramble(reverse(i)) needs no reversal in between.
@@ -113,8 +114,8 @@ public:
         if (kind_ == SamplerKind::independent) {
             rng_ = sample_rng(seed, pixel, sample);
         } else {
-            index_ = uint32_t(sample >> 1);
-            base_ = mix64(mix64(seed ^ 0x5851f42d4c957f2dull) ^ mix64(pixel) ^ (sample & 1));
+            index_ = uint32_t(sample);
+            base_ = mix64(mix64(seed ^ 0x5851f42d4c957f2dull) ^ mix64(pixel));
         }
     }
 

@@ -13,7 +13,11 @@ Film sample_film(bool half, bool adaptive) {
     for (size_t i = 0; i < f.sum.size(); ++i) {
         f.sum[i] = glm::dvec3(0.1 * double(i), 1.0 / 3.0, -0.0);
         f.count[i] = uint32_t(i * 7);
-        if (half) f.sum_odd[i] = glm::dvec3(1e-300, 1e300, double(i));
+        if (half) {
+            f.sum_half[i] = glm::dvec3(1e-300, 1e300, double(i));
+            f.sum_quarter[i] = glm::dvec3(-1e-310, 2.0, double(i) / 3.0);
+            f.sum_eighth[i] = glm::dvec3(0.25, -7.0, double(i) / 7.0);
+        }
         if (adaptive) {
             f.stats[i].add(double(i));
             f.stats[i].add(0.5);
@@ -33,9 +37,12 @@ TEST(FilmCodec, RoundTripsBitForBit) {
             EXPECT_EQ(g.width, 5);
             EXPECT_EQ(g.height, 3);
             EXPECT_EQ(0, std::memcmp(f.sum.data(), g.sum.data(), f.sum.size() * sizeof(f.sum[0])));
-            ASSERT_EQ(f.sum_odd.size(), g.sum_odd.size());
+            ASSERT_EQ(f.sum_half.size(), g.sum_half.size());
+            ASSERT_EQ(f.sum_quarter.size(), g.sum_quarter.size());
             if (half) {
-                EXPECT_EQ(0, std::memcmp(f.sum_odd.data(), g.sum_odd.data(), f.sum_odd.size() * sizeof(glm::dvec3)));
+                EXPECT_EQ(0, std::memcmp(f.sum_half.data(), g.sum_half.data(), f.sum_half.size() * sizeof(glm::dvec3)));
+                EXPECT_EQ(0, std::memcmp(f.sum_quarter.data(), g.sum_quarter.data(), f.sum_quarter.size() * sizeof(glm::dvec3)));
+                EXPECT_EQ(0, std::memcmp(f.sum_eighth.data(), g.sum_eighth.data(), f.sum_eighth.size() * sizeof(glm::dvec3)));
             }
             EXPECT_EQ(f.count, g.count);
             EXPECT_EQ(f.done, g.done);

@@ -17,9 +17,12 @@ namespace tessera {
 namespace {
 
 bool same_film(const Film& a, const Film& b) {
-    if (a.sum.size() != b.sum.size() || a.sum_odd.size() != b.sum_odd.size() || a.stats.size() != b.stats.size()) return false;
+    if (a.sum.size() != b.sum.size() || a.sum_half.size() != b.sum_half.size() || a.stats.size() != b.stats.size()) return false;
     if (std::memcmp(a.sum.data(), b.sum.data(), a.sum.size() * sizeof(a.sum[0])) != 0) return false;
-    if (!a.sum_odd.empty() && std::memcmp(a.sum_odd.data(), b.sum_odd.data(), a.sum_odd.size() * sizeof(a.sum_odd[0])) != 0) return false;
+    if (!a.sum_half.empty() && (std::memcmp(a.sum_half.data(), b.sum_half.data(), a.sum_half.size() * sizeof(a.sum_half[0])) != 0 ||
+                                std::memcmp(a.sum_quarter.data(), b.sum_quarter.data(), a.sum_quarter.size() * sizeof(a.sum_quarter[0])) != 0 ||
+                                std::memcmp(a.sum_eighth.data(), b.sum_eighth.data(), a.sum_eighth.size() * sizeof(a.sum_eighth[0])) != 0))
+        return false;
     if (a.count != b.count || a.done != b.done) return false;
     for (size_t i = 0; i < a.stats.size(); ++i)
         if (a.stats[i].n != b.stats[i].n || a.stats[i].mean != b.stats[i].mean || a.stats[i].m2 != b.stats[i].m2) return false;

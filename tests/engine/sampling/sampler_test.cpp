@@ -9,11 +9,12 @@
 namespace tessera {
 namespace {
 
-// The points one pixel's replicate gives for one dimension (a 2-D request after `skip` draws).
-std::vector<glm::vec2> points(uint64_t seed, uint64_t pixel, int replicate, int n, int skip) {
+// The points samples first..first+n−1 of one pixel give for one dimension (a 2-D request after
+// `skip` draws).
+std::vector<glm::vec2> points(uint64_t seed, uint64_t pixel, int first, int n, int skip) {
     std::vector<glm::vec2> p;
     for (int i = 0; i < n; ++i) {
-        Sampler s(SamplerKind::sobol, seed, pixel, uint64_t(2 * i + replicate));
+        Sampler s(SamplerKind::sobol, seed, pixel, uint64_t(first + i));
         for (int k = 0; k < skip; ++k) s.next_float();
         p.push_back(s.next_2d());
     }
@@ -39,21 +40,22 @@ TEST(SobolBits, ScrambleIsAPermutationOfEachAlignedBlock) {
     }
 }
 
-// Every replicate's first 2^k points of every dimension are a (0,k,2)-net: each elementary
-// interval of area 2^-k (2^a × 2^(k−a) cells, for every a) holds exactly one point.
+// A pixel's first 2^k points of every dimension are a (0,k,2)-net: each elementary interval of
+// area 2^-k (2^a × 2^(k−a) cells, for every a) holds exactly one point. So is every aligned
+// block of 2^k samples after them (the error estimate's halves: convergence.h).
 TEST(Sampler, EachDimensionIsStratifiedAsANet) {
     for (int k : {2, 4, 6, 8}) {
         const int n = 1 << k;
         for (int skip : {0, 1, 3, 7}) {
-            for (int replicate : {0, 1}) {
-                const auto p = points(5, 1234 + uint64_t(k), replicate, n, skip);
+            for (int block : {0, 1, 3}) {
+                const auto p = points(5, 1234 + uint64_t(k), block * n, n, skip);
                 for (int a = 0; a <= k; ++a) {
                     std::vector<int> cell(size_t(n), 0);
                     for (const glm::vec2& q : p) {
                         const int x = int(q.x * float(1 << a)), y = int(q.y * float(1 << (k - a)));
                         ++cell[size_t(x) * size_t(1 << (k - a)) + size_t(y)];
                     }
-                    for (int c : cell) ASSERT_EQ(c, 1) << "k " << k << " a " << a << " skip " << skip << " replicate " << replicate;
+                    for (int c : cell) ASSERT_EQ(c, 1) << "k " << k << " a " << a << " skip " << skip << " block " << block;
                 }
             }
         }
@@ -65,7 +67,7 @@ TEST(Sampler, OneDimensionalDrawsAreStratified) {
     for (int skip : {0, 2, 5}) {
         std::vector<int> cell(n, 0);
         for (int i = 0; i < n; ++i) {
-            Sampler s(SamplerKind::sobol, 9, 77, uint64_t(2 * i + 1));
+            Sampler s(SamplerKind::sobol, 9, 77, uint64_t(i));
             for (int k = 0; k < skip; ++k) s.next_2d();
             ++cell[size_t(s.next_float() * n)];
         }
@@ -75,12 +77,12 @@ TEST(Sampler, OneDimensionalDrawsAreStratified) {
 
 // Unbiased: over pixels (independent scrambles) each draw is uniform on [0, 1): its mean and
 // second moment, and no correlation between the two coordinates, between dimensions, or
-// between the two replicates of a pixel.
+// between neighbouring pixels.
 TEST(Sampler, DrawsAreUniformAndUncorrelatedAcrossScrambles) {
     const int pixels = 200000;
-    double m[4] = {0, 0, 0, 0}, m2[4] = {0, 0, 0, 0}, xy = 0, dims = 0, reps = 0;
+    double m[4] = {0, 0, 0, 0}, m2[4] = {0, 0, 0, 0}, xy = 0, dims = 0, neighbours = 0;
     for (int px = 0; px < pixels; ++px) {
-        Sampler a(SamplerKind::sobol, 3, uint64_t(px), 6), b(SamplerKind::sobol, 3, uint64_t(px), 7);
+        Sampler a(SamplerKind::sobol, 3, uint64_t(px), 6), b(SamplerKind::sobol, 3, uint64_t(px) + 1, 6);
         const glm::vec2 p = a.next_2d(), q = a.next_2d();
         const glm::vec2 r = b.next_2d();
         const double v[4] = {p.x, p.y, q.x, q.y};
@@ -92,7 +94,7 @@ TEST(Sampler, DrawsAreUniformAndUncorrelatedAcrossScrambles) {
         }
         xy += (p.x - 0.5) * (p.y - 0.5);
         dims += (p.x - 0.5) * (q.x - 0.5);
-        reps += (p.x - 0.5) * (r.x - 0.5);
+        neighbours += (p.x - 0.5) * (r.x - 0.5);
     }
     // se of a mean: √(1/12/n) ≈ 6.5e-4; of a second moment √(4/45/n) ≈ 6.7e-4; of a covariance
     // of independent uniforms 1/12/√n ≈ 1.9e-4. Five of each.
@@ -102,7 +104,7 @@ TEST(Sampler, DrawsAreUniformAndUncorrelatedAcrossScrambles) {
     }
     EXPECT_NEAR(xy / pixels, 0.0, 5 * 1.9e-4);
     EXPECT_NEAR(dims / pixels, 0.0, 5 * 1.9e-4);
-    EXPECT_NEAR(reps / pixels, 0.0, 5 * 1.9e-4);
+    EXPECT_NEAR(neighbours / pixels, 0.0, 5 * 1.9e-4);
 }
 
 TEST(Sampler, DependsOnlyOnSeedPixelAndSample) {
