@@ -19,6 +19,9 @@
 // Everything depends only on (seed, pixel, sample index): the same image for any thread count,
 // tile size, pass split or render node.
 #include <cstdint>
+#ifdef __GFNI__
+#include <immintrin.h>
+#endif
 
 #include <glm/glm.hpp>
 
@@ -31,6 +34,10 @@ enum class SamplerKind { independent, sobol };
 namespace sobol {
 
 inline uint32_t reverse_bits(uint32_t x) {
+#ifdef __GFNI__
+    const __m128i v = _mm_gf2p8affine_epi64_epi8(_mm_cvtsi32_si128(int(x)), _mm_set1_epi64x(0x8040201008040201ll), 0);
+    return __builtin_bswap32(uint32_t(_mm_cvtsi128_si32(v)));
+#endif
     x = __builtin_bswap32(x);  // bytes in one instruction, then the bits within each byte
     x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
     x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
@@ -83,6 +90,49 @@ inline uint32_t dim1(uint32_t i) {
     return kDim1.t[0][i & 255] ^ kDim1.t[1][(i >> 8) & 255] ^ kDim1.t[2][(i >> 16) & 255] ^ kDim1.t[3][i >> 24];
 }
 
+// Two 32-bit values reversed at once (each in its own half): one 64-bit reversal where a 2-D
+// point needs two.
+inline uint64_t reverse_bits_pair(uint64_t x) {
+#ifdef __GFNI__
+    const __m128i v = _mm_gf2p8affine_epi64_epi8(_mm_cvtsi64_si128((long long)x), _mm_set1_epi64x(0x8040201008040201ll), 0);
+    return __builtin_bswap32(uint32_t(uint64_t(_mm_cvtsi128_si64(v)) >> 32)) * 0x100000000ull | __builtin_bswap32(uint32_t(_mm_cvtsi128_si64(v)));
+#endif
+    x = __builtin_bswap64(x);
+    x = ((x >> 4) & 0x0f0f0f0f0f0f0f0full) | ((x & 0x0f0f0f0f0f0f0f0full) << 4);
+    x = ((x >> 2) & 0x3333333333333333ull) | ((x & 0x3333333333333333ull) << 2);
+    x = ((x >> 1) & 0x5555555555555555ull) | ((x & 0x5555555555555555ull) << 1);
+    return (x >> 32) | (x << 32);  // the bswap also swapped the halves: swap them back
+}
+
+// The second dimension of index reverse(r), bit-reversed, as a function of r: still linear over
+// GF(2), so one table entry per byte of r. The sampler keeps its shuffled index reversed (the
+// form the scramble works on) and reads the value already in the form the scramble takes.
+struct Dim1ReversedTables {
+    uint32_t t[4][256];
+    constexpr Dim1ReversedTables() : t{} {
+        uint32_t v[32] = {};
+        v[0] = 0x80000000u;
+        for (int k = 1; k < 32; ++k) v[k] = v[k - 1] ^ (v[k - 1] >> 1);
+        for (int b = 0; b < 4; ++b)
+            for (int x = 0; x < 256; ++x) {
+                uint32_t r = 0;
+                for (int k = 0; k < 8; ++k)
+                    if (x >> k & 1) {
+                        const uint32_t w = v[31 - (8 * b + k)];  // bit 8b+k of r is bit 31−(8b+k) of the index
+                        uint32_t rev = 0;
+                        for (int j = 0; j < 32; ++j) rev |= ((w >> j) & 1u) << (31 - j);
+                        r ^= rev;
+                    }
+                t[b][x] = r;
+            }
+    }
+};
+inline constexpr Dim1ReversedTables kDim1Reversed{};
+inline uint32_t dim1_reversed(uint32_t r) {
+    return kDim1Reversed.t[0][r & 255] ^ kDim1Reversed.t[1][(r >> 8) & 255] ^ kDim1Reversed.t[2][(r >> 16) & 255] ^
+           kDim1Reversed.t[3][r >> 24];
+}
+
 // One scramble seed per dimension of a pixel (`base` is already a mixed key).
 inline uint32_t dimension_seed(uint64_t base, uint32_t dim) { return uint32_t(mix64(base + dim) >> 32); }
 
@@ -114,33 +164,39 @@ public:
         if (kind_ == SamplerKind::independent) {
             rng_ = sample_rng(seed, pixel, sample);
         } else {
-            index_ = uint32_t(sample);
+            reversed_index_ = sobol::reverse_bits(uint32_t(sample));
             base_ = mix64(mix64(seed ^ 0x5851f42d4c957f2dull) ^ mix64(pixel));
         }
     }
 
     SamplerKind kind() const { return kind_; }
 
+    // The same points as sobol::shuffled_index, scrambled_dim0 and nested_uniform_scramble(dim1)
+    // compose to (Sampler.FastPathIsTheReferenceComposition), with three bit reversals a 2-D
+    // point instead of five, two of them in one 64-bit reversal: Sobol points cost 14% more
+    // time per sample than independent ones on the Cornell box before, and this is the hot path.
     float next_float() {
         if (kind_ == SamplerKind::independent) return rng_.next_float();
         const uint32_t s = sobol::dimension_seed(base_, dim_++);
-        const uint32_t i = sobol::shuffled_index(index_, s);
-        return sobol::to_float(sobol::scrambled_dim0(i, s ^ 0xa511e9b3u));
+        const uint32_t r = sobol::laine_karras_permutation(reversed_index_, s);  // the shuffled index, reversed
+        return sobol::to_float(sobol::scrambled_dim0(sobol::reverse_bits(r), s ^ 0xa511e9b3u));
     }
 
     glm::vec2 next_2d() {
         if (kind_ == SamplerKind::independent) return independent_2d(rng_);
         const uint32_t s = sobol::dimension_seed(base_, dim_++);
-        const uint32_t i = sobol::shuffled_index(index_, s);
-        return {sobol::to_float(sobol::scrambled_dim0(i, s ^ 0xa511e9b3u)),
-                sobol::to_float(sobol::nested_uniform_scramble(sobol::dim1(i), s ^ 0x63d83595u))};
+        const uint32_t r = sobol::laine_karras_permutation(reversed_index_, s);
+        const uint32_t a = sobol::laine_karras_permutation(sobol::reverse_bits(r), s ^ 0xa511e9b3u);
+        const uint32_t b = sobol::laine_karras_permutation(sobol::dim1_reversed(r), s ^ 0x63d83595u);
+        const uint64_t both = sobol::reverse_bits_pair(uint64_t(a) << 32 | b);
+        return {sobol::to_float(uint32_t(both >> 32)), sobol::to_float(uint32_t(both))};
     }
 
 private:
     SamplerKind kind_;
     Pcg32 rng_;
     uint64_t base_ = 0;
-    uint32_t index_ = 0;
+    uint32_t reversed_index_ = 0;
     uint32_t dim_ = 0;
 };
 

@@ -25,8 +25,8 @@ RenderSettings base() {
 // The half-buffer estimate tracks the true error: in the furnace every pixel's exact value is
 // known (1 + a + a²), so the measured relMSE against that constant image is the truth.
 // With Sobol points too, where the two halves of a pixel's samples are correlated nets and their
-// difference alone overstates the error by 2^α − 1 (hundreds of times here, where the error
-// falls as N^-3): the estimate measures α from its own samples (convergence.h).
+// difference alone overstates the error by 2^α − 1 (seven times here, where the error falls
+// as N^-3): the estimate measures α from its own samples (convergence.h).
 TEST(Convergence, EstimateTracksTheMeasuredError) {
     const RenderScene scene = build_render_scene(furnace_box(0.5f, 1.f), {});
     for (SamplerKind k : {SamplerKind::independent, SamplerKind::sobol}) {

@@ -30,6 +30,46 @@ TEST(SobolBits, SecondDimensionIsPascalsMatrix) {
     for (uint32_t i = 0; i < 8; ++i) EXPECT_EQ(sobol::dim0(i), sobol::reverse_bits(i));
 }
 
+// The reversals the hot path uses (GFNI's byte reversal where the compiler targets it, shifts
+// and masks elsewhere) against the definition, one bit at a time.
+TEST(SobolBits, ReversalsAreTheBitByBitDefinition) {
+    auto naive = [](uint32_t x) {
+        uint32_t r = 0;
+        for (int j = 0; j < 32; ++j) r |= ((x >> j) & 1u) << (31 - j);
+        return r;
+    };
+    Pcg32 rng(7, 11);
+    for (int i = 0; i < 10000; ++i) {
+        const uint32_t a = rng.next_u32(), b = rng.next_u32();
+        ASSERT_EQ(sobol::reverse_bits(a), naive(a)) << a;
+        ASSERT_EQ(sobol::reverse_bits_pair(uint64_t(a) << 32 | b), uint64_t(naive(a)) << 32 | naive(b)) << a << " " << b;
+    }
+    for (uint32_t x : {0u, 1u, 0x80000000u, 0xffffffffu}) EXPECT_EQ(sobol::reverse_bits(x), naive(x));
+}
+
+// The sampler's fast path draws exactly the points the reference composition defines: the
+// shuffled index, then the scrambled first and second dimensions at it.
+TEST(Sampler, FastPathIsTheReferenceComposition) {
+    for (uint64_t pixel : {0ull, 77ull, 123456789ull})
+        for (uint32_t sample : {0u, 1u, 2u, 3u, 17u, 1000u, 65535u}) {
+            Sampler s(SamplerKind::sobol, 42, pixel, sample);
+            const uint64_t base = mix64(mix64(42 ^ 0x5851f42d4c957f2dull) ^ mix64(pixel));
+            for (uint32_t dim = 0; dim < 12; ++dim) {
+                const uint32_t seed = sobol::dimension_seed(base, dim);
+                const uint32_t i = sobol::shuffled_index(sample, seed);
+                const float x = sobol::to_float(sobol::scrambled_dim0(i, seed ^ 0xa511e9b3u));
+                if (dim % 3 == 2) {
+                    ASSERT_EQ(s.next_float(), x) << pixel << " " << sample << " " << dim;
+                } else {
+                    const float y = sobol::to_float(sobol::nested_uniform_scramble(sobol::dim1(i), seed ^ 0x63d83595u));
+                    const glm::vec2 p = s.next_2d();
+                    ASSERT_EQ(p.x, x) << pixel << " " << sample << " " << dim;
+                    ASSERT_EQ(p.y, y) << pixel << " " << sample << " " << dim;
+                }
+            }
+        }
+}
+
 TEST(SobolBits, ScrambleIsAPermutationOfEachAlignedBlock) {
     // An Owen scramble maps each dyadic interval onto one of the same size: the first 2^k values
     // (as 32-bit fractions) land in 2^k distinct intervals of length 2^-k.
