@@ -630,14 +630,16 @@ struct RenderNode::Impl {
                 e.est_pixels = p[8];
                 e.half_buffer = p[9];
                 e.reference = p[10];
-                e.deep_outer = p[11];
-                e.deep = p[12];
-                e.deep_log_split = p[13];
-                e.deep_pixels = p[14];
-                e.shallow_outer = p[15];
-                e.shallow = p[16];
-                e.shallow_log_split = p[17];
-                e.shallow_pixels = p[18];
+                if (p.size() >= 19) {  // a node from before the estimate's correction sends 11 fields: no correction
+                    e.deep_outer = p[11];
+                    e.deep = p[12];
+                    e.deep_log_split = p[13];
+                    e.deep_pixels = p[14];
+                    e.shallow_outer = p[15];
+                    e.shallow = p[16];
+                    e.shallow_log_split = p[17];
+                    e.shallow_pixels = p[18];
+                }
                 total[k].add(e);
                 reached[k] = std::max(reached[k], p[1].get<long long>());
                 ++tiles_at[k];
