@@ -18,6 +18,7 @@
 //
 // Everything depends only on (seed, pixel, sample index): the same image for any thread count,
 // tile size, pass split or render node.
+#include <array>
 #include <cstdint>
 #ifdef __GFNI__
 #include <immintrin.h>
@@ -66,71 +67,57 @@ inline uint32_t nested_uniform_scramble(uint32_t x, uint32_t seed) {
 // v₀ = 2³¹, vᵢ = vᵢ₋₁ ⊕ vᵢ₋₁ ≫ 1), as 32-bit fractions.
 inline uint32_t dim0(uint32_t i) { return reverse_bits(i); }
 
-// The second dimension is linear over GF(2) in the index's bits: XOR of one table entry per
-// index byte (shuffled indices have random high bits, so a loop over set bits would branch on
-// noise: measured, that made Sobol sampling 45% slower per sample than independent).
-struct Dim1Tables {
+// A map that is linear over GF(2) in its argument's bits, as the XOR of one table entry per byte
+// of the argument: column k is the image of bit k. (Shuffled indices have random high bits, so
+// a loop over set bits would branch on noise: measured, that made Sobol sampling 45% slower per
+// sample than independent.)
+struct ByteTables {
     uint32_t t[4][256];
-    constexpr Dim1Tables() : t{} {
-        uint32_t v[32] = {};
-        v[0] = 0x80000000u;
-        for (int k = 1; k < 32; ++k) v[k] = v[k - 1] ^ (v[k - 1] >> 1);
+    constexpr explicit ByteTables(const std::array<uint32_t, 32>& column) : t{} {
         for (int b = 0; b < 4; ++b)
             for (int x = 0; x < 256; ++x) {
                 uint32_t r = 0;
                 for (int k = 0; k < 8; ++k)
-                    if (x >> k & 1) r ^= v[8 * b + k];
+                    if (x >> k & 1) r ^= column[size_t(8 * b + k)];
                 t[b][x] = r;
             }
     }
+    constexpr uint32_t operator()(uint32_t x) const { return t[0][x & 255] ^ t[1][(x >> 8) & 255] ^ t[2][(x >> 16) & 255] ^ t[3][x >> 24]; }
 };
-inline constexpr Dim1Tables kDim1{};
 
-inline uint32_t dim1(uint32_t i) {
-    return kDim1.t[0][i & 255] ^ kDim1.t[1][(i >> 8) & 255] ^ kDim1.t[2][(i >> 16) & 255] ^ kDim1.t[3][i >> 24];
+// The second dimension's columns: vₖ, the image of index bit k; or, for the sampler's reversed
+// form, reverse(v₃₁₋ₖ), the reversed value's image of the reversed index's bit k. The
+// sampler keeps its shuffled index reversed (the form the scramble works on) and reads the
+// value already in the form the scramble takes.
+constexpr std::array<uint32_t, 32> dim1_columns(bool reversed) {
+    std::array<uint32_t, 32> v{};
+    v[0] = 0x80000000u;
+    for (size_t k = 1; k < 32; ++k) v[k] = v[k - 1] ^ (v[k - 1] >> 1);
+    if (!reversed) return v;
+    std::array<uint32_t, 32> r{};
+    for (size_t k = 0; k < 32; ++k)
+        for (int j = 0; j < 32; ++j) r[k] |= ((v[31 - k] >> j) & 1u) << (31 - j);
+    return r;
 }
+inline constexpr ByteTables kDim1{dim1_columns(false)}, kDim1Reversed{dim1_columns(true)};
+
+inline uint32_t dim1(uint32_t i) { return kDim1(i); }
+// dim1(reverse(r)), reversed.
+inline uint32_t dim1_reversed(uint32_t r) { return kDim1Reversed(r); }
 
 // Two 32-bit values reversed at once (each in its own half): one 64-bit reversal where a 2-D
 // point needs two.
 inline uint64_t reverse_bits_pair(uint64_t x) {
 #ifdef __GFNI__
     const __m128i v = _mm_gf2p8affine_epi64_epi8(_mm_cvtsi64_si128((long long)x), _mm_set1_epi64x(0x8040201008040201ll), 0);
-    return __builtin_bswap32(uint32_t(uint64_t(_mm_cvtsi128_si64(v)) >> 32)) * 0x100000000ull | __builtin_bswap32(uint32_t(_mm_cvtsi128_si64(v)));
+    const uint64_t y = uint64_t(_mm_cvtsi128_si64(v));  // each byte's bits reversed; now each half's bytes
+    return uint64_t(__builtin_bswap32(uint32_t(y >> 32))) << 32 | __builtin_bswap32(uint32_t(y));
 #endif
     x = __builtin_bswap64(x);
     x = ((x >> 4) & 0x0f0f0f0f0f0f0f0full) | ((x & 0x0f0f0f0f0f0f0f0full) << 4);
     x = ((x >> 2) & 0x3333333333333333ull) | ((x & 0x3333333333333333ull) << 2);
     x = ((x >> 1) & 0x5555555555555555ull) | ((x & 0x5555555555555555ull) << 1);
     return (x >> 32) | (x << 32);  // the bswap also swapped the halves: swap them back
-}
-
-// The second dimension of index reverse(r), bit-reversed, as a function of r: still linear over
-// GF(2), so one table entry per byte of r. The sampler keeps its shuffled index reversed (the
-// form the scramble works on) and reads the value already in the form the scramble takes.
-struct Dim1ReversedTables {
-    uint32_t t[4][256];
-    constexpr Dim1ReversedTables() : t{} {
-        uint32_t v[32] = {};
-        v[0] = 0x80000000u;
-        for (int k = 1; k < 32; ++k) v[k] = v[k - 1] ^ (v[k - 1] >> 1);
-        for (int b = 0; b < 4; ++b)
-            for (int x = 0; x < 256; ++x) {
-                uint32_t r = 0;
-                for (int k = 0; k < 8; ++k)
-                    if (x >> k & 1) {
-                        const uint32_t w = v[31 - (8 * b + k)];  // bit 8b+k of r is bit 31−(8b+k) of the index
-                        uint32_t rev = 0;
-                        for (int j = 0; j < 32; ++j) rev |= ((w >> j) & 1u) << (31 - j);
-                        r ^= rev;
-                    }
-                t[b][x] = r;
-            }
-    }
-};
-inline constexpr Dim1ReversedTables kDim1Reversed{};
-inline uint32_t dim1_reversed(uint32_t r) {
-    return kDim1Reversed.t[0][r & 255] ^ kDim1Reversed.t[1][(r >> 8) & 255] ^ kDim1Reversed.t[2][(r >> 16) & 255] ^
-           kDim1Reversed.t[3][r >> 24];
 }
 
 // One scramble seed per dimension of a pixel (`base` is already a mixed key).
