@@ -132,6 +132,39 @@ ConvergencePoint point_from(const json& j) {
     return p;
 }
 
+// A tile's error sums at one pass target of a straight-through job, named: every field is
+// required, so sums from a node of another version fail the job naming the field, not
+// silently.
+json sums_json(int target, long long at_ms, const ErrorSums& e) {
+    return {{"target", target}, {"at_ms", at_ms}, {"spp", e.spp}, {"est", e.est}, {"rel", e.rel}, {"mse", e.mse},
+            {"mae", e.mae}, {"pixels", e.pixels}, {"est_pixels", e.est_pixels}, {"half_buffer", e.half_buffer},
+            {"reference", e.reference}, {"deep_outer", e.deep_outer}, {"deep", e.deep}, {"deep_log_split", e.deep_log_split},
+            {"deep_pixels", e.deep_pixels}, {"shallow_outer", e.shallow_outer}, {"shallow", e.shallow},
+            {"shallow_log_split", e.shallow_log_split}, {"shallow_pixels", e.shallow_pixels}};
+}
+
+ErrorSums sums_from(const json& j) {
+    ErrorSums e;
+    j.at("spp").get_to(e.spp);
+    j.at("est").get_to(e.est);
+    j.at("rel").get_to(e.rel);
+    j.at("mse").get_to(e.mse);
+    j.at("mae").get_to(e.mae);
+    j.at("pixels").get_to(e.pixels);
+    j.at("est_pixels").get_to(e.est_pixels);
+    j.at("half_buffer").get_to(e.half_buffer);
+    j.at("reference").get_to(e.reference);
+    j.at("deep_outer").get_to(e.deep_outer);
+    j.at("deep").get_to(e.deep);
+    j.at("deep_log_split").get_to(e.deep_log_split);
+    j.at("deep_pixels").get_to(e.deep_pixels);
+    j.at("shallow_outer").get_to(e.shallow_outer);
+    j.at("shallow").get_to(e.shallow);
+    j.at("shallow_log_split").get_to(e.shallow_log_split);
+    j.at("shallow_pixels").get_to(e.shallow_pixels);
+    return e;
+}
+
 // A job as a node runs it: parsed once per node (the stored job never changes).
 struct JobInfo {
     api::Job job;
@@ -524,9 +557,7 @@ struct RenderNode::Impl {
             for (int k : info->targets) {
                 if (!render_tile(ctx, rect, film, k, interrupted)) break;
                 const ErrorSums e = error_sums(film, ref);
-                sums.push_back({k, now_ms(), e.spp, e.est, e.rel, e.mse, e.mae, e.pixels, e.est_pixels, e.half_buffer, e.reference,
-                                e.deep_outer, e.deep, e.deep_log_split, e.deep_pixels, e.shallow_outer, e.shallow,
-                                e.shallow_log_split, e.shallow_pixels});
+                sums.push_back(sums_json(k, now_ms(), e));
             }
         } else if (!timed_out && !interrupted()) {
             timed_out = !render_tile(ctx, rect, film, target, [&] { return late() || interrupted(); }) && !interrupted();
@@ -620,28 +651,9 @@ struct RenderNode::Impl {
             const json per = json::parse(all.items[i + 1].text);
             for (size_t k = 0; k < per.size() && k < total.size(); ++k) {
                 const json& p = per[k];
-                ErrorSums e;
-                e.spp = p[2];
-                e.est = p[3];
-                e.rel = p[4];
-                e.mse = p[5];
-                e.mae = p[6];
-                e.pixels = p[7];
-                e.est_pixels = p[8];
-                e.half_buffer = p[9];
-                e.reference = p[10];
-                if (p.size() >= 19) {  // a node from before the estimate's correction sends 11 fields: no correction
-                    e.deep_outer = p[11];
-                    e.deep = p[12];
-                    e.deep_log_split = p[13];
-                    e.deep_pixels = p[14];
-                    e.shallow_outer = p[15];
-                    e.shallow = p[16];
-                    e.shallow_log_split = p[17];
-                    e.shallow_pixels = p[18];
-                }
+                const ErrorSums e = sums_from(p);
                 total[k].add(e);
-                reached[k] = std::max(reached[k], p[1].get<long long>());
+                reached[k] = std::max(reached[k], p.at("at_ms").get<long long>());
                 ++tiles_at[k];
             }
         }
