@@ -6,14 +6,20 @@
 #
 #   bash scripts/bench_cycles.sh            # cornell_box.gltf, 320x240, depth 5, 2 threads
 #   SCENE=... WIDTH=... HEIGHT=... DEPTH=... THREADS=... CYCLES_SPP="16 64 256 1024" \
-#   REF_SPP=4096 OUT=dir bash scripts/bench_cycles.sh
+#   REF_SPP=4096 REPS=3 OUT=dir bash scripts/bench_cycles.sh
+#   REUSE_REFS=1 OUT=dir bash scripts/bench_cycles.sh   # keeps the references already in dir
+#
+# Every timed render runs once in each of REPS rounds, both renderers in every round; the tables
+# give each time's median with its minimum and maximum, and each ratio's median over the rounds
+# with its minimum and maximum: this machine's speed drifts by 10-30% within minutes, and one
+# render per count, or all of one renderer's renders before the other's, hid that.
 #
 # Each renderer's error is measured against its own converged render (REF_SPP samples), so a
 # small difference between the two renderers' images does not count as noise; the two
 # references' relative MSE against each other is printed too (how far they agree). Tessera's
-# time is its render_seconds (sampling only, as the EXR's metadata records it); Cycles' is the
-# wall time of a render after a first one has synchronised the scene and built its BVH
-# (persistent data), so both leave out loading and building. Cycles runs twice: with its
+# time is its render_seconds (sampling only, as the EXR's metadata records it); Cycles' runs from
+# its render_pre to its render_post handler, in a render after a first one has synchronised the
+# scene and built its BVH (persistent data), so both leave out loading, building and writing. Cycles runs twice: with its
 # defaults (Russian roulette on) and with roulette off (min_light_bounces = max_bounces), as
 # Tessera's default has none.
 set -euo pipefail
@@ -26,6 +32,8 @@ DEPTH=${DEPTH:-5}
 THREADS=${THREADS:-2}
 CYCLES_SPP=${CYCLES_SPP:-16 64 256 1024}
 REF_SPP=${REF_SPP:-4096}
+REPS=${REPS:-3}
+LADDER="1 2 4 8 16 32 64 128 256 512 1024"
 OUT=${OUT:-$(mktemp -d)}
 if ! command -v blender > /dev/null || ! blender -b --factory-startup --python-exit-code 1 --python-expr "import numpy" > /dev/null 2>&1; then
   echo "bench_cycles: needs Debian's blender and numpy (sudo apt-get install blender python3-numpy); a benchmark-only dependency" >&2
@@ -44,42 +52,67 @@ blender_run() {
   grep -E '^(cycles_render|REL_MSE_JSON)' "$OUT/blender.out" || true
 }
 
-echo "== Cycles, defaults (roulette on), and its reference ($REF_SPP spp)"
-# shellcheck disable=SC2086
-blender_run "$here/cycles_render.py" -- "$SCENE" "$OUT/cycles_on" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" on $CYCLES_SPP "$REF_SPP"
-echo "== Cycles, roulette off"
-# shellcheck disable=SC2086
-blender_run "$here/cycles_render.py" -- "$SCENE" "$OUT/cycles_off" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" off $CYCLES_SPP
-
-echo "== Tessera: 1 to 2048 spp, and its reference ($REF_SPP spp)"
-ours=()
-for s in 1 2 4 8 16 32 64 128 256 512 1024 2048 "$REF_SPP"; do
-  "$T" render -s "$s" -m "$DEPTH" -r "$WIDTH" "$HEIGHT" -t "$THREADS" -f "$OUT/tessera_$s.exr" "$SCENE" > /dev/null
-  ours+=("$OUT/tessera_$s.exr")
+# Each round renders every count with Cycles (defaults, then roulette off) and with Tessera, one
+# after the other, so that the two renderers' times in one round are side by side: the ratios
+# are taken round by round, and a drift in the machine's speed between rounds (10-30% within
+# minutes on this 2-core machine) reaches both alike.
+for rep in $(seq "$REPS"); do
+  r="$OUT/round$rep"
+  mkdir -p "$r"
+  echo "== round $rep of $REPS: Cycles, defaults (roulette on)"
+  # shellcheck disable=SC2086
+  blender_run "$here/cycles_render.py" -- "$SCENE" "$r/cycles_on" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" on 1 $CYCLES_SPP
+  echo "== round $rep of $REPS: Cycles, roulette off"
+  # shellcheck disable=SC2086
+  blender_run "$here/cycles_render.py" -- "$SCENE" "$r/cycles_off" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" off 1 $CYCLES_SPP
+  echo "== round $rep of $REPS: Tessera, $LADDER spp"
+  # Times (spp seconds per line); the images of round 1 (every round has the same seed).
+  : > "$r/tessera_times.txt"
+  for s in $LADDER; do
+    f="$OUT/tessera_$s.exr"
+    [ "$rep" = 1 ] || f="$r/tessera_again.exr"
+    "$T" render -s "$s" -m "$DEPTH" -r "$WIDTH" "$HEIGHT" -t "$THREADS" -f "$f" "$SCENE" > /dev/null
+    printf '%s %s\n' "$s" "$(iinfo -v "$f" | sed -n 's/.*tessera:render_seconds: "\(.*\)"/\1/p')" >> "$r/tessera_times.txt"
+  done
 done
+# The references: REUSE_REFS=1 keeps those already in OUT (they take as long as all the rounds).
+if [ "${REUSE_REFS:-0}" != 1 ] || [ ! -f "$OUT/cycles_ref/cycles_$REF_SPP.exr" ]; then
+  echo "== Cycles' reference ($REF_SPP spp)"
+  blender_run "$here/cycles_render.py" -- "$SCENE" "$OUT/cycles_ref" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" on 1 "$REF_SPP"
+fi
+if [ "${REUSE_REFS:-0}" != 1 ] || [ ! -f "$OUT/tessera_ref.exr" ]; then
+  echo "== Tessera's reference ($REF_SPP spp)"
+  "$T" render -s "$REF_SPP" -m "$DEPTH" -r "$WIDTH" "$HEIGHT" -t "$THREADS" -f "$OUT/tessera_ref.exr" "$SCENE" > /dev/null
+fi
+ours=()
+for s in $LADDER; do ours+=("$OUT/tessera_$s.exr"); done
 
 echo "== errors"
 cyc=()
-for s in $CYCLES_SPP; do cyc+=("$OUT/cycles_on/cycles_$s.exr" "$OUT/cycles_off/cycles_$s.exr"); done
-blender_run "$here/rel_mse.py" -- "$OUT/cycles_on/cycles_$REF_SPP.exr" "${cyc[@]}" "$OUT/tessera_$REF_SPP.exr" > "$OUT/cycles_err.txt"
-blender_run "$here/rel_mse.py" -- "$OUT/tessera_$REF_SPP.exr" "${ours[@]}" > "$OUT/tessera_err.txt"
-for s in 1 2 4 8 16 32 64 128 256 512 1024 2048; do
-  printf '%s %s\n' "$s" "$(iinfo -v "$OUT/tessera_$s.exr" | sed -n 's/.*tessera:render_seconds: "\(.*\)"/\1/p')"
-done > "$OUT/tessera_times.txt"
+for s in $CYCLES_SPP; do cyc+=("$OUT/round1/cycles_on/cycles_$s.exr" "$OUT/round1/cycles_off/cycles_$s.exr"); done
+blender_run "$here/rel_mse.py" -- "$OUT/cycles_ref/cycles_$REF_SPP.exr" "${cyc[@]}" "$OUT/tessera_ref.exr" > "$OUT/cycles_err.txt"
+blender_run "$here/rel_mse.py" -- "$OUT/tessera_ref.exr" "${ours[@]}" > "$OUT/tessera_err.txt"
 
-python3 - "$OUT" "$REF_SPP" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" "$SCENE" $CYCLES_SPP <<'EOF'
-import json, math, sys
-out, ref_spp, w, h, depth, threads, scene = sys.argv[1:8]
-cycles_spp = [int(s) for s in sys.argv[8:]]
+python3 - "$OUT" "$REF_SPP" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" "$SCENE" "$REPS" $CYCLES_SPP <<'EOF'
+import json, math, statistics, sys
+out, ref_spp, w, h, depth, threads, scene, reps = sys.argv[1:9]
+cycles_spp = [int(s) for s in sys.argv[9:]]
+rounds = range(1, int(reps) + 1)
 load = lambda f: json.loads(open(f"{out}/{f}").read().split("REL_MSE_JSON ", 1)[1])
 cerr, terr = load("cycles_err.txt"), load("tessera_err.txt")
-times = {int(s): float(t) for s, t in (l.split() for l in open(f"{out}/tessera_times.txt"))}
-ours = sorted((times[s], terr["images"][f"{out}/tessera_{s}.exr"]["rel_mse"], s) for s in times)
+ours = []      # per round: spp -> Tessera's render_seconds
+cycles = []    # per round: (variant, spp) -> Cycles' seconds
+for r in rounds:
+    ours.append({int(s): float(t) for s, t in (l.split() for l in open(f"{out}/round{r}/tessera_times.txt"))})
+    cycles.append({(v, int(s)): t[0] for v in ("on", "off")
+                   for s, t in json.load(open(f"{out}/round{r}/cycles_{v}/cycles_times.json"))["seconds"].items()})
+errors = {s: terr["images"][f"{out}/tessera_{s}.exr"]["rel_mse"] for s in ours[0]}
 
-def time_to(err):
-    """Tessera's time to reach `err`: log-log interpolation between the runs either side."""
+def time_to(err, times):
+    """Tessera's time to reach `err` with one round's `times`: log-log between the counts either side."""
     prev = None
-    for t, e, s in ours:
+    for s in sorted(times):
+        t, e = times[s], errors[s]
         if e <= err:
             if prev is None:
                 return t, f"<= {s} spp"
@@ -89,23 +122,29 @@ def time_to(err):
         prev = (t, e, s)
     return None, "not reached"
 
-version = json.load(open(f"{out}/cycles_on/cycles_times.json"))["version"]
-agree = cerr["images"][f"{out}/tessera_{ref_spp}.exr"]
+spread = lambda v, f="%.3f": f"{f % statistics.median(v)} ({f % min(v)}-{f % max(v)})"
+version = json.load(open(f"{out}/round1/cycles_on/cycles_times.json"))["version"]
+agree = cerr["images"][f"{out}/tessera_ref.exr"]
 print(f"\nScene {scene}, {w}x{h}, Tessera max_depth {depth} (Cycles max_bounces {int(depth) - 1}), {threads} threads, "
-      f"Blender {version}; references {ref_spp} spp each; the two references' relative MSE against each other: "
-      f"{agree['rel_mse']:.2e} (means {agree['mean']:.5f} Tessera, {cerr['reference_mean']:.5f} Cycles)\n")
-print("| Cycles | spp | time (s) | relMSE | Tessera time to that relMSE (s) | Tessera / Cycles time |")
-print("|---|---:|---:|---:|---:|---:|")
+      f"Blender {version}, {reps} rounds (both renderers in each); times and ratios are median (min-max) over the "
+      f"rounds, each ratio taken within its round; references {ref_spp} spp each; the two references' relative MSE "
+      f"against each other: {agree['rel_mse']:.2e} (means {agree['mean']:.5f} Tessera, {cerr['reference_mean']:.5f} Cycles)\n")
+print("| Cycles | spp | Cycles time (s) | relMSE | Tessera time to that relMSE (s) | between | Tessera / Cycles time |")
+print("|---|---:|---:|---:|---:|---|---:|")
 for variant in ("on", "off"):
-    ct = json.load(open(f"{out}/cycles_{variant}/cycles_times.json"))["seconds"]
     for s in cycles_spp:
-        e = cerr["images"][f"{out}/cycles_{variant}/cycles_{s}.exr"]["rel_mse"]
-        t, where = time_to(e)
-        c = ct[str(s)]
+        e = cerr["images"][f"{out}/round1/cycles_{variant}/cycles_{s}.exr"]["rel_mse"]
+        c = [cycles[i][(variant, s)] for i in range(len(ours))]
+        t = [time_to(e, ours[i])[0] for i in range(len(ours))]
+        where = time_to(e, ours[0])[1]
         label = "defaults" if variant == "on" else "roulette off"
-        print(f"| {label} | {s} | {c:.3f} | {e:.3e} | {'%.3f' % t if t else '-'} ({where}) | {'%.2f' % (t / c) if t else '-'} |")
+        if any(x is None for x in t):
+            print(f"| {label} | {s} | {spread(c)} | {e:.3e} | - | {where} | - |")
+            continue
+        ratios = [a / b for a, b in zip(t, c)]
+        print(f"| {label} | {s} | {spread(c)} | {e:.3e} | {spread(t)} | {where} | {spread(ratios, '%.2f')} |")
 print("\nTessera alone (relMSE against its own reference):\n\n| spp | time (s) | relMSE | relMSE x spp |\n|---:|---:|---:|---:|")
-for t, e, s in ours:
-    print(f"| {s} | {t:.3f} | {e:.3e} | {e * s:.3f} |")
+for s in sorted(errors):
+    print(f"| {s} | {spread([o[s] for o in ours])} | {errors[s]:.3e} | {errors[s] * s:.3f} |")
 EOF
 echo "(images and raw figures in $OUT)"

@@ -38,11 +38,12 @@ inline uint32_t reverse_bits(uint32_t x) {
 #ifdef __GFNI__
     const __m128i v = _mm_gf2p8affine_epi64_epi8(_mm_cvtsi32_si128(int(x)), _mm_set1_epi64x(0x8040201008040201ll), 0);
     return __builtin_bswap32(uint32_t(_mm_cvtsi128_si32(v)));
-#endif
+#else
     x = __builtin_bswap32(x);  // bytes in one instruction, then the bits within each byte
     x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
     x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
     return ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+#endif
 }
 
 // A fast approximation of an Owen scramble of reversed bits (Laine & Karras 2011's idea):
@@ -112,12 +113,13 @@ inline uint64_t reverse_bits_pair(uint64_t x) {
     const __m128i v = _mm_gf2p8affine_epi64_epi8(_mm_cvtsi64_si128((long long)x), _mm_set1_epi64x(0x8040201008040201ll), 0);
     const uint64_t y = uint64_t(_mm_cvtsi128_si64(v));  // each byte's bits reversed; now each half's bytes
     return uint64_t(__builtin_bswap32(uint32_t(y >> 32))) << 32 | __builtin_bswap32(uint32_t(y));
-#endif
+#else
     x = __builtin_bswap64(x);
     x = ((x >> 4) & 0x0f0f0f0f0f0f0f0full) | ((x & 0x0f0f0f0f0f0f0f0full) << 4);
     x = ((x >> 2) & 0x3333333333333333ull) | ((x & 0x3333333333333333ull) << 2);
     x = ((x >> 1) & 0x5555555555555555ull) | ((x & 0x5555555555555555ull) << 1);
     return (x >> 32) | (x << 32);  // the bswap also swapped the halves: swap them back
+#endif
 }
 
 // One scramble seed per dimension of a pixel (`base` is already a mixed key).

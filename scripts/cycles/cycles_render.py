@@ -2,7 +2,10 @@
 # renders a glTF scene with Cycles set up to compute what Tessera computes, and writes one
 # linear EXR per sample count with the render's wall time beside it.
 #
-#   ARGS: SCENE.gltf OUT_DIR WIDTH HEIGHT MAX_DEPTH THREADS ROULETTE(on|off) SPP [SPP ...]
+#   ARGS: SCENE.gltf OUT_DIR WIDTH HEIGHT MAX_DEPTH THREADS ROULETTE(on|off) REPS SPP [SPP ...]
+#
+# Each sample count is rendered REPS times, the counts taken in turn within each round (so a
+# drift in the machine's speed reaches every count alike); the first round's images are kept.
 #
 # The same integral as Tessera's: every material a Lambertian of its glTF base colour plus its
 # emission (KHR_materials_emissive_strength included), no world light; Tessera's max_depth d is
@@ -27,7 +30,8 @@ args = sys.argv[sys.argv.index("--") + 1:]
 scene_path, out_dir = args[0], args[1]
 width, height, max_depth, threads = int(args[2]), int(args[3]), int(args[4]), int(args[5])
 roulette = args[6] == "on"
-spps = [int(a) for a in args[7:]]
+reps = int(args[7])
+spps = [int(a) for a in args[8:]]
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
 bpy.ops.import_scene.gltf(filepath=scene_path)
@@ -115,18 +119,24 @@ scene.render.image_settings.exr_codec = "ZIP"
 scene.render.use_persistent_data = True  # the scene is synced and its BVH built once
 
 os.makedirs(out_dir, exist_ok=True)
-times = {}
+# A render is timed from Blender's render_pre handler to its render_post: the sampling, not the
+# image's writing that follows (a render must write its image: without write_still, Blender 3.4
+# renders again with the sample count of the render before).
+marks = {}
+bpy.app.handlers.render_pre.append(lambda *_: marks.__setitem__("pre", time.perf_counter()))
+bpy.app.handlers.render_post.append(lambda *_: marks.__setitem__("post", time.perf_counter()))
+times = {spp: [] for spp in spps}
 # A first render of one sample: synchronisation and the BVH, so that the timed renders below
-# measure sampling (Tessera's render_seconds likewise leaves out loading and building).
+# measure sampling (Tessera's render_seconds likewise leaves out loading, building and writing).
 c.samples = 1
 scene.render.filepath = os.path.join(out_dir, "warmup.exr")
 bpy.ops.render.render(write_still=True)
-for spp in spps:
-    c.samples = spp
-    scene.render.filepath = os.path.join(out_dir, f"cycles_{spp}.exr")
-    t0 = time.perf_counter()
-    bpy.ops.render.render(write_still=True)
-    times[spp] = time.perf_counter() - t0
-    print(f"cycles_render: {spp} spp in {times[spp]:.3f} s", flush=True)
+for rep in range(reps):
+    for spp in spps:
+        c.samples = spp
+        scene.render.filepath = os.path.join(out_dir, f"cycles_{spp}.exr" if rep == 0 else "again.exr")
+        bpy.ops.render.render(write_still=True)
+        times[spp].append(marks["post"] - marks["pre"])
+        print(f"cycles_render: {spp} spp in {times[spp][-1]:.3f} s (round {rep + 1} of {reps})", flush=True)
 with open(os.path.join(out_dir, "cycles_times.json"), "w") as f:
     json.dump({"version": bpy.app.version_string, "roulette": roulette, "seconds": times}, f)
