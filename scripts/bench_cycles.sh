@@ -61,10 +61,10 @@ for rep in $(seq "$REPS"); do
   mkdir -p "$r"
   echo "== round $rep of $REPS: Cycles, defaults (roulette on)"
   # shellcheck disable=SC2086
-  blender_run "$here/cycles_render.py" -- "$SCENE" "$r/cycles_on" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" on 1 $CYCLES_SPP
+  blender_run "$here/cycles_render.py" -- "$SCENE" "$r/cycles_on" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" on $CYCLES_SPP
   echo "== round $rep of $REPS: Cycles, roulette off"
   # shellcheck disable=SC2086
-  blender_run "$here/cycles_render.py" -- "$SCENE" "$r/cycles_off" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" off 1 $CYCLES_SPP
+  blender_run "$here/cycles_render.py" -- "$SCENE" "$r/cycles_off" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" off $CYCLES_SPP
   echo "== round $rep of $REPS: Tessera, $LADDER spp"
   # Times (spp seconds per line); the images of round 1 (every round has the same seed).
   : > "$r/tessera_times.txt"
@@ -78,7 +78,7 @@ done
 # The references: REUSE_REFS=1 keeps those already in OUT (they take as long as all the rounds).
 if [ "${REUSE_REFS:-0}" != 1 ] || [ ! -f "$OUT/cycles_ref/cycles_$REF_SPP.exr" ]; then
   echo "== Cycles' reference ($REF_SPP spp)"
-  blender_run "$here/cycles_render.py" -- "$SCENE" "$OUT/cycles_ref" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" on 1 "$REF_SPP"
+  blender_run "$here/cycles_render.py" -- "$SCENE" "$OUT/cycles_ref" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" on "$REF_SPP"
 fi
 if [ "${REUSE_REFS:-0}" != 1 ] || [ ! -f "$OUT/tessera_ref.exr" ]; then
   echo "== Tessera's reference ($REF_SPP spp)"
@@ -104,7 +104,7 @@ ours = []      # per round: spp -> Tessera's render_seconds
 cycles = []    # per round: (variant, spp) -> Cycles' seconds
 for r in rounds:
     ours.append({int(s): float(t) for s, t in (l.split() for l in open(f"{out}/round{r}/tessera_times.txt"))})
-    cycles.append({(v, int(s)): t[0] for v in ("on", "off")
+    cycles.append({(v, int(s)): t for v in ("on", "off")
                    for s, t in json.load(open(f"{out}/round{r}/cycles_{v}/cycles_times.json"))["seconds"].items()})
 errors = {s: terr["images"][f"{out}/tessera_{s}.exr"]["rel_mse"] for s in ours[0]}
 

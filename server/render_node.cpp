@@ -25,6 +25,15 @@
 #include "server/film_codec.h"
 #include "server/scene_cache.h"
 
+// A tile's error sums at one pass target of a straight-through job travel named: one list of
+// fields for both directions, and reading uses at(), so sums from a node of another version fail
+// the job naming the missing field, not silently. (In ErrorSums' namespace, where the JSON
+// library looks for it.)
+namespace tessera {
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(ErrorSums, spp, est, rel, mse, mae, pixels, est_pixels, half_buffer, reference, deep_outer,
+                                   deep, deep_log_split, deep_pixels, shallow_outer, shallow, shallow_log_split, shallow_pixels)
+}  // namespace tessera
+
 namespace tessera::server {
 
 namespace fs = std::filesystem;
@@ -130,39 +139,6 @@ ConvergencePoint point_from(const json& j) {
     p.mae = j.value("mae", -1.0);
     p.est_rel_mse = j.value("est_rel_mse", -1.0);
     return p;
-}
-
-// A tile's error sums at one pass target of a straight-through job, named: every field is
-// required, so sums from a node of another version fail the job naming the field, not
-// silently.
-json sums_json(int target, long long at_ms, const ErrorSums& e) {
-    return {{"target", target}, {"at_ms", at_ms}, {"spp", e.spp}, {"est", e.est}, {"rel", e.rel}, {"mse", e.mse},
-            {"mae", e.mae}, {"pixels", e.pixels}, {"est_pixels", e.est_pixels}, {"half_buffer", e.half_buffer},
-            {"reference", e.reference}, {"deep_outer", e.deep_outer}, {"deep", e.deep}, {"deep_log_split", e.deep_log_split},
-            {"deep_pixels", e.deep_pixels}, {"shallow_outer", e.shallow_outer}, {"shallow", e.shallow},
-            {"shallow_log_split", e.shallow_log_split}, {"shallow_pixels", e.shallow_pixels}};
-}
-
-ErrorSums sums_from(const json& j) {
-    ErrorSums e;
-    j.at("spp").get_to(e.spp);
-    j.at("est").get_to(e.est);
-    j.at("rel").get_to(e.rel);
-    j.at("mse").get_to(e.mse);
-    j.at("mae").get_to(e.mae);
-    j.at("pixels").get_to(e.pixels);
-    j.at("est_pixels").get_to(e.est_pixels);
-    j.at("half_buffer").get_to(e.half_buffer);
-    j.at("reference").get_to(e.reference);
-    j.at("deep_outer").get_to(e.deep_outer);
-    j.at("deep").get_to(e.deep);
-    j.at("deep_log_split").get_to(e.deep_log_split);
-    j.at("deep_pixels").get_to(e.deep_pixels);
-    j.at("shallow_outer").get_to(e.shallow_outer);
-    j.at("shallow").get_to(e.shallow);
-    j.at("shallow_log_split").get_to(e.shallow_log_split);
-    j.at("shallow_pixels").get_to(e.shallow_pixels);
-    return e;
 }
 
 // A job as a node runs it: parsed once per node (the stored job never changes).
@@ -557,7 +533,10 @@ struct RenderNode::Impl {
             for (int k : info->targets) {
                 if (!render_tile(ctx, rect, film, k, interrupted)) break;
                 const ErrorSums e = error_sums(film, ref);
-                sums.push_back(sums_json(k, now_ms(), e));
+                json j = e;
+                j["target"] = k;
+                j["at_ms"] = now_ms();
+                sums.push_back(std::move(j));
             }
         } else if (!timed_out && !interrupted()) {
             timed_out = !render_tile(ctx, rect, film, target, [&] { return late() || interrupted(); }) && !interrupted();
@@ -651,8 +630,7 @@ struct RenderNode::Impl {
             const json per = json::parse(all.items[i + 1].text);
             for (size_t k = 0; k < per.size() && k < total.size(); ++k) {
                 const json& p = per[k];
-                const ErrorSums e = sums_from(p);
-                total[k].add(e);
+                total[k].add(p.get<ErrorSums>());
                 reached[k] = std::max(reached[k], p.at("at_ms").get<long long>());
                 ++tiles_at[k];
             }

@@ -2,10 +2,9 @@
 # renders a glTF scene with Cycles set up to compute what Tessera computes, and writes one
 # linear EXR per sample count with the render's wall time beside it.
 #
-#   ARGS: SCENE.gltf OUT_DIR WIDTH HEIGHT MAX_DEPTH THREADS ROULETTE(on|off) REPS SPP [SPP ...]
+#   ARGS: SCENE.gltf OUT_DIR WIDTH HEIGHT MAX_DEPTH THREADS ROULETTE(on|off) SPP [SPP ...]
 #
-# Each sample count is rendered REPS times, the counts taken in turn within each round (so a
-# drift in the machine's speed reaches every count alike); the first round's images are kept.
+# One render per count: bench_cycles.sh repeats the whole script in its rounds.
 #
 # The same integral as Tessera's: every material a Lambertian of its glTF base colour plus its
 # emission (KHR_materials_emissive_strength included), no world light; Tessera's max_depth d is
@@ -30,8 +29,7 @@ args = sys.argv[sys.argv.index("--") + 1:]
 scene_path, out_dir = args[0], args[1]
 width, height, max_depth, threads = int(args[2]), int(args[3]), int(args[4]), int(args[5])
 roulette = args[6] == "on"
-reps = int(args[7])
-spps = [int(a) for a in args[8:]]
+spps = [int(a) for a in args[7:]]
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
 bpy.ops.import_scene.gltf(filepath=scene_path)
@@ -125,18 +123,17 @@ os.makedirs(out_dir, exist_ok=True)
 marks = {}
 bpy.app.handlers.render_pre.append(lambda *_: marks.__setitem__("pre", time.perf_counter()))
 bpy.app.handlers.render_post.append(lambda *_: marks.__setitem__("post", time.perf_counter()))
-times = {spp: [] for spp in spps}
+times = {}
 # A first render of one sample: synchronisation and the BVH, so that the timed renders below
 # measure sampling (Tessera's render_seconds likewise leaves out loading, building and writing).
 c.samples = 1
 scene.render.filepath = os.path.join(out_dir, "warmup.exr")
 bpy.ops.render.render(write_still=True)
-for rep in range(reps):
-    for spp in spps:
-        c.samples = spp
-        scene.render.filepath = os.path.join(out_dir, f"cycles_{spp}.exr" if rep == 0 else "again.exr")
-        bpy.ops.render.render(write_still=True)
-        times[spp].append(marks["post"] - marks["pre"])
-        print(f"cycles_render: {spp} spp in {times[spp][-1]:.3f} s (round {rep + 1} of {reps})", flush=True)
+for spp in spps:
+    c.samples = spp
+    scene.render.filepath = os.path.join(out_dir, f"cycles_{spp}.exr")
+    bpy.ops.render.render(write_still=True)
+    times[spp] = marks["post"] - marks["pre"]
+    print(f"cycles_render: {spp} spp in {times[spp]:.3f} s", flush=True)
 with open(os.path.join(out_dir, "cycles_times.json"), "w") as f:
     json.dump({"version": bpy.app.version_string, "roulette": roulette, "seconds": times}, f)
