@@ -52,19 +52,27 @@ blender_run() {
   grep -E '^(cycles_render|REL_MSE_JSON)' "$OUT/blender.out" || true
 }
 
-# Each round renders every count with Cycles (defaults, then roulette off) and with Tessera, one
-# after the other, so that the two renderers' times in one round are side by side: the ratios
-# are taken round by round, and a drift in the machine's speed between rounds (10-30% within
-# minutes on this 2-core machine) reaches both alike.
+# Each round takes the Cycles counts one at a time: Cycles with its defaults, Cycles with roulette
+# off, and straight after them Tessera at the ladder counts around that count (half, the same,
+# double), whose times the ratios for that count use. The two renderers' times behind one ratio
+# are then seconds apart, not minutes: this 2-core machine's speed drifts by 10-30% within
+# minutes, and a round of all Cycles counts and then all Tessera counts lasts about five. The
+# whole ladder follows, for the table of Tessera alone (and, where a count's errors fall outside
+# its neighbours, for the ratio).
 for rep in $(seq "$REPS"); do
   r="$OUT/round$rep"
   mkdir -p "$r"
-  echo "== round $rep of $REPS: Cycles, defaults (roulette on)"
-  # shellcheck disable=SC2086
-  blender_run "$here/cycles_render.py" -- "$SCENE" "$r/cycles_on" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" on $CYCLES_SPP
-  echo "== round $rep of $REPS: Cycles, roulette off"
-  # shellcheck disable=SC2086
-  blender_run "$here/cycles_render.py" -- "$SCENE" "$r/cycles_off" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" off $CYCLES_SPP
+  for n in $CYCLES_SPP; do
+    echo "== round $rep of $REPS, $n spp: Cycles (defaults, then roulette off), then Tessera around $n"
+    blender_run "$here/cycles_render.py" -- "$SCENE" "$r/cycles_on_$n" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" on "$n"
+    blender_run "$here/cycles_render.py" -- "$SCENE" "$r/cycles_off_$n" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" off "$n"
+    : > "$r/tessera_near_$n.txt"
+    for s in $LADDER; do
+      [ "$s" -ge $((n / 2)) ] && [ "$s" -le $((n * 2)) ] || continue
+      "$T" render -s "$s" -m "$DEPTH" -r "$WIDTH" "$HEIGHT" -t "$THREADS" -f "$r/tessera_again.exr" "$SCENE" > /dev/null
+      printf '%s %s\n' "$s" "$(iinfo -v "$r/tessera_again.exr" | sed -n 's/.*tessera:render_seconds: "\(.*\)"/\1/p')" >> "$r/tessera_near_$n.txt"
+    done
+  done
   echo "== round $rep of $REPS: Tessera, $LADDER spp"
   # Times (spp seconds per line); the images of round 1 (every round has the same seed).
   : > "$r/tessera_times.txt"
@@ -89,7 +97,7 @@ for s in $LADDER; do ours+=("$OUT/tessera_$s.exr"); done
 
 echo "== errors"
 cyc=()
-for s in $CYCLES_SPP; do cyc+=("$OUT/round1/cycles_on/cycles_$s.exr" "$OUT/round1/cycles_off/cycles_$s.exr"); done
+for s in $CYCLES_SPP; do cyc+=("$OUT/round1/cycles_on_$s/cycles_$s.exr" "$OUT/round1/cycles_off_$s/cycles_$s.exr"); done
 blender_run "$here/rel_mse.py" -- "$OUT/cycles_ref/cycles_$REF_SPP.exr" "${cyc[@]}" "$OUT/tessera_ref.exr" > "$OUT/cycles_err.txt"
 blender_run "$here/rel_mse.py" -- "$OUT/tessera_ref.exr" "${ours[@]}" > "$OUT/tessera_err.txt"
 
@@ -100,12 +108,15 @@ cycles_spp = [int(s) for s in sys.argv[9:]]
 rounds = range(1, int(reps) + 1)
 load = lambda f: json.loads(open(f"{out}/{f}").read().split("REL_MSE_JSON ", 1)[1])
 cerr, terr = load("cycles_err.txt"), load("tessera_err.txt")
-ours = []      # per round: spp -> Tessera's render_seconds
+read_times = lambda f: {int(s): float(t) for s, t in (l.split() for l in open(f"{out}/{f}"))}
+ours = []      # per round: spp -> Tessera's render_seconds (the whole ladder)
+near = []      # per round: Cycles spp -> {spp -> Tessera's seconds, rendered right after that count}
 cycles = []    # per round: (variant, spp) -> Cycles' seconds
 for r in rounds:
-    ours.append({int(s): float(t) for s, t in (l.split() for l in open(f"{out}/round{r}/tessera_times.txt"))})
-    cycles.append({(v, int(s)): t for v in ("on", "off")
-                   for s, t in json.load(open(f"{out}/round{r}/cycles_{v}/cycles_times.json"))["seconds"].items()})
+    ours.append(read_times(f"round{r}/tessera_times.txt"))
+    near.append({n: read_times(f"round{r}/tessera_near_{n}.txt") for n in cycles_spp})
+    cycles.append({(v, n): float(json.load(open(f"{out}/round{r}/cycles_{v}_{n}/cycles_times.json"))["seconds"][str(n)])
+                   for v in ("on", "off") for n in cycles_spp})
 errors = {s: terr["images"][f"{out}/tessera_{s}.exr"]["rel_mse"] for s in ours[0]}
 
 def time_to(err, times):
@@ -123,20 +134,23 @@ def time_to(err, times):
     return None, "not reached"
 
 spread = lambda v, f="%.3f": f"{f % statistics.median(v)} ({f % min(v)}-{f % max(v)})"
-version = json.load(open(f"{out}/round1/cycles_on/cycles_times.json"))["version"]
+version = json.load(open(f"{out}/round1/cycles_on_{cycles_spp[0]}/cycles_times.json"))["version"]
 agree = cerr["images"][f"{out}/tessera_ref.exr"]
 print(f"\nScene {scene}, {w}x{h}, Tessera max_depth {depth} (Cycles max_bounces {int(depth) - 1}), {threads} threads, "
       f"Blender {version}, {reps} rounds (both renderers in each); times and ratios are median (min-max) over the "
-      f"rounds, each ratio taken within its round; references {ref_spp} spp each; the two references' relative MSE "
+      f"rounds, each ratio from Cycles' render and Tessera's renders around that count right after it; references {ref_spp} spp each; the two references' relative MSE "
       f"against each other: {agree['rel_mse']:.2e} (means {agree['mean']:.5f} Tessera, {cerr['reference_mean']:.5f} Cycles)\n")
 print("| Cycles | spp | Cycles time (s) | relMSE | Tessera time to that relMSE (s) | between | Tessera / Cycles time |")
 print("|---|---:|---:|---:|---:|---|---:|")
 for variant in ("on", "off"):
     for s in cycles_spp:
-        e = cerr["images"][f"{out}/round1/cycles_{variant}/cycles_{s}.exr"]["rel_mse"]
+        e = cerr["images"][f"{out}/round1/cycles_{variant}_{s}/cycles_{s}.exr"]["rel_mse"]
         c = [cycles[i][(variant, s)] for i in range(len(ours))]
-        t = [time_to(e, ours[i])[0] for i in range(len(ours))]
-        where = time_to(e, ours[0])[1]
+        # The renders right after this count where they bracket its error, else the ladder's.
+        paired = time_to(e, near[0][s])[1] == time_to(e, ours[0])[1]
+        src = [near[i][s] if paired else ours[i] for i in range(len(ours))]
+        t = [time_to(e, x)[0] for x in src]
+        where = time_to(e, ours[0])[1] + ("" if paired else " (ladder)")
         label = "defaults" if variant == "on" else "roulette off"
         if any(x is None for x in t):
             print(f"| {label} | {s} | {spread(c)} | {e:.3e} | - | {where} | - |")
