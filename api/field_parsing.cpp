@@ -1,5 +1,6 @@
 // How a field table reads JSON: each value checked against its field's kind and bounds (the
 // server's limits replacing a maximum where the table says so), errors naming the JSON pointer.
+#include "api/json_text.h"
 #include "api/job_fields.h"
 
 #include <cmath>
@@ -34,7 +35,7 @@ json check_value(const Field<Job>& f, const json& v, const ParseContext& ctx) {
             const int64_t hi = f.limit == Limit::none ? f.max_int : int64_t(field_max(f, ctx.limits));
             auto out_of_range = [&] {
                 return InvalidJob(ptr, ptr + " must lie in [" + std::to_string(f.min_int) + ", " + std::to_string(hi) +
-                                           "], got " + v.dump());
+                                           "], got " + json_text(v));
             };
             int64_t n = 0;
             if (v.is_number_unsigned() && v.get<uint64_t>() > uint64_t(kInt64Max)) {
@@ -57,8 +58,8 @@ json check_value(const Field<Job>& f, const json& v, const ParseContext& ctx) {
             const bool low = f.exclusive_min ? !(d > f.min_num) : !(d >= f.min_num);
             if (!std::isfinite(d) || low || d > hi) {
                 if (f.exclusive_min)
-                    throw InvalidJob(ptr, ptr + " must lie in (" + bounds_text(f.min_num, hi).substr(1) + ", got " + v.dump());
-                throw InvalidJob(ptr, ptr + " must lie in " + bounds_text(f.min_num, hi) + ", got " + v.dump());
+                    throw InvalidJob(ptr, ptr + " must lie in (" + bounds_text(f.min_num, hi).substr(1) + ", got " + json_text(v));
+                throw InvalidJob(ptr, ptr + " must lie in " + bounds_text(f.min_num, hi) + ", got " + json_text(v));
             }
             return d;
         }
@@ -88,7 +89,7 @@ json check_value(const Field<Job>& f, const json& v, const ParseContext& ctx) {
                 if (v.get_ref<const std::string&>() == c) return v;
                 list += (list.empty() ? "" : "|") + std::string(c);
             }
-            throw InvalidJob(ptr, ptr + " must be one of " + list + ", got " + v.dump());
+            throw InvalidJob(ptr, ptr + " must be one of " + list + ", got " + json_text(v));
         }
         case FieldKind::job_id: {
             if (!v.is_string() || v.get_ref<const std::string&>().size() != 16 ||

@@ -1,3 +1,4 @@
+#include "api/json_text.h"
 #include "api/job_runner.h"
 
 #include "engine/scene/environment.h"
@@ -124,7 +125,7 @@ JobOutcome run_comparison_job(const ComparisonJob& job, const RunOptions& opt, c
     }
     outcome.report = {{"settings", to_json(job)}, {"comparison", comparison_json(r, job.seconds, job.target_error)},
                       {"table_markdown", comparison_markdown(r, job.seconds, job.target_error)}};
-    write_text(out.report_json, outcome.report.dump(2));
+    write_text(out.report_json, json_text(outcome.report, 2));
     write_text(out.convergence_svg, comparison_svg(r, job.scene + ": relative MSE against time (first run of each)"));
     outcome.summary = {{"comparison", outcome.report["comparison"]}};
     return outcome;
@@ -165,7 +166,11 @@ std::shared_ptr<PreparedScene> prepare_scene(const std::string& source, const Lo
     p->scene = build_render_scene(desc, options);
     p->load_s = seconds_between(t0, t1);
     p->build_s = seconds_between(t1, Clock::now());
-    p->bytes = p->scene.triangle_accel_bytes() + p->scene.triangle_count() * 160 + p->scene.spheres.size() * 64 + 4096;
+    // What the scene cache counts against its budget: geometry, its acceleration structure and
+    // the decoded texels (a textured model's largest part).
+    size_t texel_bytes = 0;
+    for (const auto& img : p->scene.images) texel_bytes += img->rgba.size();
+    p->bytes = p->scene.triangle_accel_bytes() + p->scene.triangle_count() * 160 + p->scene.spheres.size() * 64 + texel_bytes + 4096;
     return p;
 }
 
@@ -174,7 +179,7 @@ JobOutcome write_render(const FinishedRender& done, const RunOptions& opt, const
     const RenderJob& job = done.job;
     const RenderResult& result = done.result;
     const RenderStats& st = result.stats;
-    Metadata meta = {{"tessera:scene", job.scene}, {"tessera:settings", to_json(job).dump()},
+    Metadata meta = {{"tessera:scene", job.scene}, {"tessera:settings", json_text(to_json(job))},
                      {"tessera:samples", std::to_string(st.samples)},
                      {"tessera:render_seconds", std::to_string(st.render_seconds)}};
     if (!opt.job_id.empty()) meta.insert(meta.begin(), {"tessera:job", opt.job_id});
@@ -232,7 +237,7 @@ JobOutcome write_render(const FinishedRender& done, const RunOptions& opt, const
     rep.timings = {done.load_s, done.build_s, st.render_seconds, write_s, done.before_write_s + write_s};
     JobOutcome outcome;
     outcome.report = to_json(rep);
-    write_text(out.report_json, outcome.report.dump(2));
+    write_text(out.report_json, json_text(outcome.report, 2));
     outcome.summary = status_summary(rep);
     outcome.render = std::move(rep);
     return outcome;

@@ -18,9 +18,13 @@ ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 
 echo "== fuzzers (${fuzz_seconds}s each)"
 bash scripts/build.sh fuzz
-for target in collada gltf; do
+# Each loader on its broken files, and the real server's request handling on whole requests
+# (tests/corpus/http); a crash, a sanitizer report or a connection that never ends fails.
+for target in collada gltf requests; do
+  seeds="tests/corpus/$target"
+  [ "$target" = requests ] && seeds=tests/corpus/http
   mkdir -p "build/fuzz/corpus-$target"
-  ./build/fuzz/tests/fuzz/fuzz_$target -max_total_time="$fuzz_seconds" -rss_limit_mb=2048 -max_len=65536 \
-    "build/fuzz/corpus-$target" "tests/corpus/$target" 2>&1 | tail -n 3
+  ./build/fuzz/tests/fuzz/fuzz_$target -max_total_time="$fuzz_seconds" -timeout=60 -rss_limit_mb=2048 -max_len=65536 \
+    "build/fuzz/corpus-$target" "$seeds" 2>&1 | tail -n 3
 done
 echo "all tests passed"

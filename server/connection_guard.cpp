@@ -58,8 +58,7 @@ struct ConnectionGuard::Connection {
     std::atomic<int64_t> deadline_ns{0};
     std::atomic<int> phase{kHead};
     bool cut = false;
-    bool close_after = false;  // only its own thread touches these two
-    bool drained = false;
+    bool close_after = false;  // only its own thread touches this
 };
 
 namespace {
@@ -228,20 +227,14 @@ void ConnectionGuard::close_after_response() {
     if (t_connection) t_connection->close_after = true;
 }
 
-bool ConnectionGuard::draining() const { return t_connection && t_connection->drained; }
+bool ConnectionGuard::closing() const { return t_connection && t_connection->close_after; }
 
 void ConnectionGuard::response_sent() {
-    if (t_connection && t_connection->close_after) {
-        // End our side after the answer; whatever the client still sends is read and dropped
-        // by httplib until it closes, so the client sees the answer rather than a reset.
-        ::shutdown(t_connection->fd, SHUT_WR);
-        t_connection->drained = true;
-        set_deadline(1.0, kHead);
-        return;
-    }
-    // httplib waits up to the keep-alive time for the next request's first byte; its headers
-    // then have the header timeout.
-    set_deadline(limits_.keep_alive_s + limits_.header_timeout_s, kHead);
+    // What is left of a refused body is drained for a moment after the answer; otherwise
+    // httplib waits up to the keep-alive time for the next request's first byte, and its
+    // headers then have the header timeout.
+    if (t_connection && t_connection->close_after) set_deadline(2.0, kHead);
+    else set_deadline(limits_.keep_alive_s + limits_.header_timeout_s, kHead);
 }
 
 void ConnectionGuard::close_idle() {
@@ -282,6 +275,29 @@ void ConnectionGuard::refuse(int fd) {
     const std::string peer = peer_of(fd);
     timeval tv{0, 200'000};
     setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+    // A liveness or readiness probe is answered even here, so that a full server is not taken
+    // for a dead one: its request line, if it has arrived (briefly waited for, not at all while
+    // many wait).
+    std::string answer;
+    if (probe_) {
+        char head[256];
+        pollfd p{fd, POLLIN, 0};
+        if (::poll(&p, 1, t_refuse_fast ? 0 : 100) > 0) {
+            const ssize_t n = ::recv(fd, head, sizeof head - 1, MSG_PEEK | MSG_DONTWAIT);
+            const std::string line(head, size_t(std::max<ssize_t>(n, 0)));
+            for (const char* path : {"/healthz", "/readyz"})
+                if (line.rfind(std::string("GET ") + path + " ", 0) == 0) answer = probe_(path);
+        }
+    }
+    if (!answer.empty()) {
+        --refused_;
+        (void)!::send(fd, answer.data(), answer.size(), MSG_NOSIGNAL);
+        ::shutdown(fd, SHUT_WR);
+        char sink[1024];
+        while (::recv(fd, sink, sizeof sink, MSG_DONTWAIT) > 0) {}
+        ::close(fd);
+        return;
+    }
     (void)!::send(fd, response.data(), response.size(), MSG_NOSIGNAL);
     ::shutdown(fd, SHUT_WR);
     char sink[4096];

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -53,8 +54,10 @@ public:
     void response_sent();
     // The connection ends after this response: its request's body was not read.
     void close_after_response();
-    // After such a response: what httplib still reads is the unread body, not requests.
-    bool draining() const;
+    bool closing() const;
+    // Probes still get their answer on a connection past the bound: given a GET path, the whole
+    // HTTP response for it, or "" (then the 503).
+    void set_probe(std::function<std::string(const std::string& path)> probe) { probe_ = std::move(probe); }
 
     // On stop: close the connections that wait for a request, so that stop does not wait out
     // their keep-alive; requests in progress finish.
@@ -82,6 +85,7 @@ private:
     std::atomic<uint64_t> timed_out_{0};
     std::atomic<bool> stopping_{false};
     std::thread watchdog_;
+    std::function<std::string(const std::string&)> probe_;
 };
 
 }  // namespace tessera::server

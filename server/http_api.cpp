@@ -3,14 +3,17 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <optional>
 #include <regex>
+#include <type_traits>
 #include <utility>
 #include <vector>
 #include <sstream>
@@ -20,11 +23,14 @@
 #include <spdlog/spdlog.h>
 
 #include "api/job_schema.h"
+#include "api/json_text.h"
 #include "engine/io/image_io.h"
+#include "server/connection_stream.h"
 #include "server/problem.h"
 
 namespace tessera::server {
 using nlohmann::json;
+using api::json_text;
 
 namespace {
 
@@ -32,16 +38,17 @@ thread_local std::chrono::steady_clock::time_point request_start;
 
 void send_json(httplib::Response& res, int status, const json& body) {
     res.status = status;
-    res.set_content(body.dump(), "application/json");
+    res.set_content(json_text(body), "application/json");
 }
 
 void send_problem(httplib::Response& res, const Problem& p) {
     json body = {{"type", "/problems/" + p.slug}, {"title", p.title}, {"status", p.status}, {"detail", p.what()}};
     if (p.field) body["field"] = *p.field;
     if (!p.location.empty()) body["location"] = p.location;
+    if (!p.error_id.empty()) body["error_id"] = p.error_id;
     if (p.retry_after > 0) res.set_header("Retry-After", std::to_string(p.retry_after));
     res.status = p.status;
-    res.set_content(body.dump(), "application/problem+json");
+    res.set_content(json_text(body), "application/problem+json");
 }
 
 std::string read_file(const std::string& path) {
@@ -132,38 +139,108 @@ std::string scene_format(const CatalogEntry& e) {
     return ext == ".dae" ? "dae" : ext == ".glb" ? "glb" : "gltf";
 }
 
-json parse_body(const httplib::Request& req) {
+json parse_body(const httplib::Request& req, int max_depth) {
     if (!is_json_media_type(req.get_header_value("Content-Type")))
         throw Problem(415, "unsupported-media-type", "Unsupported media type",
                       "send the job with Content-Type: application/json (curl: -H 'Content-Type: application/json')");
-    json body = json::parse(req.body, nullptr, false);
-    if (body.is_discarded())
-        throw Problem(400, "malformed-json", "Malformed JSON", "the request body is not valid JSON").with_field("");
-    return body;
+    std::optional<json> body;
+    try {
+        body = api::parse_json(req.body, max_depth);
+    } catch (const api::JsonTooDeep& e) {
+        throw Problem(400, "json-too-deep", "JSON nested too deeply", std::string(e.what()) + " (tessera serve --max-json-depth)").with_field("");
+    }
+    if (!body) throw Problem(400, "malformed-json", "Malformed JSON", "the request body is not valid JSON").with_field("");
+    return std::move(*body);
 }
 
 }  // namespace
 
-// httplib's own processing of an accepted socket, a private virtual of httplib::Server, called
-// by its exported symbol (not virtually) from the override below: the library has no other
-// hook between accept and the first read, where a connection's deadline has to start. The
-// symbol is resolved at link time against Debian's libcpp-httplib 0.11.
-bool httplib_process_and_close_socket(httplib::Server* server, int sock) __asm__("_ZN7httplib6Server24process_and_close_socketEi");
-
 namespace {
 
+// The stream of the connection this thread serves: the error handler asks it which budget a
+// failed read broke.
+thread_local ConnectionStream* t_stream = nullptr;
+
+// httplib's server with its connection loop replaced: the connection keeps one stream for all
+// its requests (pipelined requests are answered in order, httplib 0.11 drops them), every
+// request's head and body are read against budgets, and the guard watches each phase.
 class GuardedServer final : public httplib::Server {
 public:
-    explicit GuardedServer(ConnectionGuard& guard) : guard_(guard) {}
+    using BodyBudget = std::function<void(httplib::Request&, ConnectionStream&)>;
+    GuardedServer(ConnectionGuard& guard, uint64_t max_head_bytes, BodyBudget body_budget)
+        : guard_(guard), max_head_bytes_(max_head_bytes), body_budget_(std::move(body_budget)) {}
 
 private:
     bool process_and_close_socket(int sock) override {
-        return guard_.run(sock, [](void* server, int fd) {
-            return httplib_process_and_close_socket(static_cast<httplib::Server*>(server), fd);
-        }, static_cast<httplib::Server*>(this));
+        return guard_.run(sock, [](void* self, int fd) { return static_cast<GuardedServer*>(self)->serve_connection(fd); }, this);
     }
+
+    bool serve_connection(int fd) {
+        ConnectionStream strm(fd, double(read_timeout_sec_) + read_timeout_usec_ * 1e-6,
+                              double(write_timeout_sec_) + write_timeout_usec_ * 1e-6);
+        t_stream = &strm;
+        bool ok = false;
+        for (size_t n = 0; n < keep_alive_max_count_ && svr_sock_ != INVALID_SOCKET; ++n) {
+            if (!strm.wait_for_request(double(keep_alive_timeout_sec_))) break;
+            strm.begin_request(max_head_bytes_);
+            bool closed = false;
+            try {
+                ok = process_request(strm, n + 1 == keep_alive_max_count_, closed,
+                                     [&](httplib::Request& req) { body_budget_(req, strm); });
+            } catch (const std::exception& e) {
+                // A hook outside the route handlers threw after its answer began: the connection
+                // ends, the process goes on.
+                spdlog::error("connection: {}", loggable(e.what(), 400));
+                ok = false;
+            } catch (...) {
+                ok = false;
+            }
+            if (!ok || closed || guard_.closing()) break;
+        }
+        if (guard_.closing()) {
+            // The answer is out; what the client still sends of a body that was not read is
+            // dropped until it closes, so that it reads the answer rather than a reset.
+            ::shutdown(fd, SHUT_WR);
+            strm.drain(1.0);
+        }
+        t_stream = nullptr;
+        ::shutdown(fd, SHUT_RDWR);
+        ::close(fd);
+        return ok;
+    }
+
     ConnectionGuard& guard_;
+    uint64_t max_head_bytes_;
+    BodyBudget body_budget_;
 };
+
+// An error id that a 500's body and its log line share.
+std::string new_error_id() {
+    static std::atomic<uint64_t> counter{0};
+    static const uint64_t start = uint64_t(std::chrono::system_clock::now().time_since_epoch().count());
+    return fmt::format("{:016x}", (start * 0x9E3779B97F4A7C15ull) ^ (++counter * 0xBF58476D1CE4E5B9ull));
+}
+
+Problem internal_problem(std::string_view what) {
+    const std::string id = new_error_id();
+    spdlog::error("internal error {}: {}", id, loggable(what, 400));
+    return Problem(500, "internal", "Internal server error", "an internal error; the server's log has it as error " + id)
+        .with_error_id(id);
+}
+
+// Runs one of httplib's hooks so that nothing it throws leaves it: an exception is logged with
+// an error id and, where the hook answers, becomes a 500 problem.
+template <typename F>
+auto contained(const char* hook, F&& f) noexcept -> decltype(f()) {
+    try {
+        return f();
+    } catch (const std::exception& e) {
+        internal_problem(std::string(hook) + ": " + e.what());
+    } catch (...) {
+        internal_problem(std::string(hook) + ": unknown exception");
+    }
+    if constexpr (!std::is_void_v<decltype(f())>) return decltype(f()){};
+}
 
 }  // namespace
 
@@ -181,12 +258,35 @@ uint64_t content_length(const httplib::Request& req) {
     return std::stoull(v);
 }
 
+bool is_form_type(std::string type) {
+    for (char& c : type) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return type.rfind("application/x-www-form-urlencoded", 0) == 0;
+}
+
+bool is_chunked(const httplib::Request& req) {
+    std::string te = req.get_header_value("Transfer-Encoding");
+    for (char& c : te) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return te == "chunked";
+}
+
 }  // namespace
 
 HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_path)
     : service_(service), limits_(limits), openapi_path_(std::move(openapi_path)),
-      guard_(std::make_unique<ConnectionGuard>(limits_.connections)), server_(std::make_unique<GuardedServer>(*guard_)) {
+      guard_(std::make_unique<ConnectionGuard>(limits_.connections)),
+      server_(std::make_unique<GuardedServer>(*guard_, limits_.max_head_bytes, [this](httplib::Request& req, ConnectionStream& strm) {
+          // No route takes a form: httplib would parse a body sent as one (curl --data-binary's
+          // default type) and refuse it past 8 KiB. Uploads are bytes, jobs are JSON.
+          if (is_form_type(req.get_header_value("Content-Type"))) req.headers.erase("Content-Type");
+          // What the body may take, set before anything of it is read. Chunked framing costs
+          // bytes of its own: an eighth more than the route's bound (and a little) before the
+          // decoded size is checked against the bound itself.
+          const bool chunked = req.has_header("Transfer-Encoding");
+          const uint64_t limit = body_limit(req);
+          strm.begin_body(chunked ? limit + limit / 8 + 4096 : content_length(req), chunked || req.has_header("Content-Length"));
+      })) {
     server_->new_task_queue = [this] { return guard_->new_task_queue(); };
+    guard_->set_probe([this](const std::string& path) { return probe_answer(path); });
     server_->set_payload_max_length(std::max(limits_.max_upload, limits_.max_job_body));
     // Small JSON responses must not wait for Nagle's algorithm and the client's delayed ACK
     // (measured: 43 ms per status poll without this, 0.1 ms of work).
@@ -196,67 +296,91 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
     server_->set_keep_alive_max_count(10000);
     server_->set_keep_alive_timeout(std::max<time_t>(1, time_t(limits_.connections.keep_alive_s)));
     server_->set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-        // The rest of a refused body that httplib parsed as a request: never routed.
-        if (guard_->draining()) {
-            res.status = 400;
-            return httplib::Server::HandlerResponse::Handled;
-        }
-        request_start = std::chrono::steady_clock::now();
-        // A chunked body has no length up front: it gets its route's whole bound.
-        guard_->request_head_read(req.has_header("Transfer-Encoding") ? body_limit(req) : content_length(req));
-        return refuse_before_body(req, res) ? httplib::Server::HandlerResponse::Handled : httplib::Server::HandlerResponse::Unhandled;
+        return contained("pre-routing", [&] {
+            request_start = std::chrono::steady_clock::now();
+            // A chunked body has no length up front: it gets its route's whole bound.
+            guard_->request_head_read(req.has_header("Transfer-Encoding") ? body_limit(req) : content_length(req));
+            return refuse_before_body(req, res) ? httplib::Server::HandlerResponse::Handled : httplib::Server::HandlerResponse::Unhandled;
+        });
     });
     // curl sends a large body only after "100 Continue": the same refusals, before it sends it.
     server_->set_expect_100_continue_handler([this](const httplib::Request& req, httplib::Response& res) {
-        return refuse_before_body(req, res) ? res.status : 100;
+        return contained("expect-100", [&] { return refuse_before_body(req, res) ? res.status : 100; });
     });
     server_->set_post_routing_handler([this](const httplib::Request&, httplib::Response& res) {
-        if (res.get_header_value("Content-Type") == "text/event-stream") guard_->response_streaming(limits_.event_keep_alive_s);
-        else guard_->response_started(res.body.size());
+        contained("post-routing", [&] {
+            if (res.get_header_value("Content-Type") == "text/event-stream") guard_->response_streaming(limits_.event_keep_alive_s);
+            else guard_->response_started(res.body.size());
+        });
     });
     server_->set_logger([this](const httplib::Request& req, const httplib::Response& res) {
-        if (guard_->draining()) return;  // the rest of a refused body parsed as a request: not one
-        // A request httplib refused before routing (a broken request line, a cut connection)
-        // has no start time.
-        const bool timed = request_start != std::chrono::steady_clock::time_point{};
-        const double ms = timed ? std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - request_start).count() : 0;
-        spdlog::info("{} {} {} {}", loggable(req.method, 16), loggable(req.path, 512), res.status, timed ? fmt::format("{:.2f} ms", ms) : "-");
-        request_start = {};
-        guard_->response_sent();
-        std::lock_guard<std::mutex> lock(status_mutex_);
-        ++responses_by_status_[res.status];
+        contained("logger", [&] {
+            // A request httplib refused before routing (a broken request line, a cut connection)
+            // has no start time.
+            const bool timed = request_start != std::chrono::steady_clock::time_point{};
+            const double ms = timed ? std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - request_start).count() : 0;
+            spdlog::info("{} {} {} {}", loggable(req.method, 16), loggable(req.path, 512), res.status, timed ? fmt::format("{:.2f} ms", ms) : "-");
+            request_start = {};
+            guard_->response_sent();
+            std::lock_guard<std::mutex> lock(status_mutex_);
+            ++responses_by_status_[res.status];
+        });
     });
-    // Errors httplib raises itself (unknown route, body too large) get a problem body too.
-    server_->set_error_handler([](const httplib::Request& req, httplib::Response& res) {
-        if (!res.body.empty()) return;
-        if (res.status == 404) {
-            // A route that exists under other methods: 405 with the ones it takes (RFC 9110).
-            const std::string allow = allowed_methods(req.path);
-            if (!allow.empty()) {
-                res.set_header("Allow", allow);
-                send_problem(res, Problem(405, "method-not-allowed", "Method not allowed",
-                                          req.path + " takes " + allow + ", not " + loggable(req.method, 16)));
+    // Errors httplib raises itself (unknown route, body too large, a broken head, a read past a
+    // budget) get a problem body too.
+    server_->set_error_handler([this](const httplib::Request& req, httplib::Response& res) {
+        contained("error handler", [&] {
+            if (!res.body.empty()) return;
+            const auto overrun = t_stream ? t_stream->overrun() : ConnectionStream::Overrun::none;
+            if (overrun != ConnectionStream::Overrun::none) {
+                // The rest of what the client sends is not read: the connection ends.
+                res.set_header("Connection", "close");
+                guard_->close_after_response();
+                if (overrun == ConnectionStream::Overrun::head) {
+                    send_problem(res, Problem(431, "header-fields-too-large", "Request header fields too large",
+                                              "a request's line and headers may take at most " + std::to_string(limits_.max_head_bytes) +
+                                                  " bytes (tessera serve --max-header-bytes)"));
+                } else {
+                    send_problem(res, Problem(413, "payload-too-large", "Payload too large",
+                                              "a request body for " + loggable(req.path, 200) + " may be at most " + std::to_string(body_limit(req)) +
+                                                  " bytes" + (is_chunked(req) ? " (chunked framing included, an eighth more)" : "")));
+                }
                 return;
             }
-        }
-        const char* title = res.status == 404 ? "Not found" : res.status == 413 ? "Payload too large" : "Request error";
-        send_problem(res, Problem(res.status, res.status == 404 ? "not-found" : "request-error", title,
-                                  res.status == 404 ? "no route for " + req.method + " " + req.path : "the request was refused with status " + std::to_string(res.status)));
+            if (res.status == 404) {
+                // A route that exists under other methods: 405 with the ones it takes (RFC 9110).
+                const std::string allow = allowed_methods(req.path);
+                const std::string method = req.method == "HEAD" ? "GET" : req.method;
+                if (!allow.empty() && (", " + allow + ",").find(", " + method + ",") == std::string::npos) {
+                    res.set_header("Allow", allow);
+                    send_problem(res, Problem(405, "method-not-allowed", "Method not allowed",
+                                              loggable(req.path, 200) + " takes " + allow + ", not " + loggable(req.method, 16)));
+                    return;
+                }
+            }
+            const char* title = res.status == 404 ? "Not found" : res.status == 413 ? "Payload too large" : res.status == 414 ? "URI too long" : "Request error";
+            send_problem(res, Problem(res.status, res.status == 404 ? "not-found" : "request-error", title,
+                                      res.status == 404 ? "no route for " + loggable(req.method, 16) + " " + loggable(req.path, 200)
+                                                        : "the request was refused with status " + std::to_string(res.status)));
+        });
     });
     server_->set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
-        try {
-            std::rethrow_exception(ep);
-        } catch (const Problem& p) {
-            send_problem(res, p);
-        } catch (const StoreError& e) {
-            spdlog::error("job store: {}", e.what());
-            send_problem(res, store_problem(e));
-        } catch (const std::exception& e) {
-            spdlog::error("internal error: {}", e.what());
-            send_problem(res, Problem(500, "internal", "Internal server error", e.what()));
-        } catch (...) {
-            send_problem(res, Problem(500, "internal", "Internal server error", "unknown exception"));
-        }
+        contained("exception handler", [&] {
+            try {
+                std::rethrow_exception(ep);
+            } catch (const Problem& p) {
+                send_problem(res, p);
+            } catch (const StoreError& e) {
+                spdlog::error("job store: {}", loggable(e.what(), 400));
+                send_problem(res, store_problem(e));
+            } catch (const std::bad_alloc&) {
+                send_problem(res, internal_problem("out of memory"));
+            } catch (const std::exception& e) {
+                send_problem(res, internal_problem(e.what()));
+            } catch (...) {
+                send_problem(res, internal_problem("unknown exception"));
+            }
+        });
     });
     routes();
 }
@@ -302,6 +426,27 @@ void HttpApi::stop() {
 }
 bool HttpApi::ready() const { return service_.accepting(); }
 
+std::string HttpApi::unready_reason() { return service_.unready_reason(); }
+
+// The same answers as the routes', written whole: the refusing thread has no httplib request.
+std::string HttpApi::probe_answer(const std::string& path) {
+    int status = 200;
+    std::string body;
+    if (path == "/healthz") {
+        body = R"({"status":"ok"})";
+    } else if (path == "/readyz") {
+        const std::string why = unready_reason();
+        status = why.empty() ? 200 : 503;
+        body = why.empty() ? R"({"status":"ready"})"
+                           : json_text({{"type", "/problems/not-ready"}, {"title", "Not ready"}, {"status", 503}, {"detail", why}});
+    } else {
+        return "";
+    }
+    return fmt::format("HTTP/1.1 {} {}\r\nContent-Type: {}\r\nConnection: close\r\nContent-Length: {}\r\n\r\n{}", status,
+                       status == 200 ? "OK" : "Service Unavailable", status == 200 ? "application/json" : "application/problem+json",
+                       body.size(), body);
+}
+
 size_t HttpApi::body_limit(const httplib::Request& req) const {
     if (req.method != "POST") return 0;
     if (req.path == "/v1/jobs" || req.path == "/v1/comparisons") return limits_.max_job_body;
@@ -315,8 +460,12 @@ size_t HttpApi::body_limit(const httplib::Request& req) const {
 // answering). The unread body must not be parsed as the next request, so the connection ends.
 bool HttpApi::refuse_before_body(const httplib::Request& req, httplib::Response& res) {
     const std::string cl = req.get_header_value("Content-Length");
-    const bool chunked = req.has_header("Transfer-Encoding");
-    const bool has_body = chunked || (req.has_header("Content-Length") && cl != "0");
+    const bool has_te = req.has_header("Transfer-Encoding");
+    const bool has_body = has_te || (req.has_header("Content-Length") && cl != "0");
+    const std::string allow = allowed_methods(req.path);
+    // HEAD is answered wherever GET is (httplib runs the GET route).
+    const std::string method = req.method == "HEAD" ? "GET" : req.method;
+    const bool method_known = (", " + allow + ",").find(", " + method + ",") != std::string::npos;
     std::optional<Problem> refusal;
     std::string authenticate;
     if (limits_.auth.enabled() && needs_token(req.path) && !limits_.auth.allows(req.get_header_value("Authorization"))) {
@@ -328,22 +477,25 @@ bool HttpApi::refuse_before_body(const httplib::Request& req, httplib::Response&
     } else if (!cl.empty() && (cl.size() > 19 || cl.find_first_not_of("0123456789") != std::string::npos)) {
         refusal = Problem(400, "invalid-content-length", "Invalid Content-Length",
                           "Content-Length must be a non-negative whole number, not \"" + loggable(cl, 40) + "\"").with_field("");
+    } else if (has_te && (!is_chunked(req) || req.has_header("Content-Length") || req.get_header_value_count("Transfer-Encoding") > 1)) {
+        // RFC 9112 6.1: a server that cannot frame a body must refuse it; both framings at once
+        // is how requests are smuggled past a proxy.
+        refusal = Problem(400, "invalid-transfer-encoding", "Invalid Transfer-Encoding",
+                          "a request body is framed by Content-Length or by Transfer-Encoding: chunked alone, not by \"" +
+                              loggable(req.get_header_value("Transfer-Encoding"), 40) + "\"" +
+                              (req.has_header("Content-Length") ? " with a Content-Length" : "")).with_field("");
+    } else if (allow.empty()) {
+        refusal = Problem(404, "not-found", "Not found", "no route for " + loggable(req.method, 16) + " " + loggable(req.path, 200));
+    } else if (!method_known) {
+        // Before any body is read, with or without one (a PUT without a body is as wrong).
+        res.set_header("Allow", allow);
+        refusal = Problem(405, "method-not-allowed", "Method not allowed",
+                          loggable(req.path, 200) + " takes " + allow + ", not " + loggable(req.method, 16));
     } else if (has_body && body_limit(req) == 0) {
-        // What routing would answer, but without reading the body first.
-        const std::string allow = allowed_methods(req.path);
-        const bool method_known = (", " + allow + ",").find(", " + req.method + ",") != std::string::npos;
-        if (allow.empty()) {
-            refusal = Problem(404, "not-found", "Not found", "no route for " + loggable(req.method, 16) + " " + loggable(req.path, 200));
-        } else if (!method_known) {
-            res.set_header("Allow", allow);
-            refusal = Problem(405, "method-not-allowed", "Method not allowed",
-                              req.path + " takes " + allow + ", not " + loggable(req.method, 16));
-        } else {
-            refusal = Problem(413, "payload-too-large", "Payload too large", loggable(req.method, 16) + " " + loggable(req.path, 200) + " takes no request body");
-        }
+        refusal = Problem(413, "payload-too-large", "Payload too large", loggable(req.method, 16) + " " + loggable(req.path, 200) + " takes no request body");
     } else if (content_length(req) > body_limit(req)) {
         refusal = Problem(413, "payload-too-large", "Payload too large",
-                          "a request body for " + req.path + " may be at most " + std::to_string(body_limit(req)) + " bytes");
+                          "a request body for " + loggable(req.path, 200) + " may be at most " + std::to_string(body_limit(req)) + " bytes");
     }
     if (!refusal) return false;
     send_problem(res, *refusal);
@@ -361,7 +513,8 @@ void HttpApi::routes() {
     event_routes();
     s.Get("/healthz", [](const httplib::Request&, httplib::Response& res) { send_json(res, 200, {{"status", "ok"}}); });
     s.Get("/readyz", [this](const httplib::Request&, httplib::Response& res) {
-        if (!ready()) throw Problem(503, "not-ready", "Not ready", "the server is shutting down").with_retry_after(5);
+        if (const std::string why = unready_reason(); !why.empty())
+            throw Problem(503, "not-ready", "Not ready", why).with_retry_after(5);
         send_json(res, 200, {{"status", "ready"}});
     });
     s.Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
@@ -379,7 +532,7 @@ void HttpApi::routes() {
             if (req.body.size() > limits_.max_job_body)
                 throw Problem(413, "payload-too-large", "Payload too large",
                               "a request body may be at most " + std::to_string(limits_.max_job_body) + " bytes");
-            const json status = (service_.*submit)(parse_body(req));
+            const json status = (service_.*submit)(parse_body(req, limits_.max_json_depth));
             res.set_header("Location", status["links"]["self"].get<std::string>());
             send_json(res, 202, status);
         };
@@ -402,7 +555,7 @@ void HttpApi::routes() {
         res.status = 204;
     });
     s.Get("/v1/job-schema", [this](const httplib::Request&, httplib::Response& res) {
-        res.set_content(api::job_schema(service_.config().job_limits).dump(), "application/json");
+        res.set_content(json_text(api::job_schema(service_.config().job_limits)), "application/json");
     });
     s.Get(R"(/v1/jobs/([^/]+)/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg))", [this](const httplib::Request& req, httplib::Response& res) {
         const std::string id = req.matches[1];
@@ -466,10 +619,21 @@ void HttpApi::routes() {
 
 std::string HttpApi::metrics_text() {
     std::ostringstream m;
-    m << "# HELP tessera_jobs Jobs by state.\n# TYPE tessera_jobs gauge\n";
-    for (const auto& [state, n] : service_.counts_by_state()) m << "tessera_jobs{state=\"" << state << "\"} " << n << "\n";
-    m << "# HELP tessera_queue_depth Jobs waiting to run.\n# TYPE tessera_queue_depth gauge\ntessera_queue_depth "
-      << service_.queue_depth() << "\n";
+    // The store's figures when it answers; without it (Redis away) the rest still do, and
+    // tessera_store_up says which.
+    bool store_up = true;
+    try {
+        const auto counts = service_.counts_by_state();
+        const size_t depth = service_.queue_depth();
+        m << "# HELP tessera_jobs Jobs by state.\n# TYPE tessera_jobs gauge\n";
+        for (const auto& [state, n] : counts) m << "tessera_jobs{state=\"" << state << "\"} " << n << "\n";
+        m << "# HELP tessera_queue_depth Jobs waiting to run.\n# TYPE tessera_queue_depth gauge\ntessera_queue_depth " << depth << "\n";
+    } catch (const StoreError& e) {
+        store_up = false;
+        spdlog::warn("metrics without the job store's figures: {}", loggable(e.what(), 200));
+    }
+    m << "# HELP tessera_store_up Whether the job store answered (0: its figures are missing).\n# TYPE tessera_store_up gauge\n"
+      << "tessera_store_up " << (store_up ? 1 : 0) << "\n";
     m << "# HELP tessera_rays_total Rays traced by finished jobs.\n# TYPE tessera_rays_total counter\ntessera_rays_total "
       << service_.metrics().rays.load() << "\n";
     m << "# HELP tessera_render_seconds_total Render time of finished jobs.\n# TYPE tessera_render_seconds_total counter\n"
@@ -496,14 +660,14 @@ std::string HttpApi::metrics_text() {
                 m << "# HELP tessera_node_" << key << "_total " << help << "\n# TYPE tessera_node_" << key << "_total counter\n";
                 for (const auto& [name, text] : nodes) {
                     const json j = json::parse(text, nullptr, false);
-                    if (j.is_object() && j.contains(key)) m << "tessera_node_" << key << "_total{node=\"" << name << "\"} " << j[key].dump() << "\n";
+                    if (j.is_object() && j.contains(key)) m << "tessera_node_" << key << "_total{node=\"" << name << "\"} " << json_text(j[key]) << "\n";
                 }
             }
             m << "# HELP tessera_node_last_seen_seconds Unix time of a render node's last heartbeat.\n"
               << "# TYPE tessera_node_last_seen_seconds gauge\n";
             for (const auto& [name, text] : nodes) {
                 const json j = json::parse(text, nullptr, false);
-                if (j.is_object() && j.contains("last_seen")) m << "tessera_node_last_seen_seconds{node=\"" << name << "\"} " << j["last_seen"].dump() << "\n";
+                if (j.is_object() && j.contains("last_seen")) m << "tessera_node_last_seen_seconds{node=\"" << name << "\"} " << json_text(j["last_seen"]) << "\n";
             }
         }
     } catch (const std::exception&) {

@@ -22,6 +22,8 @@ namespace tessera::server {
 struct HttpLimits {
     size_t max_job_body = 1 << 20;         // bytes of a job's JSON
     size_t max_upload = 256ull << 20;      // bytes of an uploaded scene
+    size_t max_head_bytes = 64 << 10;      // a request's line and headers
+    int max_json_depth = 64;               // nested arrays and objects of a job's JSON
     ConnectionLimits connections;          // bound, deadlines and spare threads (connection_guard.h)
     // Who may use it: with tokens, every /v1 route (and /metrics unless metrics_open) needs
     // one; /healthz and /readyz stay open.
@@ -61,6 +63,11 @@ private:
     size_t body_limit(const httplib::Request& req) const;
     // Answers a request from its head alone when it must be refused (true): no body is read.
     bool refuse_before_body(const httplib::Request& req, httplib::Response& res);
+    // Why no job can be accepted now (shutting down, the store or Redis unreachable), or "".
+    std::string unready_reason();
+    // /healthz and /readyz answered on a connection past the --max-connections bound: the
+    // whole HTTP response, or "" for any other path.
+    std::string probe_answer(const std::string& path);
 
     JobService& service_;
     HttpLimits limits_;

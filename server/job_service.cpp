@@ -11,13 +11,16 @@
 
 #include <spdlog/spdlog.h>
 
+#include "api/json_text.h"
 #include "api/job_runner.h"
 #include "engine/scene/procedural.h"
 #include "server/problem.h"
 #include "server/sqlite_job_store.h"
 #include "server/film_codec.h"
+#include "server/memory_return.h"
 
 namespace tessera::server {
+using api::json_text;
 namespace fs = std::filesystem;
 using nlohmann::json;
 
@@ -63,7 +66,7 @@ std::string writable_data_dir(const std::string& dir) {
 JobService::JobService(ServiceConfig config)
     : config_(std::move(config)),
       catalog_(config_.project_scenes, config_.scene_dirs, (fs::path(writable_data_dir(config_.data_dir)) / "uploads").string()),
-      scenes_("", config_.node.scene_cache_mb << 20, config_.load_limits) {
+      scenes_("", config_.node.scene_cache_mb << 20, config_.load_limits, config_.node.scene_cache_idle_s) {
     if (!config_.redis_url.empty()) {
         // A farm: no queue in this process; render nodes (maybe one here) take the tiles.
         const RedisUrl url = RedisUrl::parse(config_.redis_url);
@@ -203,7 +206,7 @@ json JobService::submit(const json& body) {
             throw Problem(409, "not-finished", "The reference job has not succeeded", "job " + job.reference + " is " + to_string(ref->state)).with_field("/reference");
         const json rs = json::parse(ref->spec_json);
         if (rs["width"] != job.render.width || rs["height"] != job.render.height)
-            throw Problem(400, "invalid-field", "Invalid job", "the reference is " + rs["width"].dump() + "×" + rs["height"].dump() +
+            throw Problem(400, "invalid-field", "Invalid job", "the reference is " + json_text(rs["width"]) + "×" + json_text(rs["height"]) +
                                                                   ", the job " + std::to_string(job.render.width) + "×" + std::to_string(job.render.height)).with_field("/reference");
     }
     return enqueue(job);
@@ -213,7 +216,7 @@ json JobService::enqueue(const api::Job& job) {
     JobRecord rec;
     rec.id = new_id();
     rec.state = JobState::queued;
-    rec.spec_json = api::to_json(job).dump();  // the typed job, serialized once
+    rec.spec_json = json_text(api::to_json(job));  // the typed job, serialized once
     rec.priority = api::priority_of(job);
     rec.created_at = now_s();
     if (redis_store_) {
@@ -226,8 +229,10 @@ json JobService::enqueue(const api::Job& job) {
             if (const auto* rj = std::get_if<api::RenderJob>(&job); rj && !rj->environment.empty())
                 publish_environment(rec.id, rj->environment);
             store_->insert(rec);  // durable in Redis, and its first task queued, before it is acknowledged
+            store_wrote();
         } catch (const StoreError& e) {
             ++metrics_.store_errors;
+            store_refused(e.what());
             spdlog::error("job refused: {}", e.what());
             throw store_problem(e);
         }
@@ -238,8 +243,10 @@ json JobService::enqueue(const api::Job& job) {
                           "the queue holds " + std::to_string(queue_.size()) + " jobs, its limit").with_retry_after(10);
         try {
             store_->insert(rec);  // durable before it is acknowledged
+            store_wrote();
         } catch (const StoreError& e) {
             ++metrics_.store_errors;
+            store_refused(e.what());
             spdlog::error("job refused: {}", e.what());
             throw store_problem(e);
         }
@@ -488,7 +495,43 @@ void JobService::worker() {
             running_.erase(rec.id);
         }
         publish_state(rec.id);  // finished, failed, canceled, or queued again by a shutdown
+        running.reset();
+        release_free_memory();  // the job's film, images and a scene the cache did not keep
     }
+}
+
+void JobService::release_memory() {
+    scenes_.drop_idle();
+    if (node_) node_->drop_idle_scenes();
+    release_free_memory();
+}
+
+void JobService::store_refused(const std::string& why) {
+    std::lock_guard<std::mutex> lock(store_health_mutex_);
+    store_refused_at_ = std::chrono::steady_clock::now();
+    store_refusal_ = why;
+}
+
+void JobService::store_wrote() {
+    std::lock_guard<std::mutex> lock(store_health_mutex_);
+    store_refusal_.clear();
+}
+
+std::string JobService::unready_reason() {
+    if (!accepting_) return "the server is shutting down";
+    if (redis_store_) {
+        try {
+            store_->count(JobState::queued);
+        } catch (const StoreError& e) {
+            return std::string("Redis does not answer: ") + e.what();
+        }
+    }
+    std::lock_guard<std::mutex> lock(store_health_mutex_);
+    // A refused write counts for a while; then the next job tries the store again (a full disk
+    // may have been freed meanwhile), and a refusal starts the wait anew.
+    if (!store_refusal_.empty() && std::chrono::steady_clock::now() - store_refused_at_ < std::chrono::seconds(10))
+        return "the job store refused its last write (" + store_refusal_ + ")";
+    return "";
 }
 
 bool JobService::until_stored(const std::string& id, const char* what, const std::function<void()>& change) {
@@ -496,9 +539,11 @@ bool JobService::until_stored(const std::string& id, const char* what, const std
         try {
             change();
             if (attempt) spdlog::info("job {}: the store took '{}' after {} retries", id, what, attempt);
+            store_wrote();
             return true;
         } catch (const std::exception& e) {
             ++metrics_.store_errors;
+            store_refused(e.what());
             if (attempt == 0) spdlog::error("job {}: cannot record '{}': {}; retrying", id, what, e.what());
         }
         std::unique_lock<std::mutex> lock(mutex_);
@@ -591,7 +636,7 @@ void JobService::run(const JobRecord& rec, Running& running) {
         metrics_.rays += outcome.render->stats.rays();
         metrics_.render_micros += uint64_t(outcome.render->stats.render_seconds * 1e6);
     }
-    const std::string summary = outcome.summary.dump();
+    const std::string summary = json_text(outcome.summary);
     if (until_stored(rec.id, "succeeded", [&] { store_->finish(rec.id, JobState::succeeded, now_s(), "", summary); }))
         spdlog::info("job {} succeeded in {:.3f} s", rec.id,
                      outcome.render ? outcome.render->timings.total_s : 0.0);
@@ -615,7 +660,7 @@ void JobService::publish(const char* type, const json& status, const api::PassSu
     try {
         json data = {{"job", status}};
         if (pass) data["pass"] = api::to_json(*pass);
-        events_.publish(type, status.value("id", ""), data.dump());
+        events_.publish(type, status.value("id", ""), json_text(data));
     } catch (const std::exception& e) {
         spdlog::warn("events: no {} event: {}", type, e.what());
     }

@@ -6,6 +6,7 @@
 // fails with its reason, and a store that refuses a write (full disk, read-only file) is
 // retried until it takes it, while submissions get 507 or 503.
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <functional>
 #include <map>
@@ -87,10 +88,15 @@ public:
     // store (they run again after a restart). Blocks until the workers have stopped.
     void shutdown();
     bool accepting() const { return accepting_; }
+    // Why a new job would be refused now: shutting down, Redis away, or the store refusing
+    // writes (for 10 s after a refusal); "" when jobs are accepted. What /readyz answers.
+    std::string unready_reason();
     size_t queue_depth();
     std::map<std::string, size_t> counts_by_state();
     ServiceMetrics& metrics() { return metrics_; }
     const SceneCache& scene_cache() const { return scenes_; }
+    // Drops prepared scenes left idle and returns free memory to the system (every few seconds).
+    void release_memory();
     JobStore& store() { return *store_; }
     bool farm() const { return redis_store_ != nullptr; }
     // A farm's render nodes and their last heartbeat's metrics (JSON text); empty for one process.
@@ -145,6 +151,8 @@ private:
     // as soon as it listens is new to the watcher (none: Redis did not answer then).
     void watch_farm(std::optional<FarmLook> first);
     std::string job_dir(const std::string& id) const;
+    void store_refused(const std::string& why);
+    void store_wrote();
     std::string scene_source(const std::string& scene);
     void publish_scene(const std::string& id, const std::string& scene);
     void publish_environment(const std::string& id, const std::string& name);
@@ -163,6 +171,9 @@ private:
     std::set<QueueKey> queue_;
     std::map<std::string, std::shared_ptr<Running>> running_;
     std::atomic<bool> accepting_{true};
+    std::mutex store_health_mutex_;
+    std::chrono::steady_clock::time_point store_refused_at_;
+    std::string store_refusal_;  // the last refused write's reason, "" once a write succeeded
     bool stopping_ = false;
     std::vector<std::thread> workers_;
     JobEvents events_;

@@ -23,6 +23,10 @@ inline void add_node_options(CLI::App& app, NodeConfig& node) {
                    "least recently used go first")
         ->envname("TESSERA_SCENE_CACHE_MB")
         ->check(CLI::Range(int64_t{1}, int64_t{1} << 24));
+    app.add_option("--scene-cache-idle-s", node.scene_cache_idle_s,
+                   "a prepared scene unused this long is dropped, so that an idle server gives its memory back")
+        ->envname("TESSERA_SCENE_CACHE_IDLE_S")
+        ->check(CLI::Range(0.0, 1e7));
 }
 
 }  // namespace tessera::server

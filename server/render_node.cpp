@@ -12,6 +12,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "api/json_text.h"
 #include "api/job.h"
 #include "api/job_runner.h"
 #include "engine/camera/camera.h"
@@ -35,6 +36,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(ErrorSums, spp, est, rel, mse, mae, pixels, e
 }  // namespace tessera
 
 namespace tessera::server {
+using api::json_text;
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -219,7 +221,7 @@ struct RenderNode::Impl {
     explicit Impl(NodeConfig c)
         : cfg(std::move(c)),
           cache((fs::temp_directory_path() / ("tessera-node-" + std::to_string(::getpid()))).string(), cfg.scene_cache_mb << 20,
-                cfg.load_limits) {
+                cfg.load_limits, cfg.scene_cache_idle_s) {
         name = cfg.name;
         if (name.empty()) {
             char host[256] = {0};
@@ -477,7 +479,7 @@ struct RenderNode::Impl {
         cb.stop = &cancel;
         const api::JobOutcome out = api::run_job(job, opt, api::RunOutputs::in_directory(dir.string()), cb);
         if (out.stopped) return;
-        r.eval(kTransition, {}, {keys::prefix, t.job, "succeeded", "running", num(now_s()), "", out.summary.dump()});
+        r.eval(kTransition, {}, {keys::prefix, t.job, "succeeded", "running", num(now_s()), "", json_text(out.summary)});
     }
 
     // The state of a job's run as a tile needs it (see run_state).
@@ -555,7 +557,7 @@ struct RenderNode::Impl {
                                      timed_out ? "1" : "0", std::to_string(st.samples), std::to_string(st.camera_rays),
                                      std::to_string(st.shadow_rays), std::to_string(st.bounce_rays),
                                      std::to_string(st.traversal.nodes_visited), std::to_string(st.traversal.prim_tests),
-                                     std::to_string(st.nonfinite_samples), num(st.max_sample), sums.is_null() ? std::string() : sums.dump(),
+                                     std::to_string(st.nonfinite_samples), num(st.max_sample), sums.is_null() ? std::string() : json_text(sums),
                                      t.id, keys::group})
                                 .as_int();
         if (rc == 1) {
@@ -608,7 +610,7 @@ struct RenderNode::Impl {
         ++metrics.assemblies;
         if (!stop) {
             r.eval(kAdvance, {keys::job(t.job), keys::curve(t.job), t.stream},
-                   {t.job, std::to_string(t.pass), std::to_string(pass_target(s, plan, target)), point_json(pt).dump(), std::to_string(n)});
+                   {t.job, std::to_string(t.pass), std::to_string(pass_target(s, plan, target)), json_text(point_json(pt)), std::to_string(n)});
             return;
         }
         RenderResult result;
@@ -692,7 +694,7 @@ struct RenderNode::Impl {
         for (const auto& e : fs::directory_iterator(part)) fs::rename(e.path(), dir / e.path().filename());
         fs::remove_all(part);
         if (r.eval(kComplete, {keys::job(t.job), keys::curve(t.job)},
-                   {keys::prefix, t.job, std::to_string(t.pass), point_json(pt).dump(), num(now_s()), out.summary.dump()}).as_int() == 1)
+                   {keys::prefix, t.job, std::to_string(t.pass), json_text(point_json(pt)), num(now_s()), json_text(out.summary)}).as_int() == 1)
             spdlog::info("node {}: job {} succeeded ({} passes, {:.3f} s)", name, t.job, result.curve.points.size(), seconds);
     }
 
@@ -724,7 +726,7 @@ struct RenderNode::Impl {
                                 {"rays", metrics.rays.load()}, {"render_seconds", double(metrics.render_micros.load()) * 1e-6},
                                 {"threads", cfg.threads}, {"scene_cache_hits", cache.hits()}, {"scene_cache_misses", cache.misses()},
                                 {"last_seen", now_s()}};
-                r.command({"HSET", keys::nodes, name, m.dump()});
+                r.command({"HSET", keys::nodes, name, json_text(m)});
             } catch (const RedisError& e) {
                 ++metrics.redis_errors;
             }
@@ -760,5 +762,6 @@ void RenderNode::stop() {
 
 const std::string& RenderNode::name() const { return impl_->name; }
 NodeMetrics& RenderNode::metrics() { return impl_->metrics; }
+void RenderNode::drop_idle_scenes() { impl_->cache.drop_idle(); }
 
 }  // namespace tessera::server

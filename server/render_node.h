@@ -32,6 +32,7 @@ struct NodeConfig {
     int visibility_ms = 10000;        // silence after which another node takes a task over
     int max_deliveries = 5;
     int64_t scene_cache_mb = 2048;   // prepared scenes kept between tiles and jobs
+    double scene_cache_idle_s = 30;  // and dropped after this long unused
     LoadLimits load_limits;
 };
 
@@ -51,6 +52,8 @@ public:
     void stop();
     const std::string& name() const;
     NodeMetrics& metrics();
+    // Drops prepared scenes unused for the cache's idle time (called every few seconds).
+    void drop_idle_scenes();
 
 private:
     struct Impl;

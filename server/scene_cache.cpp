@@ -51,8 +51,20 @@ SceneRef SceneRef::decode(const std::string& s) {
     return r;
 }
 
-SceneCache::SceneCache(std::string dir, int64_t max_bytes, LoadLimits limits)
-    : dir_(std::move(dir)), max_bytes_(max_bytes), limits_(limits) {}
+SceneCache::SceneCache(std::string dir, int64_t max_bytes, LoadLimits limits, double idle_s)
+    : dir_(std::move(dir)), max_bytes_(max_bytes),
+      idle_(std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(idle_s))),
+      limits_(limits) {}
+
+void SceneCache::drop_idle() {
+    std::lock_guard lock(mu_);
+    drop_idle_locked();
+}
+
+void SceneCache::drop_idle_locked() {
+    const auto now = std::chrono::steady_clock::now();
+    lru_.remove_if([&](const Entry& e) { return now - e.used > idle_; });
+}
 
 std::string SceneCache::file_for(Redis& redis, const SceneRef& ref) {
     if (ref.hash.empty()) return ref.source;  // built-in
@@ -82,9 +94,11 @@ std::string SceneCache::file_for(Redis& redis, const SceneRef& ref) {
 
 std::shared_ptr<const PreparedScene> SceneCache::find(const std::string& key) {
     std::lock_guard lock(mu_);
+    drop_idle_locked();
     for (auto it = lru_.begin(); it != lru_.end(); ++it)
         if (it->key == key) {
             lru_.splice(lru_.begin(), lru_, it);
+            it->used = std::chrono::steady_clock::now();
             ++hits_;
             return it->scene;
         }
@@ -97,10 +111,12 @@ std::shared_ptr<const PreparedScene> SceneCache::keep(const std::string& key, st
     std::lock_guard lock(mu_);
     for (const Entry& e : lru_)
         if (e.key == key) return e.scene;
-    lru_.push_front({key, scene});
+    lru_.push_front({key, scene, std::chrono::steady_clock::now()});
     int64_t total = 0;
     for (const Entry& e : lru_) total += int64_t(e.scene->bytes);
-    while (lru_.size() > 1 && total > max_bytes_) {
+    // The budget holds for every entry, the newest too: a scene larger than the whole budget is
+    // rendered by the jobs that hold it and then freed, not kept.
+    while (!lru_.empty() && total > max_bytes_) {
         total -= int64_t(lru_.back().scene->bytes);
         lru_.pop_back();
     }

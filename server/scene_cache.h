@@ -4,6 +4,7 @@
 // one-process server's. Least recently used scenes go first when the estimated memory passes
 // the bound (a scene in use stays alive until its jobs finish: entries are shared pointers).
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <list>
 #include <memory>
@@ -31,7 +32,9 @@ using api::PreparedScene;
 
 class SceneCache {
 public:
-    SceneCache(std::string dir, int64_t max_bytes, LoadLimits limits);
+    // Entries unused for `idle_s` seconds are dropped (at the next use of the cache, or by
+    // drop_idle()): an idle server gives a large scene's memory back.
+    SceneCache(std::string dir, int64_t max_bytes, LoadLimits limits, double idle_s = 30);
     // Throws SceneError (a broken file) or std::runtime_error (its bytes are gone from Redis).
     std::shared_ptr<const PreparedScene> get(Redis& redis, const SceneRef& ref, const RenderSceneOptions& options);
     // The job's scene as a file on this node (a built-in's name as is); throws std::runtime_error.
@@ -40,18 +43,22 @@ public:
     // replaced file is a new scene) or builtin:NAME[?params]. Throws SceneError. The second
     // value says whether it was prepared before.
     std::pair<std::shared_ptr<const PreparedScene>, bool> get_local(const std::string& source, const RenderSceneOptions& options);
+    void drop_idle();
     uint64_t hits() const { return hits_; }
     uint64_t misses() const { return misses_; }
 
 private:
     std::shared_ptr<const PreparedScene> find(const std::string& key);
     std::shared_ptr<const PreparedScene> keep(const std::string& key, std::shared_ptr<const PreparedScene> scene);
+    void drop_idle_locked();
     struct Entry {
         std::string key;
         std::shared_ptr<const PreparedScene> scene;
+        std::chrono::steady_clock::time_point used;
     };
     std::string dir_;
     int64_t max_bytes_;
+    std::chrono::steady_clock::duration idle_;
     LoadLimits limits_;
     std::mutex mu_;
     std::list<Entry> lru_;  // most recent first

@@ -109,6 +109,19 @@ std::vector<CatalogEntry> SceneCatalog::entries() {
     return out;
 }
 
+namespace {
+
+// One of the catalog's load slots, held while a scene loads.
+struct LoadSlot {
+    explicit LoadSlot(std::counting_semaphore<2>& s) : sem(s) { sem.acquire(); }
+    ~LoadSlot() { sem.release(); }
+    LoadSlot(const LoadSlot&) = delete;
+    LoadSlot& operator=(const LoadSlot&) = delete;
+    std::counting_semaphore<2>& sem;
+};
+
+}  // namespace
+
 nlohmann::json SceneCatalog::describe(const CatalogEntry& e, const LoadLimits& limits) {
     long long mtime = 0;
     if (e.source != "builtin") {
@@ -120,9 +133,13 @@ nlohmann::json SceneCatalog::describe(const CatalogEntry& e, const LoadLimits& l
         auto it = details_.find(e.path);
         if (it != details_.end() && it->second.first == mtime) return it->second.second;
     }
-    nlohmann::json d = e.path == "builtin:displaced_sphere"
-                           ? nlohmann::json{{"triangles", 1002528}, {"spheres", 0}, {"lights", 1}, {"note", "?triangles=N sets the size"}}
-                           : api::describe_scene(load_scene(e.path, limits));
+    nlohmann::json d;
+    if (e.path == "builtin:displaced_sphere") {
+        d = {{"triangles", 1002528}, {"spheres", 0}, {"lights", 1}, {"note", "?triangles=N sets the size"}};
+    } else {
+        LoadSlot slot(loads_);
+        d = api::describe_scene(load_scene(e.path, limits));
+    }
     std::lock_guard<std::mutex> lock(mutex_);
     details_[e.path] = {mtime, d};
     return d;
@@ -168,8 +185,12 @@ CatalogEntry SceneCatalog::add_upload(const std::string& filename, const std::st
                 .with_retry_after(10);
         }
     }
+    nlohmann::json details;
     try {
-        load_scene(file.string(), limits);  // validation: a broken upload is refused, not stored
+        // Validation: a broken upload is refused, not stored. What it finds is what the
+        // catalog says of the scene, so the file is not loaded a second time for that.
+        LoadSlot slot(loads_);
+        details = api::describe_scene(load_scene(file.string(), limits));
     } catch (const SceneError& e) {
         std::error_code ec;
         fs::remove_all(dir, ec);
@@ -182,6 +203,8 @@ CatalogEntry SceneCatalog::add_upload(const std::string& filename, const std::st
     scan_locked();
     CatalogEntry entry{name, file.string(), "upload"};
     entries_[name] = entry;
+    std::error_code ec;
+    details_[entry.path] = {(long long)fs::last_write_time(entry.path, ec).time_since_epoch().count(), std::move(details)};
     return entry;
 }
 

@@ -4,6 +4,7 @@
 // a path, so no name can reach a file outside the catalog.
 #include <map>
 #include <mutex>
+#include <semaphore>
 #include <optional>
 #include <string>
 #include <vector>
@@ -45,6 +46,11 @@ private:
     std::map<std::string, CatalogEntry> entries_;
     std::map<std::string, CatalogEntry> environments_;
     std::map<std::string, std::pair<long long, nlohmann::json>> details_;  // path → (mtime, details)
+    // Scenes loaded at once to check or describe them (uploads, the catalog): each may take its
+    // whole load budget (texels, triangles), so a burst of uploads costs two budgets, not one
+    // for each upload in flight.
+    static constexpr std::ptrdiff_t kConcurrentLoads = 2;
+    std::counting_semaphore<kConcurrentLoads> loads_{kConcurrentLoads};
 };
 
 }  // namespace tessera::server

@@ -22,6 +22,7 @@
 #include "server/command_line.h"
 #include "server/http_api.h"
 #include "server/job_service.h"
+#include "server/memory_return.h"
 #include "server/node_options.h"
 
 extern const char* const kTesseraOpenApiYaml;
@@ -97,6 +98,24 @@ int serve_command(int argc, char** argv) {
     option("max-light-rays", lim.max_light_rays, "light rays per hit of a job")->check(CLI::Range(1, 1 << 20));
     CLI::Option* max_triangles = option("max-triangles", o.service.load_limits.max_triangles, "triangles in a scene")
                                      ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 40));
+    // What a client's request or scene may cost, checked before the memory is spent
+    // (docs/reliability.md lists each with what it refuses).
+    option("max-header-bytes", o.http.max_head_bytes, "bytes of a request's line and headers; past them 431")
+        ->type_name("BYTES")->check(CLI::Range(1024LL, 1LL << 24));
+    option("max-json-depth", o.http.max_json_depth,
+           "nesting of arrays and objects in a job's JSON and in a glTF scene's JSON; deeper is refused with 400")
+        ->check(CLI::Range(8, 10000));
+    uint64_t texture_mb = o.service.load_limits.max_texture_bytes >> 20;
+    option("max-texture-mb", texture_mb,
+           "MiB of decoded texels in a scene, each image's decoding peak (2.5x its texels) included; checked from the "
+           "image headers before decoding")
+        ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 20));
+    option("max-texture-size", o.service.load_limits.max_texture_size, "texels on a side of one image")->check(CLI::Range(1, 1 << 16));
+    option("max-instances", o.service.load_limits.max_instances, "mesh primitives placed by a scene's nodes")
+        ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 32));
+    uint64_t scene_file_mb = o.service.load_limits.max_file_bytes >> 20;
+    option("max-scene-file-mb", scene_file_mb, "MiB of one scene file or one of its buffer files")
+        ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 24));
     int64_t store_mb = 0;
     option("max-store-mb", store_mb, "size bound of the job store in MiB (0: none); past it new jobs get 507")
         ->check(CLI::Range(int64_t{0}, int64_t{1} << 30));
@@ -143,6 +162,9 @@ int serve_command(int argc, char** argv) {
     }
     o.service.max_store_bytes = store_mb << 20;
     if (max_triangles->count() > 0) o.service.load_limits.max_vertices = o.service.load_limits.max_triangles * 3;
+    o.service.load_limits.max_texture_bytes = texture_mb << 20;
+    o.service.load_limits.max_file_bytes = scene_file_mb << 20;
+    o.service.load_limits.max_json_depth = o.http.max_json_depth;
     if (const char* env = std::getenv("TESSERA_SCENES")) {
         const std::string all = env;
         for (size_t start = 0; start <= all.size();) {
@@ -176,6 +198,7 @@ int serve_command(int argc, char** argv) {
                          "that are refused", uint64_t(nofile.rlim_cur), o.http.connections.max_connections, uint64_t(needed));
     }
     sigset_t signals = block_stop_signals();
+    tune_allocator();
 
     const std::string openapi = (std::filesystem::path(o.service.data_dir) / "openapi.yaml").string();
     std::unique_ptr<JobService> service;
@@ -193,6 +216,8 @@ int serve_command(int argc, char** argv) {
         std::fprintf(stderr, "tessera serve: %s\n", e.what());
         return 1;
     }
+    // Idle scenes dropped and free memory returned every few seconds: an idle server shrinks.
+    MemoryReturn memory_return(5.0, [&service] { service->release_memory(); });
     if (o.http.auth.enabled())
         spdlog::info("access: {} bearer token{}; /healthz, /readyz{} open", o.http.auth.size(), o.http.auth.size() == 1 ? "" : "s",
                      o.http.metrics_open ? ", /metrics" : "");

@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include "server/memory_return.h"
 #include "server/command_line.h"
 #include "server/node_options.h"
 #include "server/serve_command.h"
@@ -48,6 +49,7 @@ int worker_command(int argc, char** argv) {
     }
     spdlog::set_level(level);
     sigset_t signals = block_stop_signals();
+    tune_allocator();
     try {
         // Fails early, with the redacted address, when Redis does not answer.
         Redis probe(node.redis);
@@ -58,6 +60,11 @@ int worker_command(int argc, char** argv) {
     }
     RenderNode rn(node);
     rn.start();
+    // Idle scenes dropped and free memory returned every few seconds: an idle node shrinks.
+    MemoryReturn memory_return(5.0, [&rn] {
+        rn.drop_idle_scenes();
+        release_free_memory();
+    });
     int sig = 0;
     sigwait(&signals, &sig);
     spdlog::info("signal {}: handing back the tasks in hand and stopping", sig);

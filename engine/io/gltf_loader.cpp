@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "engine/io/json_depth.h"
 #include "engine/io/texture_decode.h"
 
 #include <algorithm>
@@ -33,15 +34,11 @@ static_assert(std::endian::native == std::endian::little, "glTF buffers are litt
 
 // tinygltf copies `extras` and `extensions` into its Value tree recursively, so a deeply nested
 // document would overflow the stack there. Real files nest fewer than ten levels.
-constexpr int kMaxJsonDepth = 128;
 // Extensions whose content is read; anything else in extensionsRequired is refused.
 constexpr const char* kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_ior",
                                                 "KHR_materials_specular", "KHR_texture_transform"};
 
 constexpr const char* kVerticesLeft = "vertices left under LoadLimits::max_vertices";
-// Each primitive instance becomes a MeshDesc with its own overhead; bounds memory for files that
-// instance many tiny primitives many times (LoadLimits has no field for this yet).
-constexpr size_t kMaxMeshInstances = 1'000'000;
 
 SourceLocation at(const std::string& file, const std::string& pointer) { return {file, 0, pointer}; }
 
@@ -64,22 +61,9 @@ std::string clip(std::string s, size_t max = 400) {
     return s;
 }
 
-void check_json_depth(std::string_view json, const std::string& file) {
-    int depth = 0;
-    bool in_string = false, escaped = false;
-    for (char c : json) {
-        if (in_string) {
-            if (escaped) escaped = false;
-            else if (c == '\\') escaped = true;
-            else if (c == '"') in_string = false;
-        } else if (c == '"') {
-            in_string = true;
-        } else if (c == '[' || c == '{') {
-            if (++depth > kMaxJsonDepth) fail(file, "", "JSON nests deeper than " + str(kMaxJsonDepth) + " levels");
-        } else if (c == ']' || c == '}') {
-            --depth;
-        }
-    }
+void check_json_depth(std::string_view json, const std::string& file, int max_depth) {
+    if (json_nesting_depth(json, max_depth) > max_depth)
+        fail(file, "", "JSON nests deeper than " + str(max_depth) + " levels, the limit for a scene's JSON");
 }
 
 uint32_t read_u32(std::string_view b, size_t at) {
@@ -245,7 +229,7 @@ tinygltf::Model read_model(std::string_view bytes, bool binary, const std::strin
     size_t length = bytes.size();
     std::string_view json = binary ? check_glb(bytes, file, length) : bytes;
     if (!binary && bytes.starts_with("glTF")) fail(file, "", "binary glTF (GLB) data where a text .gltf was expected");
-    check_json_depth(json, file);
+    check_json_depth(json, file, limits.max_json_depth);
     check_image_views(json, file);
 
     FileGuard guard;
@@ -496,8 +480,8 @@ void emit_primitive(Ctx& c, size_t mi, size_t pi, const glm::dmat4& world) {
     if (tris > tri_budget)
         fail(c, pp, str(tris) + " triangles exceed the triangle limit (" + str(c.limits.max_triangles) + " in all)");
     if (tris == 0) return;
-    if (c.out.meshes.size() >= kMaxMeshInstances)
-        fail(c, pp, "more than " + str(kMaxMeshInstances) + " mesh primitive instances in the scene");
+    if (c.out.meshes.size() >= c.limits.max_instances)
+        fail(c, pp, "more than " + str(c.limits.max_instances) + " mesh primitive instances in the scene (the instance limit)");
 
     MeshDesc out;
     out.name = mesh.name.empty() ? "mesh " + str(mi) : clip(mesh.name, 200);

@@ -22,10 +22,15 @@ std::shared_ptr<const TextureImage> decode_texture(std::span<const uint8_t> byte
         throw std::runtime_error("image of " + std::to_string(w) + "x" + std::to_string(h) + " texels; the limit is " +
                                  std::to_string(limits.max_texture_size) + " on a side");
     const uint64_t need = 4ull * uint64_t(w) * uint64_t(h);
-    if (need > budget)
+    // While it decodes, stb_image holds the inflated rows and its output (and a conversion to
+    // four channels for RGB), and the result is copied once more: up to 2.5 times the texels.
+    // That peak is what must fit in what is left, so the budget bounds memory, not only texels.
+    const uint64_t peak = need * 5 / 2;
+    if (peak > budget)
         throw std::runtime_error("image of " + std::to_string(w) + "x" + std::to_string(h) + " texels needs " +
-                                 std::to_string(need) + " bytes; " + std::to_string(budget) +
-                                 " are left of the texture limit (" + std::to_string(limits.max_texture_bytes) + ")");
+                                 std::to_string(need) + " bytes (" + std::to_string(peak) + " while it decodes); " +
+                                 std::to_string(budget) + " are left of the texture budget (" +
+                                 std::to_string(limits.max_texture_bytes) + " bytes)");
     int dw = 0, dh = 0;
     stbi_uc* px = stbi_load_from_memory(bytes.data(), len, &dw, &dh, &channels, 4);
     if (!px) throw std::runtime_error(std::string("corrupt image: ") + stbi_failure_reason());

@@ -126,8 +126,10 @@ struct LoadLimits {
     uint64_t max_triangles = 50'000'000;
     uint64_t max_vertices = 50'000'000;
     int max_node_depth = 256;                 // nested scene-graph nodes
-    uint64_t max_texture_bytes = 1ull << 30;  // decoded texels of all images (4 bytes each)
-    int max_texture_size = 16384;             // width or height of one image
+    int max_json_depth = 64;                  // nested arrays and objects of a glTF's JSON
+    uint64_t max_texture_bytes = 512ull << 20;  // decoded texels of all images (4 bytes each), and each one's decoding peak
+    int max_texture_size = 16384;               // width or height of one image
+    uint64_t max_instances = 1'000'000;         // mesh primitives placed by nodes (a node per placement)
 };
 
 // Checks the invariants every consumer relies on (finite numbers, indices in range, positive

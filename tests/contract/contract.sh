@@ -3,7 +3,9 @@
 # api/openapi.yaml (no errors allowed), then ajv validates the answers of a real server, started
 # here on a free loopback port with a bearer token, against the description's schemas
 # (validate_responses.mjs). The tools come from npm (package-lock.json), installed by
-# scripts/setup.sh; without them this skips (77), or fails where TESSERA_REQUIRE_CONTRACT=1 (CI).
+# scripts/setup.sh (they run on Debian 12's Node 18: package.json's overrides hold jsep, which
+# Spectral's JSONPath needs, at 1.4.0, as 1.6 asks for Node 20); without them this skips (77),
+# or fails where TESSERA_REQUIRE_CONTRACT=1 (CI).
 set -euo pipefail
 bin=$1
 here=$(cd "$(dirname "$0")" && pwd)

@@ -1,6 +1,7 @@
 // The HTTP API against a real server started in-process on an ephemeral port.
 #include "server/http_api.h"
 #include "server/sqlite_job_store.h"
+#include "tests/server/raw_socket.h"
 #include "tests/server/server_fixture.h"
 
 #include <gtest/gtest.h>
@@ -247,8 +248,14 @@ TEST_F(Server, StoreUnavailableAnswers503AndRecovers) {
     EXPECT_EQ(json::parse(r->body)["type"], "/problems/store-unavailable");
     EXPECT_FALSE(r->get_header_value("Retry-After").empty());
     EXPECT_EQ(client_->Get("/healthz")->status, 200);
+    // Not ready while its store refuses: a balancer sends the jobs elsewhere.
+    auto ready = client_->Get("/readyz");
+    ASSERT_TRUE(ready);
+    EXPECT_EQ(ready->status, 503) << ready->body;
+    EXPECT_NE(ready->body.find("refused its last write"), std::string::npos) << ready->body;
     fs::create_directories(dir_);
     const std::string after = submit(kSmallJob);
+    EXPECT_EQ(client_->Get("/readyz")->status, 200);
     EXPECT_EQ(wait_state(after, {"succeeded", "failed"})["state"], "succeeded");
     EXPECT_EQ(status(before)["state"], "succeeded");
     // And it is on disk: a second store opened on the path finds both.
@@ -541,35 +548,6 @@ TEST_F(Server, ComparisonInOneRequest) {
 namespace tessera::server {
 namespace {
 
-// A raw loopback connection: slow and hostile clients cannot be written with httplib's client.
-int connect_loopback(int port) {
-    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_port = htons(uint16_t(port));
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-        ::close(fd);
-        return -1;
-    }
-    return fd;
-}
-
-bool send_all(int fd, const std::string& s) { return ::send(fd, s.data(), s.size(), MSG_NOSIGNAL) == ssize_t(s.size()); }
-
-// Everything the server sends until it closes (or `timeout_ms` of silence).
-std::string read_until_close(int fd, int timeout_ms) {
-    std::string out;
-    char buf[4096];
-    pollfd p{fd, POLLIN, 0};
-    while (::poll(&p, 1, timeout_ms) > 0) {
-        const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
-        if (n <= 0) break;
-        out.append(buf, size_t(n));
-    }
-    return out;
-}
-
 // Sends a request's head a line at a time, one line per `interval`, until the server closes the
 // connection; returns the seconds that took (or a large value if it never closed).
 double slow_headers(int port, std::chrono::milliseconds interval, double give_up_s) {
@@ -712,9 +690,19 @@ TEST_F(Server, ConnectionsPastTheBoundGet503) {
     std::vector<int> held;
     for (int i = 0; i < 8; ++i) held.push_back(connect_loopback(port_));
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    // Probes are still answered, so that a full server is not restarted by its liveness probe
+    // nor taken out of a balancer while it can accept jobs.
+    for (const char* probe : {"/healthz", "/readyz"}) {
+        const int fd = connect_loopback(port_);
+        ASSERT_GE(fd, 0);
+        send_all(fd, std::string("GET ") + probe + " HTTP/1.1\r\nHost: x\r\n\r\n");
+        const std::string answer = read_until_close(fd, 4000);
+        ::close(fd);
+        EXPECT_EQ(answer.rfind("HTTP/1.1 200", 0), 0u) << probe << ": " << answer;
+    }
     const int extra = connect_loopback(port_);
     ASSERT_GE(extra, 0);
-    send_all(extra, "GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n");
+    send_all(extra, "GET /v1/jobs HTTP/1.1\r\nHost: x\r\n\r\n");
     const std::string answer = read_until_close(extra, 4000);
     ::close(extra);
     EXPECT_EQ(answer.rfind("HTTP/1.1 503", 0), 0u) << answer;

@@ -2,7 +2,8 @@
 # web_test.sh TESSERA [farm]: the web page in a real browser. The binary is started here on a free
 # loopback port with a bearer token and a temporary data directory; page_test.mjs drives
 # Debian's Chromium (headless) through playwright-core from npm (tests/web/package-lock.json),
-# which uses the system browser and downloads none. Skips (77) where Chromium or the npm
+# which uses the system browser and downloads none (1.61, the last release whose engines accept
+# Debian 12's Node 18; 1.62 and later need Node 20). Skips (77) where Chromium or the npm
 # package is missing, fails there when TESSERA_REQUIRE_BROWSER=1 (CI). Screenshots go to
 # $TESSERA_SCREENSHOTS when set (docs/figures/web_*.png are made so). With `farm`, the page is
 # served by an API node of a render farm (a real redis-server, `serve --redis --render`): the

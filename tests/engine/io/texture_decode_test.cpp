@@ -81,7 +81,25 @@ TEST(TextureDecode, OversizedImagesAreRefusedFromTheirHeader) {
     LoadLimits small;
     small.max_texture_bytes = 4 * 4 * 4;
     const std::vector<unsigned char> png = png_bytes(gradient(8, 8));
-    EXPECT_NE(error_of(png, small).find("left of the texture limit"), std::string::npos);
+    EXPECT_NE(error_of(png, small).find("left of the texture budget"), std::string::npos);
+}
+
+TEST(TextureDecode, TheBudgetHoldsTheDecodingPeakNotOnlyTheTexels) {
+    // 8 × 8 RGBA is 256 bytes of texels; decoding holds up to 2.5 times that. A budget of twice
+    // the texels would hold the result but not the decoding: refused before decoding.
+    const std::vector<unsigned char> png = png_bytes(gradient(8, 8));
+    LoadLimits twice;
+    twice.max_texture_bytes = 2 * 256;
+    const std::string e = error_of(png, twice);
+    EXPECT_NE(e.find("640 while it decodes"), std::string::npos) << e;
+    // Exactly the peak: decoded, and the budget lowered by the texels alone.
+    LoadLimits peak;
+    peak.max_texture_bytes = 640;
+    uint64_t budget = peak.max_texture_bytes;
+    const auto img = decode_texture({png.data(), png.size()}, peak, budget);
+    ASSERT_TRUE(img);
+    EXPECT_EQ(img->width, 8);
+    EXPECT_EQ(budget, 640u - 256u);
 }
 
 }  // namespace

@@ -1,0 +1,22 @@
+#include "api/json_text.h"
+
+#include "engine/io/json_depth.h"
+
+namespace tessera::api {
+
+std::string json_text(const nlohmann::json& j, int indent) {
+    return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+JsonTooDeep::JsonTooDeep(int max_depth_)
+    : std::runtime_error("the JSON nests arrays and objects deeper than " + std::to_string(max_depth_) + " levels, the bound"),
+      max_depth(max_depth_) {}
+
+std::optional<nlohmann::json> parse_json(std::string_view text, int max_depth) {
+    if (const int depth = json_nesting_depth(text, max_depth); depth > max_depth) throw JsonTooDeep(max_depth);
+    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+    if (j.is_discarded()) return std::nullopt;
+    return j;
+}
+
+}  // namespace tessera::api

@@ -1,0 +1,27 @@
+#pragma once
+// JSON as text, both ways, for everything a client or a file can put into it.
+//
+// nlohmann::json throws from dump() on a string that is not valid UTF-8, and a client controls
+// many strings (a path, a job id, a scene's names, an error that quotes them): such a string
+// must be answered, not thrown on. And a parsed tree is walked recursively afterwards (copies,
+// dumps), so the nesting of a text is bounded before it is parsed.
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+namespace tessera::api {
+
+// dump() with invalid UTF-8 replaced by U+FFFD instead of thrown on.
+std::string json_text(const nlohmann::json& j, int indent = -1);
+
+// The text parsed, or nothing when it is not JSON. Throws JsonTooDeep when it nests deeper than
+// `max_depth` (checked on the bytes, before the parser builds anything).
+struct JsonTooDeep : std::runtime_error {
+    explicit JsonTooDeep(int max_depth);
+    int max_depth;
+};
+std::optional<nlohmann::json> parse_json(std::string_view text, int max_depth);
+
+}  // namespace tessera::api

@@ -1,0 +1,90 @@
+// Any byte string sent to the real server as one connection's bytes: httplib's parsing, our
+// connection loop and budgets, the router and every handler, in process. Whatever the bytes,
+// the process must go on (no crash, no exception out of a thread, no sanitizer report) and the
+// connection must end. Seeds: tests/corpus/http (whole requests, some pipelined).
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include <spdlog/spdlog.h>
+
+#include "server/http_api.h"
+#include "server/job_service.h"
+
+namespace {
+using namespace tessera::server;
+
+// One server for the whole run, with small bounds so that what a fuzzed job asks for stays
+// cheap: tiny images, few samples, short event streams.
+struct Harness {
+    Harness() {
+        spdlog::set_level(spdlog::level::off);
+        dir = std::filesystem::temp_directory_path() / ("tessera_fuzz_requests_" + std::to_string(::getpid()));
+        std::filesystem::remove_all(dir);
+        ServiceConfig cfg;
+        cfg.data_dir = dir.string();
+        cfg.project_scenes = TESSERA_PROJECT_SCENES;
+        cfg.render_threads = 1;
+        cfg.max_queued = 8;
+        cfg.job_limits.max_pixels = 32 * 32;
+        cfg.job_limits.max_spp = 4;
+        cfg.job_limits.max_depth = 3;
+        cfg.load_limits.max_texture_bytes = 16 << 20;
+        service = std::make_unique<JobService>(cfg);
+        std::ofstream(dir / "openapi.yaml") << "openapi: 3.0.3\n";
+        HttpLimits limits;
+        limits.max_job_body = 64 << 10;
+        limits.max_upload = 256 << 10;
+        limits.event_stream_s = 0.2;
+        limits.event_keep_alive_s = 0.1;
+        limits.connections.header_timeout_s = 2;
+        limits.connections.body_timeout_s = 2;
+        api = std::make_unique<HttpApi>(*service, limits, (dir / "openapi.yaml").string());
+        port = api->bind("127.0.0.1", 0);
+        thread = std::thread([this] { api->serve(); });
+    }
+    std::filesystem::path dir;
+    std::unique_ptr<JobService> service;
+    std::unique_ptr<HttpApi> api;
+    std::thread thread;
+    int port = 0;
+};
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+    static Harness* h = new Harness();  // lives as long as the process
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(uint16_t(h->port));
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) __builtin_trap();  // the server stopped listening
+    // Reset rather than TIME_WAIT on close: a run opens hundreds of thousands of connections.
+    const linger reset{1, 0};
+    setsockopt(fd, SOL_SOCKET, SO_LINGER, &reset, sizeof reset);
+    size_t sent = 0;
+    while (sent < size) {
+        const ssize_t n = ::send(fd, data + sent, size - sent, MSG_NOSIGNAL);
+        if (n <= 0) break;  // the server ended the connection early (a refusal): fine
+        sent += size_t(n);
+    }
+    ::shutdown(fd, SHUT_WR);
+    // Read until the server closes: every connection must end (timeouts end slow ones).
+    char buf[16384];
+    pollfd p{fd, POLLIN, 0};
+    while (::poll(&p, 1, 20000) > 0) {
+        if (::recv(fd, buf, sizeof buf, 0) <= 0) break;
+    }
+    ::close(fd);
+    return 0;
+}
