@@ -132,7 +132,7 @@ pipelined() {
 big_head() { python3 "$tmp/raw.py" "$port" "GET /healthz HTTP/1.1\\r\\nHost: x\\r\\n$(printf 'X-Filler: %01000d\\r\\n' $(seq 1 100))\\r\\n"; }
 put_no_body() { curl -s -m 5 -o /dev/null -w '%{http_code}\n' -X PUT "$url/v1/jobs"; }
 
-row "16 paths and methods with invalid UTF-8 (%ff)" paths
+row "10 paths, queries and methods with invalid UTF-8 (%ff)" paths
 row "uploads: invalid UTF-8 glTF, a PNG named .gltf, 0xFF in a COLLADA URL, glTF JSON 100,000 deep" uploads
 row "job and comparison JSON nested 100,000 deep inside a field" deep
 row "endless chunked POST /v1/jobs (1 GiB offered)" chunked /v1/jobs 1

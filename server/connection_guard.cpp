@@ -1,7 +1,6 @@
 #include "server/connection_guard.h"
+#include "server/connection_stream.h"
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
 #include <fcntl.h>
 #include <poll.h>
 #include <sys/socket.h>
@@ -31,21 +30,10 @@ thread_local bool t_refusing = false;
 thread_local bool t_refuse_fast = false;
 
 std::string peer_of(int fd) {
-    sockaddr_storage addr{};
-    socklen_t len = sizeof addr;
-    if (getpeername(fd, reinterpret_cast<sockaddr*>(&addr), &len) != 0) return "?";
-    char host[INET6_ADDRSTRLEN] = "?";
+    std::string ip;
     int port = 0;
-    if (addr.ss_family == AF_INET) {
-        const auto* a = reinterpret_cast<const sockaddr_in*>(&addr);
-        inet_ntop(AF_INET, &a->sin_addr, host, sizeof host);
-        port = ntohs(a->sin_port);
-    } else if (addr.ss_family == AF_INET6) {
-        const auto* a = reinterpret_cast<const sockaddr_in6*>(&addr);
-        inet_ntop(AF_INET6, &a->sin6_addr, host, sizeof host);
-        port = ntohs(a->sin6_port);
-    }
-    return std::string(host) + ":" + std::to_string(port);
+    socket_address(fd, true, ip, port);
+    return (ip.empty() ? "?" : ip) + ":" + std::to_string(port);
 }
 
 }  // namespace

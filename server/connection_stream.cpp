@@ -26,7 +26,15 @@ bool poll_for(int fd, short events, int timeout_ms) {
     }
 }
 
-void address_of(const sockaddr_storage& addr, std::string& ip, int& port) {
+}  // namespace
+
+void socket_address(int fd, bool peer, std::string& ip, int& port) {
+    sockaddr_storage addr{};
+    socklen_t len = sizeof addr;
+    ip.clear();
+    port = 0;
+    if ((peer ? getpeername(fd, reinterpret_cast<sockaddr*>(&addr), &len) : getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len)) != 0)
+        return;
     char host[INET6_ADDRSTRLEN] = "";
     if (addr.ss_family == AF_INET) {
         const auto* a = reinterpret_cast<const sockaddr_in*>(&addr);
@@ -39,8 +47,6 @@ void address_of(const sockaddr_storage& addr, std::string& ip, int& port) {
     }
     ip = host;
 }
-
-}  // namespace
 
 ConnectionStream::ConnectionStream(int fd, double read_timeout_s, double write_timeout_s)
     : fd_(fd), read_timeout_ms_(int(read_timeout_s * 1000)), write_timeout_ms_(int(write_timeout_s * 1000)), buf_(kBufferBytes) {}
@@ -93,21 +99,9 @@ ssize_t ConnectionStream::write(const char* ptr, size_t size) {
     }
 }
 
-void ConnectionStream::get_remote_ip_and_port(std::string& ip, int& port) const {
-    sockaddr_storage addr{};
-    socklen_t len = sizeof addr;
-    port = 0;
-    ip.clear();
-    if (getpeername(fd_, reinterpret_cast<sockaddr*>(&addr), &len) == 0) address_of(addr, ip, port);
-}
+void ConnectionStream::get_remote_ip_and_port(std::string& ip, int& port) const { socket_address(fd_, true, ip, port); }
 
-void ConnectionStream::get_local_ip_and_port(std::string& ip, int& port) const {
-    sockaddr_storage addr{};
-    socklen_t len = sizeof addr;
-    port = 0;
-    ip.clear();
-    if (getsockname(fd_, reinterpret_cast<sockaddr*>(&addr), &len) == 0) address_of(addr, ip, port);
-}
+void ConnectionStream::get_local_ip_and_port(std::string& ip, int& port) const { socket_address(fd_, false, ip, port); }
 
 bool ConnectionStream::wait_for_request(double seconds) {
     if (off_ < len_) return true;

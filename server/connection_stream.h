@@ -16,6 +16,9 @@
 
 namespace tessera::server {
 
+// A socket's address, its peer's (`peer`) or its own: "" and 0 when it has none.
+void socket_address(int fd, bool peer, std::string& ip, int& port);
+
 class ConnectionStream final : public httplib::Stream {
 public:
     enum class Overrun { none, head, body };

@@ -98,24 +98,6 @@ bool is_json_media_type(const std::string& header) {
     return t.rfind("application/", 0) == 0 && t.size() > 17 && t.compare(t.size() - 5, 5, "+json") == 0;
 }
 
-// Request text as it may go into a log line: control characters and bytes that are not
-// printable ASCII are written as \xNN, so a path cannot forge a line, a NUL or a terminal escape.
-std::string loggable(std::string_view s, size_t max) {
-    std::string out;
-    for (size_t i = 0; i < s.size() && out.size() < max; ++i) {
-        const unsigned char c = static_cast<unsigned char>(s[i]);
-        if (c >= 0x20 && c < 0x7f && c != '\\') {
-            out += char(c);
-        } else {
-            char buf[5];
-            std::snprintf(buf, sizeof buf, "\\x%02x", c);
-            out += buf;
-        }
-    }
-    if (out.size() >= max) out += "...";
-    return out;
-}
-
 std::string allowed_methods(const std::string& path) {
     // As routes() registers them; httplib answers HEAD with a GET route.
     static const std::vector<std::pair<std::regex, std::string>> table = {
@@ -283,7 +265,11 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
           // decoded size is checked against the bound itself.
           const bool chunked = req.has_header("Transfer-Encoding");
           const uint64_t limit = body_limit(req);
-          strm.begin_body(chunked ? limit + limit / 8 + 4096 : content_length(req), chunked || req.has_header("Content-Length"));
+          const uint64_t budget = chunked ? limit + limit / 8 + 4096 : content_length(req);
+          strm.begin_body(budget, chunked || req.has_header("Content-Length"));
+          // Room for the whole budget at once: a body grown by doubling would hold up to twice
+          // its bound. Large reservations are mappings of their own, resident only as written.
+          if (budget <= limit + limit / 8 + 4096) req.body.reserve(size_t(budget));
       })) {
     server_->new_task_queue = [this] { return guard_->new_task_queue(); };
     guard_->set_probe([this](const std::string& path) { return probe_answer(path); });

@@ -10,6 +10,7 @@
 #include "server/bearer_auth.h"
 #include "server/connection_guard.h"
 #include "server/job_service.h"
+#include "server/loggable.h"
 
 namespace httplib {
 class Server;
@@ -38,8 +39,6 @@ struct HttpLimits {
 // Whether a Content-Type header names JSON: application/json or application/*+json, in any
 // case, with or without parameters.
 bool is_json_media_type(const std::string& header);
-// Request text made safe for a log line: no control characters, at most `max` characters.
-std::string loggable(std::string_view s, size_t max);
 // The methods a path answers to ("GET, HEAD, POST"), or "" for a path no route takes.
 std::string allowed_methods(const std::string& path);
 

@@ -17,6 +17,7 @@
 #include "server/problem.h"
 #include "server/sqlite_job_store.h"
 #include "server/film_codec.h"
+#include "server/loggable.h"
 #include "server/memory_return.h"
 
 namespace tessera::server {
@@ -486,7 +487,7 @@ void JobService::worker() {
         try {
             run(rec, *running);
         } catch (const std::exception& e) {
-            spdlog::error("job {}: {}", rec.id, e.what());  // run() records every outcome; this only keeps the worker alive
+            spdlog::error("job {}: {}", rec.id, loggable(e.what(), 2000));  // run() records every outcome; this only keeps the worker alive
         } catch (...) {
             spdlog::error("job {}: unknown exception", rec.id);
         }
@@ -629,7 +630,7 @@ void JobService::run(const JobRecord& rec, Running& running) {
     }
     if (!error.empty()) {
         if (until_stored(rec.id, "failed", [&] { store_->finish(rec.id, JobState::failed, now_s(), error, ""); }))
-            spdlog::error("job {} failed: {}", rec.id, error);
+            spdlog::error("job {} failed: {}", rec.id, loggable(error, 2000));
         return;
     }
     if (outcome.render) {

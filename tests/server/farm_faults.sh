@@ -190,6 +190,14 @@ redis_restart)
   sleep 1.5  # past appendfsync everysec's window: all three acceptances are on disk
   kill -9 "$redis_pid"; wait "$redis_pid" 2> /dev/null
   echo "killed redis-server (kill -9) mid-job; restarting it from its AOF"
+  # Without Redis the API node is not ready (a balancer sends jobs elsewhere), its liveness
+  # and metrics still answer, the metrics saying the store's figures are missing.
+  code=$(api -o /dev/null -w '%{http_code}' "$(url api)/readyz")
+  [ "$code" = 503 ] || fail "/readyz answered $code while Redis was down (expected 503)"
+  code=$(api -o "$work/metrics.txt" -w '%{http_code}' "$(url api)/metrics")
+  [ "$code" = 200 ] || fail "/metrics answered $code while Redis was down (expected 200)"
+  grep -q '^tessera_store_up 0$' "$work/metrics.txt" || fail "/metrics did not say tessera_store_up 0 while Redis was down"
+  [ "$(api -o /dev/null -w '%{http_code}' "$(url api)/healthz")" = 200 ] || fail "/healthz failed while Redis was down"
   sleep 0.5
   start_redis
   for id in "${ids[@]}"; do
