@@ -9,6 +9,7 @@
 #include <condition_variable>
 #include <deque>
 #include <functional>
+#include <system_error>
 
 #include <httplib.h>
 #include <spdlog/spdlog.h>
@@ -45,6 +46,7 @@ struct ConnectionGuard::Connection {
     std::string peer;
     std::atomic<int64_t> deadline_ns{0};
     std::atomic<int> phase{kHead};
+    int64_t body_start_ns = 0;  // when its request's head was read
     bool cut = false;
     bool close_after = false;  // only its own thread touches this
 };
@@ -70,7 +72,15 @@ public:
             if (!p.refuser_running) {
                 p.refuser_running = true;
                 ++p.live;
-                std::thread([pool = pool_] { refuse_loop(*pool); }).detach();
+                if (!start_thread([pool = pool_] { refuse_loop(*pool); })) {
+                    p.refuser_running = false;
+                    --p.live;
+                    std::function<void()> first = std::move(p.refusals.front());
+                    p.refusals.pop_front();
+                    lock.unlock();
+                    refuse_here(first);
+                    return;
+                }
             }
             p.refuse_cv.notify_one();
             return;
@@ -82,7 +92,16 @@ public:
             p.cv.notify_one();
         } else {
             ++p.live;
-            std::thread([pool = pool_] { work_loop(*pool); }).detach();
+            if (!start_thread([pool = pool_] { work_loop(*pool); })) {
+                // No thread to be had (a process or memory limit): this connection is refused
+                // at once, and the server goes on with the threads it has.
+                --p.live;
+                --p.guard.queued_;
+                std::function<void()> task = std::move(p.tasks.back());
+                p.tasks.pop_back();
+                lock.unlock();
+                refuse_here(task);
+            }
         }
     }
 
@@ -96,6 +115,27 @@ public:
     }
 
 private:
+    template <typename F>
+    static bool start_thread(F&& f) {
+        try {
+            std::thread(std::forward<F>(f)).detach();
+            return true;
+        } catch (const std::system_error& e) {
+            spdlog::error("cannot start a connection thread: {}", e.what());
+            return false;
+        }
+    }
+
+    // Runs a connection's task as a refusal in this (the accepting) thread: a 503 and a close,
+    // without the moment of reading.
+    static void refuse_here(std::function<void()>& task) {
+        t_refusing = true;
+        t_refuse_fast = true;
+        task();
+        t_refusing = false;
+        t_refuse_fast = false;
+    }
+
     struct Pool {
         explicit Pool(ConnectionGuard& g) : guard(g) {}
         ConnectionGuard& guard;  // outlives the connections: HttpApi destroys it after the server
@@ -201,8 +241,15 @@ void ConnectionGuard::set_deadline(double seconds, int phase) {
     c->deadline_ns = now_ns() + int64_t(seconds * 1e9);
 }
 
-void ConnectionGuard::request_head_read(uint64_t content_length) {
-    set_deadline(limits_.body_timeout_s + double(content_length) / limits_.min_rate, kBody);
+void ConnectionGuard::request_head_read() {
+    set_deadline(limits_.body_timeout_s, kBody);
+    if (t_connection) t_connection->body_start_ns = now_ns();
+}
+
+void ConnectionGuard::body_progress(uint64_t bytes_read) {
+    Connection* c = t_connection;
+    if (!c || c->phase != kBody) return;
+    c->deadline_ns = c->body_start_ns + int64_t((limits_.body_timeout_s + double(bytes_read) / limits_.min_rate) * 1e9);
 }
 
 void ConnectionGuard::response_started(uint64_t body_bytes) {
@@ -270,11 +317,17 @@ void ConnectionGuard::refuse(int fd) {
     if (probe_) {
         char head[256];
         pollfd p{fd, POLLIN, 0};
-        if (::poll(&p, 1, t_refuse_fast ? 0 : 100) > 0) {
+        if (::poll(&p, 1, t_refuse_fast ? 0 : 250) > 0) {
             const ssize_t n = ::recv(fd, head, sizeof head - 1, MSG_PEEK | MSG_DONTWAIT);
             const std::string line(head, size_t(std::max<ssize_t>(n, 0)));
-            for (const char* path : {"/healthz", "/readyz"})
-                if (line.rfind(std::string("GET ") + path + " ", 0) == 0) answer = probe_(path);
+            for (const char* path : {"/healthz", "/readyz"}) {
+                if (line.rfind(std::string("GET ") + path + " ", 0) != 0) continue;
+                try {
+                    answer = probe_(path);
+                } catch (const std::exception& e) {
+                    spdlog::error("probe {} past the connection bound: {}", path, e.what());
+                }
+            }
         }
     }
     if (!answer.empty()) {
@@ -282,7 +335,7 @@ void ConnectionGuard::refuse(int fd) {
         (void)!::send(fd, answer.data(), answer.size(), MSG_NOSIGNAL);
         ::shutdown(fd, SHUT_WR);
         char sink[1024];
-        while (::recv(fd, sink, sizeof sink, MSG_DONTWAIT) > 0) {}
+        for (int i = 0; i < 64 && ::recv(fd, sink, sizeof sink, MSG_DONTWAIT) > 0; ++i) {}
         ::close(fd);
         return;
     }

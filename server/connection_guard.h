@@ -45,7 +45,11 @@ public:
     bool run(int fd, bool (*serve)(void* server, int fd), void* server);
 
     // httplib's hooks, called in the connection's own thread.
-    void request_head_read(uint64_t content_length);
+    // The head is read: the body (and its handling) has the body timeout, extended as the body
+    // arrives by what it brought at the minimum rate (body_progress), so a client that trickles
+    // is cut after the timeout however large a length it declared.
+    void request_head_read();
+    void body_progress(uint64_t bytes_read);
     void response_started(uint64_t body_bytes);
     // A stream (Server-Sent Events) that writes at least every `interval_s`: the client must take
     // each write within the body timeout after the next one is due; called when it starts and

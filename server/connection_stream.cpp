@@ -87,6 +87,10 @@ ssize_t ConnectionStream::read(char* ptr, size_t size) {
     std::memcpy(ptr, buf_.data() + off_, n);
     off_ += n;
     left_ -= n;
+    if (in_body_) {
+        body_read_ += n;
+        if (on_body_progress_) on_body_progress_(body_read_);
+    }
     return ssize_t(n);
 }
 
@@ -125,6 +129,7 @@ void ConnectionStream::begin_request(uint64_t head_bytes) {
 void ConnectionStream::begin_body(uint64_t body_bytes, bool framed) {
     left_ = framed ? body_bytes : 0;
     in_body_ = true;
+    body_read_ = 0;
     framed_ = framed;
 }
 

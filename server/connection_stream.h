@@ -9,6 +9,7 @@
 // none), are read against budgets set per request; a read past one fails, and the connection
 // says which budget it broke.
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,8 @@ public:
     // reads then end at once instead of waiting for the client to close.
     void begin_body(uint64_t body_bytes, bool framed);
     Overrun overrun() const { return overrun_; }
+    // Told the body's bytes read so far, after each read of it (the guard's rate deadline).
+    void on_body_progress(std::function<void(uint64_t)> f) { on_body_progress_ = std::move(f); }
     // After a refused request whose body was not read: reads and drops what the client still
     // sends, for up to `seconds` or until it closes, so that it reads the answer, not a reset.
     void drain(double seconds);
@@ -58,6 +61,8 @@ private:
     uint64_t left_ = 0;   // bytes the current phase may still read
     bool framed_ = true;  // past the budget: an error (true) or the end of an empty body
     bool in_body_ = false;
+    uint64_t body_read_ = 0;
+    std::function<void(uint64_t)> on_body_progress_;
     Overrun overrun_ = Overrun::none;
 };
 

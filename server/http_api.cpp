@@ -149,8 +149,8 @@ thread_local ConnectionStream* t_stream = nullptr;
 class GuardedServer final : public httplib::Server {
 public:
     using BodyBudget = std::function<void(httplib::Request&, ConnectionStream&)>;
-    GuardedServer(ConnectionGuard& guard, uint64_t max_head_bytes, BodyBudget body_budget)
-        : guard_(guard), max_head_bytes_(max_head_bytes), body_budget_(std::move(body_budget)) {}
+    GuardedServer(ConnectionGuard& guard, uint64_t max_head_bytes, BodyBudget body_budget, std::function<void()> request_done)
+        : guard_(guard), max_head_bytes_(max_head_bytes), body_budget_(std::move(body_budget)), request_done_(std::move(request_done)) {}
 
 private:
     bool process_and_close_socket(int sock) override {
@@ -160,6 +160,7 @@ private:
     bool serve_connection(int fd) {
         ConnectionStream strm(fd, double(read_timeout_sec_) + read_timeout_usec_ * 1e-6,
                               double(write_timeout_sec_) + write_timeout_usec_ * 1e-6);
+        strm.on_body_progress([this](uint64_t bytes) { guard_.body_progress(bytes); });
         t_stream = &strm;
         bool ok = false;
         for (size_t n = 0; n < keep_alive_max_count_ && svr_sock_ != INVALID_SOCKET; ++n) {
@@ -177,6 +178,7 @@ private:
             } catch (...) {
                 ok = false;
             }
+            request_done_();
             if (!ok || closed || guard_.closing()) break;
         }
         if (guard_.closing()) {
@@ -194,7 +196,13 @@ private:
     ConnectionGuard& guard_;
     uint64_t max_head_bytes_;
     BodyBudget body_budget_;
+    std::function<void()> request_done_;
 };
+
+// The bytes of request body this thread's request holds of HttpApi's shared bound, and
+// whether that bound refused it.
+thread_local uint64_t t_body_held = 0;
+thread_local bool t_body_refused = false;
 
 // An error id that a 500's body and its log line share.
 std::string new_error_id() {
@@ -211,17 +219,22 @@ Problem internal_problem(std::string_view what) {
 }
 
 // Runs one of httplib's hooks so that nothing it throws leaves it: an exception is logged with
-// an error id and, where the hook answers, becomes a 500 problem.
-template <typename F>
-auto contained(const char* hook, F&& f) noexcept -> decltype(f()) {
+// an error id and handed, as a 500 problem, to `failed`, which answers with it where the hook
+// answers (and gives the hook's result).
+template <typename F, typename G>
+auto contained(const char* hook, F&& f, G&& failed) noexcept -> decltype(f()) {
     try {
         return f();
     } catch (const std::exception& e) {
-        internal_problem(std::string(hook) + ": " + e.what());
+        return failed(internal_problem(std::string(hook) + ": " + e.what()));
     } catch (...) {
-        internal_problem(std::string(hook) + ": unknown exception");
+        return failed(internal_problem(std::string(hook) + ": unknown exception"));
     }
-    if constexpr (!std::is_void_v<decltype(f())>) return decltype(f()){};
+}
+
+template <typename F>
+void contained(const char* hook, F&& f) noexcept {
+    contained(hook, std::forward<F>(f), [](const Problem&) {});
 }
 
 }  // namespace
@@ -245,6 +258,11 @@ bool is_form_type(std::string type) {
     return type.rfind("application/x-www-form-urlencoded", 0) == 0;
 }
 
+bool is_identity(std::string coding) {
+    for (char& c : coding) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return coding == "identity" || coding.empty();
+}
+
 bool is_chunked(const httplib::Request& req) {
     std::string te = req.get_header_value("Transfer-Encoding");
     for (char& c : te) c = char(std::tolower(static_cast<unsigned char>(c)));
@@ -256,21 +274,9 @@ bool is_chunked(const httplib::Request& req) {
 HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_path)
     : service_(service), limits_(limits), openapi_path_(std::move(openapi_path)),
       guard_(std::make_unique<ConnectionGuard>(limits_.connections)),
-      server_(std::make_unique<GuardedServer>(*guard_, limits_.max_head_bytes, [this](httplib::Request& req, ConnectionStream& strm) {
-          // No route takes a form: httplib would parse a body sent as one (curl --data-binary's
-          // default type) and refuse it past 8 KiB. Uploads are bytes, jobs are JSON.
-          if (is_form_type(req.get_header_value("Content-Type"))) req.headers.erase("Content-Type");
-          // What the body may take, set before anything of it is read. Chunked framing costs
-          // bytes of its own: an eighth more than the route's bound (and a little) before the
-          // decoded size is checked against the bound itself.
-          const bool chunked = req.has_header("Transfer-Encoding");
-          const uint64_t limit = body_limit(req);
-          const uint64_t budget = chunked ? limit + limit / 8 + 4096 : content_length(req);
-          strm.begin_body(budget, chunked || req.has_header("Content-Length"));
-          // Room for the whole budget at once: a body grown by doubling would hold up to twice
-          // its bound. Large reservations are mappings of their own, resident only as written.
-          if (budget <= limit + limit / 8 + 4096) req.body.reserve(size_t(budget));
-      })) {
+      server_(std::make_unique<GuardedServer>(
+          *guard_, limits_.max_head_bytes, [this](httplib::Request& req, ConnectionStream& strm) { begin_body(req, strm); },
+          [this] { end_request(); })) {
     server_->new_task_queue = [this] { return guard_->new_task_queue(); };
     guard_->set_probe([this](const std::string& path) { return probe_answer(path); });
     server_->set_payload_max_length(std::max(limits_.max_upload, limits_.max_job_body));
@@ -284,14 +290,20 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
     server_->set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
         return contained("pre-routing", [&] {
             request_start = std::chrono::steady_clock::now();
-            // A chunked body has no length up front: it gets its route's whole bound.
-            guard_->request_head_read(req.has_header("Transfer-Encoding") ? body_limit(req) : content_length(req));
+            guard_->request_head_read();
             return refuse_before_body(req, res) ? httplib::Server::HandlerResponse::Handled : httplib::Server::HandlerResponse::Unhandled;
+        }, [&](const Problem& p) {
+            answer_and_close(res, p);
+            return httplib::Server::HandlerResponse::Handled;
         });
     });
     // curl sends a large body only after "100 Continue": the same refusals, before it sends it.
     server_->set_expect_100_continue_handler([this](const httplib::Request& req, httplib::Response& res) {
-        return contained("expect-100", [&] { return refuse_before_body(req, res) ? res.status : 100; });
+        return contained("expect-100", [&] { return refuse_before_body(req, res) ? res.status : 100; },
+                         [&](const Problem& p) {
+                             answer_and_close(res, p);
+                             return res.status;
+                         });
     });
     server_->set_post_routing_handler([this](const httplib::Request&, httplib::Response& res) {
         contained("post-routing", [&] {
@@ -344,13 +356,19 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
                     return;
                 }
             }
-            const char* title = res.status == 404 ? "Not found" : res.status == 413 ? "Payload too large" : res.status == 414 ? "URI too long" : "Request error";
-            send_problem(res, Problem(res.status, res.status == 404 ? "not-found" : "request-error", title,
-                                      res.status == 404 ? "no route for " + loggable(req.method, 16) + " " + loggable(req.path, 200)
-                                                        : "the request was refused with status " + std::to_string(res.status)));
-        });
+            if (res.status == 404) {
+                send_problem(res, Problem(404, "not-found", "Not found", "no route for " + loggable(req.method, 16) + " " + loggable(req.path, 200)));
+                return;
+            }
+            // httplib refused the request before it was read whole (a broken request line or
+            // header, a bad Range, a broken multipart body): what is left of it must not be
+            // parsed as the next request.
+            const char* title = res.status == 413 ? "Payload too large" : res.status == 414 ? "URI too long"
+                              : res.status == 416 ? "Range not satisfiable" : "Request error";
+            answer_and_close(res, Problem(res.status, "request-error", title, "the request was refused with status " + std::to_string(res.status)));
+        }, [&](const Problem& p) { answer_and_close(res, p); });
     });
-    server_->set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+    server_->set_exception_handler([this](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
         contained("exception handler", [&] {
             try {
                 std::rethrow_exception(ep);
@@ -366,7 +384,7 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
             } catch (...) {
                 send_problem(res, internal_problem("unknown exception"));
             }
-        });
+        }, [&](const Problem& p) { answer_and_close(res, p); });
     });
     routes();
 }
@@ -421,7 +439,18 @@ std::string HttpApi::probe_answer(const std::string& path) {
     if (path == "/healthz") {
         body = R"({"status":"ok"})";
     } else if (path == "/readyz") {
-        const std::string why = unready_reason();
+        // Asked at most once a second here: the refusing thread serves every connection past the
+        // bound, and a farm's readiness is a Redis round trip.
+        std::string why;
+        {
+            std::lock_guard<std::mutex> lock(probe_mutex_);
+            const auto now = std::chrono::steady_clock::now();
+            if (now - probe_at_ > std::chrono::seconds(1)) {
+                probe_reason_ = unready_reason();
+                probe_at_ = now;
+            }
+            why = probe_reason_;
+        }
         status = why.empty() ? 200 : 503;
         body = why.empty() ? R"({"status":"ready"})"
                            : json_text({{"type", "/problems/not-ready"}, {"title", "Not ready"}, {"status", 503}, {"detail", why}});
@@ -431,6 +460,52 @@ std::string HttpApi::probe_answer(const std::string& path) {
     return fmt::format("HTTP/1.1 {} {}\r\nContent-Type: {}\r\nConnection: close\r\nContent-Length: {}\r\n\r\n{}", status,
                        status == 200 ? "OK" : "Service Unavailable", status == 200 ? "application/json" : "application/problem+json",
                        body.size(), body);
+}
+
+// What the body may take, set before anything of it is read. Chunked framing costs bytes of its
+// own: an eighth more than the route's bound (and a little) before the decoded size is checked
+// against the bound itself. The bytes are taken from the bound on all bodies in flight first.
+void HttpApi::begin_body(httplib::Request& req, ConnectionStream& strm) {
+    // httplib copies a response's body once per range asked for: `Range: bytes=0-,0-,...` would
+    // multiply any answer thousands of times. One range is served; several, the whole body.
+    if (req.ranges.size() > 1) req.ranges.clear();
+    // No route takes a form: httplib would parse a body sent as one (curl --data-binary's
+    // default type) and refuse it past 8 KiB. Uploads are bytes, jobs are JSON.
+    if (is_form_type(req.get_header_value("Content-Type"))) req.headers.erase("Content-Type");
+    const bool chunked = req.has_header("Transfer-Encoding");
+    const bool framed = chunked || req.has_header("Content-Length");
+    const uint64_t limit = body_limit(req);
+    const uint64_t allowance = limit + limit / 8 + 4096;
+    const uint64_t budget = chunked ? allowance : content_length(req);
+    t_body_held = 0;
+    t_body_refused = false;
+    if (framed && budget > 0 && budget <= allowance) {
+        uint64_t now = bodies_in_flight_.load();
+        do {
+            // One body alone is always read (its route bounds it); with others, the sum is.
+            if (now > 0 && now + budget > limits_.max_bodies_in_flight) {
+                t_body_refused = true;
+                break;
+            }
+        } while (!bodies_in_flight_.compare_exchange_weak(now, now + budget));
+        if (!t_body_refused) t_body_held = budget;
+    }
+    strm.begin_body(t_body_refused ? 0 : budget, framed);
+    // Room for the whole budget at once: a body grown by doubling would hold up to twice its
+    // bound. Large reservations are mappings of their own, resident only as written.
+    if (t_body_held > 0) req.body.reserve(size_t(t_body_held));
+}
+
+void HttpApi::end_request() {
+    bodies_in_flight_ -= t_body_held;
+    t_body_held = 0;
+    t_body_refused = false;
+}
+
+void HttpApi::answer_and_close(httplib::Response& res, const Problem& p) {
+    send_problem(res, p);
+    res.set_header("Connection", "close");
+    guard_->close_after_response();
 }
 
 size_t HttpApi::body_limit(const httplib::Request& req) const {
@@ -463,6 +538,14 @@ bool HttpApi::refuse_before_body(const httplib::Request& req, httplib::Response&
     } else if (!cl.empty() && (cl.size() > 19 || cl.find_first_not_of("0123456789") != std::string::npos)) {
         refusal = Problem(400, "invalid-content-length", "Invalid Content-Length",
                           "Content-Length must be a non-negative whole number, not \"" + loggable(cl, 40) + "\"").with_field("");
+    } else if (req.get_header_value_count("Content-Length") > 1) {
+        refusal = Problem(400, "invalid-content-length", "Invalid Content-Length", "a request has at most one Content-Length").with_field("");
+    } else if (has_body && req.has_header("Content-Encoding") && !is_identity(req.get_header_value("Content-Encoding"))) {
+        // httplib would inflate a gzip, deflate or brotli body into memory without a bound: a
+        // megabyte of gzip is a gigabyte of body. No route takes one.
+        refusal = Problem(415, "unsupported-content-encoding", "Unsupported Content-Encoding",
+                          "request bodies are taken as they are (Content-Encoding: identity), not \"" +
+                              loggable(req.get_header_value("Content-Encoding"), 40) + "\"");
     } else if (has_te && (!is_chunked(req) || req.has_header("Content-Length") || req.get_header_value_count("Transfer-Encoding") > 1)) {
         // RFC 9112 6.1: a server that cannot frame a body must refuse it; both framings at once
         // is how requests are smuggled past a proxy.
@@ -477,6 +560,12 @@ bool HttpApi::refuse_before_body(const httplib::Request& req, httplib::Response&
         res.set_header("Allow", allow);
         refusal = Problem(405, "method-not-allowed", "Method not allowed",
                           loggable(req.path, 200) + " takes " + allow + ", not " + loggable(req.method, 16));
+    } else if (t_body_refused) {
+        refusal = Problem(503, "busy", "Too many request bodies at once",
+                          "the server is reading request bodies of up to " + std::to_string(bodies_in_flight_.load()) +
+                              " bytes; with this one they would pass the bound of " + std::to_string(limits_.max_bodies_in_flight) +
+                              " (tessera serve --max-bodies-mb); retry shortly")
+                      .with_retry_after(2);
     } else if (has_body && body_limit(req) == 0) {
         refusal = Problem(413, "payload-too-large", "Payload too large", loggable(req.method, 16) + " " + loggable(req.path, 200) + " takes no request body");
     } else if (content_length(req) > body_limit(req)) {

@@ -1,6 +1,7 @@
 #pragma once
 // The HTTP API v1 over a JobService (routes in http_api.cpp, described in api/openapi.yaml).
 #include <atomic>
+#include <chrono>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -11,6 +12,11 @@
 #include "server/connection_guard.h"
 #include "server/job_service.h"
 #include "server/loggable.h"
+
+namespace tessera::server {
+class ConnectionStream;
+struct Problem;
+}
 
 namespace httplib {
 class Server;
@@ -24,6 +30,7 @@ struct HttpLimits {
     size_t max_job_body = 1 << 20;         // bytes of a job's JSON
     size_t max_upload = 256ull << 20;      // bytes of an uploaded scene
     size_t max_head_bytes = 64 << 10;      // a request's line and headers
+    uint64_t max_bodies_in_flight = 1ull << 30;  // bytes all request bodies being read at once may take
     int max_json_depth = 64;               // nested arrays and objects of a job's JSON
     ConnectionLimits connections;          // bound, deadlines and spare threads (connection_guard.h)
     // Who may use it: with tokens, every /v1 route (and /metrics unless metrics_open) needs
@@ -62,6 +69,13 @@ private:
     size_t body_limit(const httplib::Request& req) const;
     // Answers a request from its head alone when it must be refused (true): no body is read.
     bool refuse_before_body(const httplib::Request& req, httplib::Response& res);
+    // Each request's body budget, taken from the shared bound before a byte is read, and given
+    // back when the request is answered.
+    void begin_body(httplib::Request& req, ConnectionStream& strm);
+    // Answers with the problem and ends the connection after it (what is left of the request
+    // is not read as another).
+    void answer_and_close(httplib::Response& res, const Problem& p);
+    void end_request();
     // Why no job can be accepted now (shutting down, the store or Redis unreachable), or "".
     std::string unready_reason();
     // /healthz and /readyz answered on a connection past the --max-connections bound: the
@@ -74,6 +88,10 @@ private:
     // Before server_: the guard outlives the connection threads that report to it.
     std::unique_ptr<ConnectionGuard> guard_;
     std::unique_ptr<httplib::Server> server_;
+    std::atomic<uint64_t> bodies_in_flight_{0};
+    std::mutex probe_mutex_;  // readiness as the refusing thread last asked it
+    std::chrono::steady_clock::time_point probe_at_;
+    std::string probe_reason_;
     std::mutex status_mutex_;
     std::map<int, uint64_t> responses_by_status_;
 };

@@ -544,7 +544,8 @@ bool JobService::until_stored(const std::string& id, const char* what, const std
             return true;
         } catch (const std::exception& e) {
             ++metrics_.store_errors;
-            store_refused(e.what());
+            // Readiness follows the store's own refusals, not any error of the change.
+            if (dynamic_cast<const StoreError*>(&e)) store_refused(e.what());
             if (attempt == 0) spdlog::error("job {}: cannot record '{}': {}; retrying", id, what, e.what());
         }
         std::unique_lock<std::mutex> lock(mutex_);

@@ -3,13 +3,18 @@
 #include <malloc.h>
 
 #include <chrono>
+#include <mutex>
 
 namespace tessera::server {
 
 void tune_allocator() {
-    // A fixed threshold also stops glibc from raising it after large frees (its default is
-    // dynamic, up to 32 MiB, after which such blocks come from the arenas and stay there).
-    mallopt(M_MMAP_THRESHOLD, 1 << 20);
+    static std::once_flag once;
+    std::call_once(once, [] {
+        // Fixed thresholds also stop glibc from raising them after large frees (its default is
+        // dynamic, up to 32 MiB, after which such blocks come from the heap and stay there).
+        mallopt(M_MMAP_THRESHOLD, 4 << 20);
+        mallopt(M_TRIM_THRESHOLD, 64 << 20);
+    });
 }
 
 void release_free_memory() { malloc_trim(0); }

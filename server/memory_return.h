@@ -13,8 +13,14 @@
 
 namespace tessera::server {
 
-// Large blocks (1 MiB and up) from their own mappings, so that freeing one unmaps it. Call
-// once, before other threads start.
+// glibc's malloc for a server that must both shrink when idle and keep its hot buffers: blocks
+// of 4 MiB and up (textures, images, request bodies) are mappings of their own, unmapped when
+// freed; smaller ones stay in the heap, whose top is not trimmed on every free. Tile films are
+// tens to hundreds of kilobytes and hiredis builds each command in a buffer twice that size:
+// with glibc's defaults each such buffer was mapped and unmapped, or the heap's top trimmed and
+// grown again, on every command (a 53 KB film took 1.1 ms a command against 0.055 ms;
+// docs/scaling.md). What the heap holds free is returned by release_free_memory() instead,
+// every few seconds. Idempotent.
 void tune_allocator();
 
 // Returns the free memory of every arena to the system (malloc_trim). Cheap when little is free.

@@ -1,8 +1,8 @@
+#include "server/memory_return.h"
 #include "server/redis_client.h"
 
 #include <hiredis/hiredis.h>
 
-#include <malloc.h>
 
 #include <cmath>
 #include <mutex>
@@ -103,20 +103,7 @@ std::string RedisUrl::redacted() const {
     return s + host + ":" + std::to_string(port) + "/" + std::to_string(db);
 }
 
-// Tile films are tens to hundreds of kilobytes, and hiredis builds each command in a fresh
-// buffer twice the command's size. With glibc's defaults every such buffer is mapped and
-// unmapped, or the heap's top trimmed and grown again, on each command: a 53 KB film took
-// 1.1 ms a command against 0.055 ms with these settings (measured with a SET loop over loopback;
-// docs/scaling.md). Large buffers stay in the heap now, which keeps up to 64 MiB of freed heap.
-static void keep_large_buffers_in_heap() {
-    static std::once_flag once;
-    std::call_once(once, [] {
-        mallopt(M_MMAP_THRESHOLD, 32 << 20);
-        mallopt(M_TRIM_THRESHOLD, 64 << 20);
-    });
-}
-
-Redis::Redis(RedisUrl url, double timeout_s) : url_(std::move(url)), timeout_s_(timeout_s) { keep_large_buffers_in_heap(); }
+Redis::Redis(RedisUrl url, double timeout_s) : url_(std::move(url)), timeout_s_(timeout_s) { tune_allocator(); }
 
 Redis::~Redis() { drop(); }
 

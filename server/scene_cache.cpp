@@ -63,7 +63,9 @@ void SceneCache::drop_idle() {
 
 void SceneCache::drop_idle_locked() {
     const auto now = std::chrono::steady_clock::now();
-    lru_.remove_if([&](const Entry& e) { return now - e.used > idle_; });
+    // A scene a running job still holds stays: dropped, the next job on it would prepare a
+    // second copy beside the first.
+    lru_.remove_if([&](const Entry& e) { return now - e.used > idle_ && e.scene.use_count() == 1; });
 }
 
 std::string SceneCache::file_for(Redis& redis, const SceneRef& ref) {

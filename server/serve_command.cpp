@@ -76,7 +76,8 @@ int serve_command(int argc, char** argv) {
            "seconds for a request's line and headers to arrive, from the connection's start or the end of the keep-alive wait")
         ->type_name("SECONDS")->check(CLI::Range(0.1, 3600.0));
     option("body-timeout", o.http.connections.body_timeout_s,
-           "seconds for a request's body (and its handling) or a response, plus its size at 64 KiB/s")
+           "seconds for a request's body (and its handling), extended by what arrives at --min-rate; and for a "
+           "response, plus its size at --min-rate")
         ->type_name("SECONDS")->check(CLI::Range(0.1, 3600.0));
     std::string token_file;
     option("token-file", token_file,
@@ -100,6 +101,11 @@ int serve_command(int argc, char** argv) {
                                      ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 40));
     // What a client's request or scene may cost, checked before the memory is spent
     // (docs/reliability.md lists each with what it refuses).
+    uint64_t bodies_mb = o.http.max_bodies_in_flight >> 20;
+    option("max-bodies-mb", bodies_mb,
+           "MiB that all request bodies being read at once may take (each counts its Content-Length, or its route's "
+           "bound when chunked); past it a request gets 503 before its body is read")
+        ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 24));
     option("max-header-bytes", o.http.max_head_bytes, "bytes of a request's line and headers; past them 431")
         ->type_name("BYTES")->check(CLI::Range(1024LL, 1LL << 24));
     option("max-json-depth", o.http.max_json_depth,
@@ -163,6 +169,7 @@ int serve_command(int argc, char** argv) {
     o.service.max_store_bytes = store_mb << 20;
     if (max_triangles->count() > 0) o.service.load_limits.max_vertices = o.service.load_limits.max_triangles * 3;
     o.service.load_limits.max_texture_bytes = texture_mb << 20;
+    o.http.max_bodies_in_flight = bodies_mb << 20;
     o.service.load_limits.max_file_bytes = scene_file_mb << 20;
     o.service.load_limits.max_json_depth = o.http.max_json_depth;
     if (const char* env = std::getenv("TESSERA_SCENES")) {

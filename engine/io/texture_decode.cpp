@@ -23,9 +23,12 @@ std::shared_ptr<const TextureImage> decode_texture(std::span<const uint8_t> byte
                                  std::to_string(limits.max_texture_size) + " on a side");
     const uint64_t need = 4ull * uint64_t(w) * uint64_t(h);
     // While it decodes, stb_image holds the inflated rows and its output (and a conversion to
-    // four channels for RGB), and the result is copied once more: up to 2.5 times the texels.
-    // That peak is what must fit in what is left, so the budget bounds memory, not only texels.
-    const uint64_t peak = need * 5 / 2;
+    // four channels for RGB), and the result is copied once more: up to 2.5 times the texels
+    // for an 8-bit PNG; a 16-bit PNG (a second conversion, to 8 bits) and a JPEG (coefficients
+    // and planes) take up to 3.5 times. That peak is what must fit in what is left, so the
+    // budget bounds memory, not only texels.
+    const bool wide = jpeg || stbi_is_16_bit_from_memory(bytes.data(), len);
+    const uint64_t peak = wide ? need * 7 / 2 : need * 5 / 2;
     if (peak > budget)
         throw std::runtime_error("image of " + std::to_string(w) + "x" + std::to_string(h) + " texels needs " +
                                  std::to_string(need) + " bytes (" + std::to_string(peak) + " while it decodes); " +

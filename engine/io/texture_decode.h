@@ -13,8 +13,9 @@
 namespace tessera {
 
 // Throws std::runtime_error saying why (not an image, corrupt, too large). `budget` is what is
-// left of LoadLimits::max_texture_bytes: the peak of decoding (2.5 times the texel bytes) must
-// fit in it, and it is lowered by the image's texel bytes.
+// left of LoadLimits::max_texture_bytes: the peak of decoding (2.5 times the texel bytes for an
+// 8-bit PNG, 3.5 for a 16-bit PNG or a JPEG) must fit in it, and it is lowered by the image's
+// texel bytes.
 std::shared_ptr<const TextureImage> decode_texture(std::span<const uint8_t> bytes, const LoadLimits& limits,
                                                    uint64_t& budget);
 
