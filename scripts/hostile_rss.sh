@@ -131,6 +131,13 @@ pipelined() {
 }
 big_head() { python3 "$tmp/raw.py" "$port" "GET /healthz HTTP/1.1\\r\\nHost: x\\r\\n$(printf 'X-Filler: %01000d\\r\\n' $(seq 1 100))\\r\\n"; }
 put_no_body() { curl -s -m 5 -o /dev/null -w '%{http_code}\n' -X PUT "$url/v1/jobs"; }
+gzip_body() {
+  head -c 1M /dev/zero | gzip -c | curl -s -m 10 -o /dev/null -w '%{http_code}\n' -X POST -H 'Content-Type: application/json' \
+    -H 'Content-Encoding: gzip' --data-binary @- "$url/v1/jobs"
+}
+many_ranges() {
+  curl -s -m 10 -o /dev/null -w '%{http_code}\n' -H "Range: bytes=0-$(printf ',0-%.0s' $(seq 1 1000))" "$url/ui/app.js"
+}
 
 row "10 paths, queries and methods with invalid UTF-8 (%ff)" paths
 row "uploads: invalid UTF-8 glTF, a PNG named .gltf, 0xFF in a COLLADA URL, glTF JSON 100,000 deep" uploads
@@ -144,6 +151,8 @@ row "a 6000x6000 texture (144 MB of texels) uploaded, then a 64x48 job on it" te
 row "four requests pipelined on one connection" pipelined
 row "100 KB of request headers" big_head
 row "PUT /v1/jobs without a body" put_no_body
+row "a gzip body (1 KB inflating to 1 MB)" gzip_body
+row "a Range of 1,001 parts on a 6 KB file" many_ranges
 sleep 54
 echo
 echo "Idle a minute later: RSS $(mb "$(kib VmRSS)") MB (at start $(mb "$start_rss") MB); /healthz $(alive)."
