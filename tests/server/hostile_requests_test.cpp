@@ -79,12 +79,15 @@ TEST_F(Hostile, InvalidUtf8InPathsAndQueriesIsAnswered) {
 
 TEST_F(Hostile, InvalidUtf8InUploadsIsRefusedNotFatal) {
     start();
+    // A GLB header and a JSON chunk holding a 0xFF byte (the lengths are the hostile file's own).
+    static const char glb[] = "glTF\x02\0\0\0\x20\0\0\0\x0c\0\0\0JSON{\"\xff\":1}";
+    const std::string glb_with_bad_json(glb, sizeof glb - 1);
     const std::string png = std::string("\x89PNG\r\n\x1a\n", 8) + std::string(61, '\xff');
     const std::vector<std::pair<std::string, std::string>> uploads = {
         {"bad.gltf", "{\"asset\":{\"version\":\"\xff\"}}"},
         {"bad2.gltf", "{\"asset\":{\"version\":\"2.0\"},\"images\":[{\"uri\":\"\xff\xfe.png\"}],\"textures\":[{\"source\":0}]}"},
         {"png.gltf", png},
-        {"bad.glb", std::string("glTF\x02\0\0\0\x20\0\0\0\x0c\0\0\0JSON{\"\xff\":1}", 32)},
+        {"bad.glb", glb_with_bad_json},
         {"bad.dae", "<?xml version=\"1.0\"?><COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" version=\"1.4.1\">"
                     "<library_visual_scenes><visual_scene id=\"s\"><node><instance_geometry url=\"#\xff\xfe\"/></node>"
                     "</visual_scene></library_visual_scenes><scene><instance_visual_scene url=\"#s\"/></scene></COLLADA>"},
