@@ -428,8 +428,6 @@ void HttpApi::stop() {
     // Connections waiting for their next request would hold stop() for their keep-alive time.
     guard_->close_idle();
 }
-bool HttpApi::ready() const { return service_.accepting(); }
-
 std::string HttpApi::unready_reason() { return service_.unready_reason(); }
 
 // The same answers as the routes', written whole: the refusing thread has no httplib request.

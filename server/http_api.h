@@ -58,7 +58,6 @@ public:
     // Serves until stop(); call from the thread that should block.
     void serve();
     void stop();
-    bool ready() const;
 
 private:
     void routes();
