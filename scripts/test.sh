@@ -24,7 +24,15 @@ for target in collada gltf requests; do
   seeds="tests/corpus/$target"
   [ "$target" = requests ] && seeds=tests/corpus/http
   mkdir -p "build/fuzz/corpus-$target"
-  ./build/fuzz/tests/fuzz/fuzz_$target -max_total_time="$fuzz_seconds" -timeout=60 -rss_limit_mb=2048 -max_len=65536 \
-    "build/fuzz/corpus-$target" "$seeds" 2>&1 | tail -n 3
+  log="build/fuzz/fuzz-$target.log"
+  # A finding prints its stack and input, and the input is kept in build/fuzz/ to replay:
+  # ./build/fuzz/tests/fuzz/fuzz_$target build/fuzz/crash-...
+  if ! ./build/fuzz/tests/fuzz/fuzz_$target -max_total_time="$fuzz_seconds" -timeout=60 -rss_limit_mb=2048 -max_len=65536 \
+    -artifact_prefix=build/fuzz/ "build/fuzz/corpus-$target" "$seeds" > "$log" 2>&1; then
+    grep -v '^#[0-9]' "$log" | tail -n 60
+    echo "fuzz_$target found a failure (its whole log: $log)" >&2
+    exit 1
+  fi
+  tail -n 1 "$log"
 done
 echo "all tests passed"

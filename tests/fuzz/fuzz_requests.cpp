@@ -4,9 +4,13 @@
 // connection must end. Seeds: tests/corpus/http (whole requests, some pipelined).
 #include <netinet/in.h>
 #include <poll.h>
+#include <pthread.h>
+#include <signal.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -28,6 +32,13 @@ using namespace tessera::server;
 struct Harness {
     Harness() {
         spdlog::set_level(spdlog::level::off);
+        // The server's threads (and those they start) leave libFuzzer's SIGALRM watchdog to
+        // this one: an accept() it interrupted would end httplib's listener, as no signal can
+        // in `tessera serve`, whose threads block them all (server/serve_command.cpp).
+        sigset_t block, old;
+        sigemptyset(&block);
+        sigaddset(&block, SIGALRM);
+        pthread_sigmask(SIG_BLOCK, &block, &old);
         dir = std::filesystem::temp_directory_path() / ("tessera_fuzz_requests_" + std::to_string(::getpid()));
         std::filesystem::remove_all(dir);
         ServiceConfig cfg;
@@ -51,6 +62,7 @@ struct Harness {
         api = std::make_unique<HttpApi>(*service, limits, (dir / "openapi.yaml").string());
         port = api->bind("127.0.0.1", 0);
         thread = std::thread([this] { api->serve(); });
+        pthread_sigmask(SIG_SETMASK, &old, nullptr);
     }
     std::filesystem::path dir;
     std::unique_ptr<JobService> service;
@@ -68,13 +80,23 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     a.sin_family = AF_INET;
     a.sin_port = htons(uint16_t(h->port));
     a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) __builtin_trap();  // the server stopped listening
+    // libFuzzer's own signals (its SIGALRM watchdog, LeakSanitizer stopping the world) interrupt
+    // this thread's calls: EINTR is no verdict on the server.
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+        if (errno != EINTR) __builtin_trap();  // the server stopped listening
+        pollfd w{fd, POLLOUT, 0};
+        int err = 0;
+        socklen_t len = sizeof err;
+        while (::poll(&w, 1, 30000) < 0 && errno == EINTR) {}
+        if (getsockopt(fd, SOL_SOCKET, SO_ERROR, &err, &len) != 0 || err != 0) __builtin_trap();
+    }
     // Reset rather than TIME_WAIT on close: a run opens hundreds of thousands of connections.
     const linger reset{1, 0};
     setsockopt(fd, SOL_SOCKET, SO_LINGER, &reset, sizeof reset);
     size_t sent = 0;
     while (sent < size) {
         const ssize_t n = ::send(fd, data + sent, size - sent, MSG_NOSIGNAL);
+        if (n < 0 && errno == EINTR) continue;
         if (n <= 0) break;  // the server ended the connection early (a refusal): fine
         sent += size_t(n);
     }
@@ -83,9 +105,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     // side shut, so the server has nothing to wait for; its deadlines end the rest).
     char buf[16384];
     pollfd p{fd, POLLIN, 0};
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
     for (;;) {
-        if (::poll(&p, 1, 30000) <= 0) __builtin_trap();  // a connection that never ends
-        if (::recv(fd, buf, sizeof buf, 0) <= 0) break;
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
+        if (left <= 0) __builtin_trap();  // a connection that never ends
+        const int r = ::poll(&p, 1, int(left));
+        if (r < 0 && errno == EINTR) continue;
+        if (r <= 0) __builtin_trap();
+        const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) break;
     }
     ::close(fd);
     return 0;
