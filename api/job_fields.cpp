@@ -209,7 +209,9 @@ const Field<RenderJob> kRenderFields[] = {
     choice<RenderJob, kTriangle, &RenderJob::scene_options, &RenderSceneOptions::triangle_test>(
         "triangle_test", "\"watertight\"", "Ray-triangle test.", "--triangle-test"),
     choice<RenderJob, kDirect, &RenderJob::render, &RenderSettings::direct>(
-        "direct", "\"importance\"", "Direct lighting: hemisphere, light (importance) sampling, or MIS of both.", "--direct"),
+        "direct", "\"mis\"",
+        "Direct lighting for the diffuse part: hemisphere, light (importance) sampling, or MIS of both; glossy lobes always by MIS, "
+        "smooth ones from the BSDF.", "--direct"),
     choice<RenderJob, kIntegrator, &RenderJob::render, &RenderSettings::integrator>(
         "integrator", "\"path\"", "Path tracing, or the surface normals as colours.", "--integrator"),
     number<RenderJob, &RenderJob::render, &RenderSettings::russian_roulette>(

@@ -19,6 +19,7 @@
 #include "cli/bench_common.h"
 #include "server/command_line.h"
 #include "api/comparison.h"
+#include "api/job_runner.h"
 
 namespace tessera::cli {
 
@@ -32,7 +33,10 @@ int bench_convergence(int argc, char** argv) {
     CLI::App app{"Sampling strategies compared at equal time against a converged reference: error at equal time, "
                  "time to a target error, efficiency, and optionally an SVG of the curves.", "bench convergence"};
     app.option_defaults()->always_capture_default();
-    app.add_option("--scene", scene_name, "a CS184 scene, without .dae (e.g. sky/CBbunny)")->type_name("NAME");
+    app.add_option("--scene", scene_name, "a CS184 scene, without .dae (e.g. sky/CBbunny); or a .gltf/.glb/.dae file, or builtin:NAME")
+        ->type_name("NAME");
+    std::string environment;
+    app.add_option("--environment", environment, "a lat-long .exr/.hdr map lighting the scene from infinity")->type_name("FILE");
     app.add_option("-r", size, "image width and height (160 120)")->type_name("W H")->check(CLI::Range(8, 2048));
     app.add_option("--seconds", budget, "time budget of each run")->type_name("S")->check(CLI::Range(0.01, 3600.0));
     app.add_option("--reps", reps, "runs of each configuration")->check(CLI::Range(1, 50));
@@ -45,16 +49,28 @@ int bench_convergence(int argc, char** argv) {
     bool samplers = false;
     app.add_flag("--samplers", samplers, "compare Sobol points against independent sampling (light sampling with 1 and 4 "
                                          "light rays, MIS with 4), instead of the standard strategies");
+    bool defaults = false;
+    app.add_flag("--defaults", defaults, "compare the candidates for the default direct lighting (hemisphere, importance and "
+                                         "MIS at 1 light ray, glossy lobes by MIS in all), instead of the standard strategies");
     app.add_option("--cs184", cs184, "the CS184 scene folder")->type_name("DIR");
     if (const auto status = parse_args(app, argc, argv)) return *status;
     const int width = size.first, height = size.second;
-    const SceneDescription desc = load_scene(cs184 + "/" + scene_name + ".dae");
+    const bool file = scene_name.rfind("builtin:", 0) == 0 || std::filesystem::path(scene_name).has_extension();
+    const SceneDescription desc = load_scene(file ? scene_name : cs184 + "/" + scene_name + ".dae");
     RenderSettings base;
     base.width = width;
     base.height = height;
     base.max_depth = depth;
+    if (!environment.empty()) base.environment = api::load_environment(environment);
     std::vector<api::ComparisonConfig> configs;
-    if (samplers) {
+    if (defaults) {
+        for (DirectLighting d : {DirectLighting::hemisphere, DirectLighting::importance, DirectLighting::mis}) {
+            api::ComparisonConfig c{d == DirectLighting::hemisphere ? "hemisphere, 1 light ray"
+                                    : d == DirectLighting::importance ? "importance, 1 light ray" : "MIS, 1 light ray", base, {}};
+            c.settings.direct = d;
+            configs.push_back(c);
+        }
+    } else if (samplers) {
         for (const auto& [direct, rays, what] : {std::tuple{DirectLighting::importance, 1, "importance, 1 light ray"},
                                                  std::tuple{DirectLighting::importance, 4, "importance, 4 light rays"},
                                                  std::tuple{DirectLighting::mis, 4, "MIS, 4 light rays"}})

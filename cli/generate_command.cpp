@@ -16,7 +16,7 @@ using server::parse_args;
 
 int generate_command(int argc, char** argv) {
     if (argc == 0) {  // CLI11 would name only the first missing argument
-        std::fprintf(stderr, "usage: tessera generate cornell_box|cornell_spheres|displaced_sphere FILE.gltf [--triangles N]\n"
+        std::fprintf(stderr, "usage: tessera generate cornell_box|cornell_spheres|cornell_glossy|lamp_room|displaced_sphere FILE.gltf [--triangles N]\n"
                              "       tessera generate sky_environment FILE.exr\n");
         return 2;
     }
@@ -25,7 +25,7 @@ int generate_command(int argc, char** argv) {
     CLI::App app{"Writes one of our procedural scenes as a glTF file (scenes/ is made with it).", "generate"};
     app.add_option("scene", name, "the built-in scene")
         ->required()
-        ->check(CLI::IsMember({"cornell_box", "cornell_spheres", "displaced_sphere", "sky_environment"}));
+        ->check(CLI::IsMember({"cornell_box", "cornell_spheres", "cornell_glossy", "lamp_room", "displaced_sphere", "sky_environment"}));
     app.add_option("file", path, "the glTF file to write (an EXR for sky_environment)")->required()->type_name("FILE.gltf");
     app.add_option("--triangles", triangles, "triangles of displaced_sphere")
         ->capture_default_str()
@@ -43,6 +43,8 @@ int generate_command(int argc, char** argv) {
     SceneDescription scene;
     if (name == "cornell_box") scene = cornell_box();
     else if (name == "cornell_spheres") scene = cornell_spheres();
+    else if (name == "cornell_glossy") scene = cornell_glossy();
+    else if (name == "lamp_room") scene = lamp_room();
     else scene = displaced_sphere(triangles);
     write_gltf(path, scene);
     std::printf("wrote %s\n", path.c_str());

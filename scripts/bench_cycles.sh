@@ -8,6 +8,18 @@
 #   SCENE=... WIDTH=... HEIGHT=... DEPTH=... THREADS=... CYCLES_SPP="16 64 256 1024" \
 #   REF_SPP=4096 REPS=3 OUT=dir bash scripts/bench_cycles.sh
 #   REUSE_REFS=1 OUT=dir bash scripts/bench_cycles.sh   # keeps the references already in dir
+#   CLASS=glossy|environment|lamps|diffuse bash scripts/bench_cycles.sh   # one scene class
+#   CLASS=all OUT=dir bash scripts/bench_cycles.sh      # every class, each in dir/CLASS
+#
+# Scene classes (CLASS): `diffuse` the Cornell box (the default, SCENE may name another);
+# `glossy` the Cornell box with a rough gold sphere (metallic 1, roughness 0.3) and a glossy
+# plastic one (roughness 0.15), `tessera generate cornell_glossy`; `environment`
+# CesiumMilkTruck.gltf (GLTF_PBR, the shared Khronos samples) lit only by scenes/sky.exr, seen
+# from Tessera's default camera (written into a copy of the file for Blender); `lamps` the
+# Cornell box lit by 1,000 small ceiling lamps, `tessera generate lamp_room`. Where materials are
+# not Lambertian, Cycles renders them as Blender's glTF importer makes them (Principled BSDF,
+# caustics on: CYCLES_MATERIALS=gltf in scripts/cycles/cycles_render.py). VARIANTS="on off" also
+# times Cycles with roulette off; the classes other than `diffuse` use its defaults only.
 #
 # Every timed render runs once in each of REPS rounds, both renderers in every round; the tables
 # give each time's median with its minimum and maximum, and each ratio's median over the rounds
@@ -25,7 +37,66 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 T=${TESSERA:-$root/build/release/cli/tessera}
-SCENE=${SCENE:-$root/scenes/cornell_box.gltf}
+CLASS=${CLASS:-diffuse}
+if [ "$CLASS" = all ]; then
+  OUT=${OUT:-$(mktemp -d)}
+  for c in diffuse glossy environment lamps; do
+    echo "==== scene class $c"
+    CLASS=$c OUT="$OUT/$c" bash "$0"
+  done
+  exit 0
+fi
+OUT=${OUT:-$(mktemp -d)}
+mkdir -p "$OUT"
+ENVIRONMENT=${ENVIRONMENT:-}
+export CYCLES_MATERIALS=${CYCLES_MATERIALS:-gltf}
+case "$CLASS" in
+  diffuse)
+    SCENE=${SCENE:-$root/scenes/cornell_box.gltf}
+    CYCLES_MATERIALS=diffuse
+    VARIANTS=${VARIANTS:-on off} ;;
+  glossy)
+    SCENE="$OUT/cornell_glossy.gltf"
+    "$T" generate cornell_glossy "$SCENE" > /dev/null ;;
+  lamps)
+    SCENE="$OUT/lamp_room.gltf"
+    CYCLES_MATERIALS=diffuse
+    "$T" generate lamp_room "$SCENE" > /dev/null ;;
+  environment)
+    GLTF_PBR=${GLTF_PBR:-$root/../shared/scenes/gltf-pbr}
+    ENVIRONMENT=$root/scenes/sky.exr
+    SCENE="$OUT/truck.gltf"
+    # The file has no camera: Tessera's default one (its report says where it stands) is written
+    # into a copy, so that both renderers see the same view.
+    line=$("$T" render -s 1 -m 0 -r 16 12 -f "$OUT/camera_probe.exr" "$GLTF_PBR/CesiumMilkTruck.gltf" 2>&1 | grep 'default camera framing')
+    python3 - "$GLTF_PBR/CesiumMilkTruck.gltf" "$SCENE" "$line" <<'PY'
+import json, math, re, sys
+src, dst, line = sys.argv[1:4]
+nums = [float(x) for x in re.findall(r"-?[0-9.]+(?:e[-+]?[0-9]+)?", line.split(":", 1)[1])]
+p, t, fov = nums[0:3], nums[3:6], nums[6]
+f = [t[i] - p[i] for i in range(3)]
+n = math.sqrt(sum(x * x for x in f)); f = [x / n for x in f]
+r = [-f[2], 0.0, f[0]]; n = math.hypot(r[0], r[2]); r = [x / n for x in r]   # right = f x up(0,1,0)
+u = [r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0]]
+m = [[r[0], u[0], -f[0]], [r[1], u[1], -f[1]], [r[2], u[2], -f[2]]]  # columns: the camera's x, y, z
+w = math.sqrt(max(0.0, 1 + m[0][0] + m[1][1] + m[2][2])) / 2
+q = [(m[2][1] - m[1][2]) / (4 * w), (m[0][2] - m[2][0]) / (4 * w), (m[1][0] - m[0][1]) / (4 * w), w]
+g = json.load(open(src))
+g.pop("animations", None)
+g.setdefault("cameras", []).append({"type": "perspective", "perspective": {"yfov": math.radians(fov), "znear": 0.01}})
+g["nodes"].append({"name": "tessera_default_camera", "camera": len(g["cameras"]) - 1, "translation": p, "rotation": q})
+g["scenes"][g.get("scene", 0)]["nodes"].append(len(g["nodes"]) - 1)
+json.dump(g, open(dst, "w"))
+PY
+    ;;
+  *) echo "bench_cycles: CLASS is diffuse, glossy, environment, lamps or all" >&2; exit 2 ;;
+esac
+VARIANTS=${VARIANTS:-on}
+tessera_args=()
+if [ -n "$ENVIRONMENT" ]; then
+  tessera_args=(-e "$ENVIRONMENT")
+  export CYCLES_ENVIRONMENT=$ENVIRONMENT
+fi
 WIDTH=${WIDTH:-320}
 HEIGHT=${HEIGHT:-240}
 DEPTH=${DEPTH:-5}
@@ -33,14 +104,12 @@ THREADS=${THREADS:-2}
 CYCLES_SPP=${CYCLES_SPP:-16 64 256 1024}
 REF_SPP=${REF_SPP:-4096}
 REPS=${REPS:-3}
-LADDER="1 2 4 8 16 32 64 128 256 512 1024"
-OUT=${OUT:-$(mktemp -d)}
+LADDER=${LADDER:-1 2 4 8 16 32 64 128 256 512 1024}
 if ! command -v blender > /dev/null || ! blender -b --factory-startup --python-exit-code 1 --python-expr "import numpy" > /dev/null 2>&1; then
   echo "bench_cycles: needs Debian's blender and numpy (sudo apt-get install blender python3-numpy); a benchmark-only dependency" >&2
   exit 1
 fi
 [ -x "$T" ] || { echo "bench_cycles: build Tessera first (bash scripts/build.sh release)" >&2; exit 1; }
-mkdir -p "$OUT"
 here="$root/scripts/cycles"
 # Blender's own output is long; its script's lines are kept, and a failing script fails the bench.
 blender_run() {
@@ -63,13 +132,14 @@ for rep in $(seq "$REPS"); do
   r="$OUT/round$rep"
   mkdir -p "$r"
   for n in $CYCLES_SPP; do
-    echo "== round $rep of $REPS, $n spp: Cycles (defaults, then roulette off), then Tessera around $n"
-    blender_run "$here/cycles_render.py" -- "$SCENE" "$r/cycles_on_$n" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" on "$n"
-    blender_run "$here/cycles_render.py" -- "$SCENE" "$r/cycles_off_$n" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" off "$n"
+    echo "== round $rep of $REPS, $n spp: Cycles (roulette: $VARIANTS), then Tessera around $n"
+    for v in $VARIANTS; do
+      blender_run "$here/cycles_render.py" -- "$SCENE" "$r/cycles_${v}_$n" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" "$v" "$n"
+    done
     : > "$r/tessera_near_$n.txt"
     for s in $LADDER; do
       [ "$s" -ge $((n / 2)) ] && [ "$s" -le $((n * 2)) ] || continue
-      "$T" render -s "$s" -m "$DEPTH" -r "$WIDTH" "$HEIGHT" -t "$THREADS" -f "$r/tessera_again.exr" "$SCENE" > /dev/null
+      "$T" render -s "$s" -m "$DEPTH" -r "$WIDTH" "$HEIGHT" -t "$THREADS" ${tessera_args[@]+"${tessera_args[@]}"} -f "$r/tessera_again.exr" "$SCENE" > /dev/null
       printf '%s %s\n' "$s" "$(iinfo -v "$r/tessera_again.exr" | sed -n 's/.*tessera:render_seconds: "\(.*\)"/\1/p')" >> "$r/tessera_near_$n.txt"
     done
   done
@@ -79,7 +149,7 @@ for rep in $(seq "$REPS"); do
   for s in $LADDER; do
     f="$OUT/tessera_$s.exr"
     [ "$rep" = 1 ] || f="$r/tessera_again.exr"
-    "$T" render -s "$s" -m "$DEPTH" -r "$WIDTH" "$HEIGHT" -t "$THREADS" -f "$f" "$SCENE" > /dev/null
+    "$T" render -s "$s" -m "$DEPTH" -r "$WIDTH" "$HEIGHT" -t "$THREADS" ${tessera_args[@]+"${tessera_args[@]}"} -f "$f" "$SCENE" > /dev/null
     printf '%s %s\n' "$s" "$(iinfo -v "$f" | sed -n 's/.*tessera:render_seconds: "\(.*\)"/\1/p')" >> "$r/tessera_times.txt"
   done
 done
@@ -90,21 +160,22 @@ if [ "${REUSE_REFS:-0}" != 1 ] || [ ! -f "$OUT/cycles_ref/cycles_$REF_SPP.exr" ]
 fi
 if [ "${REUSE_REFS:-0}" != 1 ] || [ ! -f "$OUT/tessera_ref.exr" ]; then
   echo "== Tessera's reference ($REF_SPP spp)"
-  "$T" render -s "$REF_SPP" -m "$DEPTH" -r "$WIDTH" "$HEIGHT" -t "$THREADS" -f "$OUT/tessera_ref.exr" "$SCENE" > /dev/null
+  "$T" render -s "$REF_SPP" -m "$DEPTH" -r "$WIDTH" "$HEIGHT" -t "$THREADS" ${tessera_args[@]+"${tessera_args[@]}"} -f "$OUT/tessera_ref.exr" "$SCENE" > /dev/null
 fi
 ours=()
 for s in $LADDER; do ours+=("$OUT/tessera_$s.exr"); done
 
 echo "== errors"
 cyc=()
-for s in $CYCLES_SPP; do cyc+=("$OUT/round1/cycles_on_$s/cycles_$s.exr" "$OUT/round1/cycles_off_$s/cycles_$s.exr"); done
+for s in $CYCLES_SPP; do for v in $VARIANTS; do cyc+=("$OUT/round1/cycles_${v}_$s/cycles_$s.exr"); done; done
 blender_run "$here/rel_mse.py" -- "$OUT/cycles_ref/cycles_$REF_SPP.exr" "${cyc[@]}" "$OUT/tessera_ref.exr" > "$OUT/cycles_err.txt"
 blender_run "$here/rel_mse.py" -- "$OUT/tessera_ref.exr" "${ours[@]}" > "$OUT/tessera_err.txt"
 
-python3 - "$OUT" "$REF_SPP" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" "$SCENE" "$REPS" $CYCLES_SPP <<'EOF'
+python3 - "$OUT" "$REF_SPP" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" "$SCENE${ENVIRONMENT:+ under $ENVIRONMENT}" "$REPS" "$VARIANTS" $CYCLES_SPP <<'EOF'
 import json, math, statistics, sys
-out, ref_spp, w, h, depth, threads, scene, reps = sys.argv[1:9]
-cycles_spp = [int(s) for s in sys.argv[9:]]
+out, ref_spp, w, h, depth, threads, scene, reps, variants = sys.argv[1:10]
+variants = variants.split()
+cycles_spp = [int(s) for s in sys.argv[10:]]
 rounds = range(1, int(reps) + 1)
 load = lambda f: json.loads(open(f"{out}/{f}").read().split("REL_MSE_JSON ", 1)[1])
 cerr, terr = load("cycles_err.txt"), load("tessera_err.txt")
@@ -116,7 +187,7 @@ for r in rounds:
     ours.append(read_times(f"round{r}/tessera_times.txt"))
     near.append({n: read_times(f"round{r}/tessera_near_{n}.txt") for n in cycles_spp})
     cycles.append({(v, n): float(json.load(open(f"{out}/round{r}/cycles_{v}_{n}/cycles_times.json"))["seconds"][str(n)])
-                   for v in ("on", "off") for n in cycles_spp})
+                   for v in variants for n in cycles_spp})
 errors = {s: terr["images"][f"{out}/tessera_{s}.exr"]["rel_mse"] for s in ours[0]}
 
 def time_to(err, times):
@@ -134,7 +205,7 @@ def time_to(err, times):
     return None, "not reached"
 
 spread = lambda v, f="%.3f": f"{f % statistics.median(v)} ({f % min(v)}-{f % max(v)})"
-version = json.load(open(f"{out}/round1/cycles_on_{cycles_spp[0]}/cycles_times.json"))["version"]
+version = json.load(open(f"{out}/round1/cycles_{variants[0]}_{cycles_spp[0]}/cycles_times.json"))["version"]
 agree = cerr["images"][f"{out}/tessera_ref.exr"]
 print(f"\nScene {scene}, {w}x{h}, Tessera max_depth {depth} (Cycles max_bounces {int(depth) - 1}), {threads} threads, "
       f"Blender {version}, {reps} rounds (both renderers in each); times and ratios are median (min-max) over the "
@@ -142,7 +213,7 @@ print(f"\nScene {scene}, {w}x{h}, Tessera max_depth {depth} (Cycles max_bounces 
       f"against each other: {agree['rel_mse']:.2e} (means {agree['mean']:.5f} Tessera, {cerr['reference_mean']:.5f} Cycles)\n")
 print("| Cycles | spp | Cycles time (s) | relMSE | Tessera time to that relMSE (s) | between | Tessera / Cycles time |")
 print("|---|---:|---:|---:|---:|---|---:|")
-for variant in ("on", "off"):
+for variant in variants:
     for s in cycles_spp:
         e = cerr["images"][f"{out}/round1/cycles_{variant}_{s}/cycles_{s}.exr"]["rel_mse"]
         c = [cycles[i][(variant, s)] for i in range(len(ours))]

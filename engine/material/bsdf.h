@@ -4,7 +4,8 @@
 // wo's side (wo.z > 0 for a well-formed query); glass reads its relative index from `ior`, which
 // the integrator inverts when wo is inside the object.
 //
-// bsdf_f and bsdf_pdf describe the non-delta part (zero for mirror and glass); bsdf_sample draws
+// bsdf_f and bsdf_pdf describe the non-delta part (zero for mirror, glass and
+// lobes smoother than kSmoothAlpha); bsdf_sample draws
 // from the whole BSDF and returns f·|cos θi|/pdf, so delta lobes need no density.
 #include <algorithm>
 #include <cmath>
@@ -49,7 +50,42 @@ struct BsdfSample {
 
 inline float luminance(const glm::vec3& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 
-inline bool bsdf_is_delta(const Bsdf& b) { return b.kind == BsdfKind::mirror || b.kind == BsdfKind::glass; }
+// Below this α a microfacet lobe is a perfect mirror (pbrt-v4's EffectivelySmooth): no light
+// sample can land in it and its density would overflow, so it is a delta lobe, sampled only from
+// the BSDF. Normalised Phong of the same width: α² ≈ 2 / (n + 2).
+inline constexpr float kSmoothAlpha = kMinAlpha;
+inline constexpr float kSmoothPhongExponent = 2.f / (kSmoothAlpha * kSmoothAlpha) - 2.f;
+
+// Whether the BSDF has a delta lobe (a sampled direction may come back with `delta`).
+inline bool bsdf_has_delta(const Bsdf& b) {
+    switch (b.kind) {
+        case BsdfKind::mirror:
+        case BsdfKind::glass: return true;
+        case BsdfKind::conductor:
+        case BsdfKind::metallic_roughness: return b.alpha < kSmoothAlpha;
+        case BsdfKind::phong: return b.exponent >= kSmoothPhongExponent;
+        case BsdfKind::lambertian: return false;
+    }
+    return false;
+}
+
+// Whether the BSDF is nothing but delta lobes: direct lighting has nothing to find there.
+inline bool bsdf_is_delta(const Bsdf& b) {
+    if (!bsdf_has_delta(b)) return false;
+    if (b.kind == BsdfKind::metallic_roughness) return b.metallic >= 1.f || b.albedo == glm::vec3(0.f);
+    return true;
+}
+
+// Whether the BSDF has a glossy (non-delta, non-Lambertian) lobe, which direct lighting always
+// estimates by MIS of light and lobe samples.
+inline bool bsdf_has_glossy(const Bsdf& b) {
+    switch (b.kind) {
+        case BsdfKind::conductor:
+        case BsdfKind::phong:
+        case BsdfKind::metallic_roughness: return !bsdf_has_delta(b);
+        default: return false;
+    }
+}
 
 inline bool bsdf_is_black(const Bsdf& b) {
     const glm::vec3 zero(0.f);
@@ -94,6 +130,24 @@ struct MetallicRoughness {
         const float m = std::clamp(1.f - c, 0.f, 1.f);
         return f0 + (f90 - f0) * ((m * m) * (m * m) * m);
     }
+    // The GGX specular lobe (none when it is smooth: a delta lobe).
+    glm::vec3 f_glossy(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi) const {
+        if (b.alpha < kSmoothAlpha) return glm::vec3(0.f);
+        glm::vec3 h = wo + wi;
+        if (h == glm::vec3(0.f)) return glm::vec3(0.f);
+        h = glm::normalize(h);
+        const float vh = std::max(0.f, glm::dot(wo, h));
+        const float g = 1.f / (1.f + ggx_lambda(wo, alpha) + ggx_lambda(wi, alpha));
+        return f_spec(vh) * (ggx_d(h, alpha) * g / (4.f * wo.z * wi.z));
+    }
+    // The density of sampling the specular lobe alone (visible normals).
+    float pdf_glossy(const glm::vec3& wo, const glm::vec3& wi) const {
+        glm::vec3 h = wo + wi;
+        if (h == glm::vec3(0.f)) return 0.f;
+        h = glm::normalize(h);
+        const float oh = glm::dot(wo, h);
+        return oh > 0.f ? ggx_visible_pdf_h(wo, h, alpha) / (4.f * oh) : 0.f;
+    }
     glm::vec3 f_base(const glm::vec3& wi) const {
         return c_diff * (kInvPi * base_o * std::max(0.f, 1.f - ggx_albedo(wi.z, alpha)(d_f0, d_f90)));
     }
@@ -115,7 +169,7 @@ inline glm::vec3 bsdf_f(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi)
         case BsdfKind::mirror:
         case BsdfKind::glass: return glm::vec3(0.f);
         case BsdfKind::conductor: {
-            if (wo.z <= 0.f || wi.z <= 0.f) return glm::vec3(0.f);
+            if (wo.z <= 0.f || wi.z <= 0.f || bsdf_has_delta(b)) return glm::vec3(0.f);
             glm::vec3 h = wo + wi;
             if (h == glm::vec3(0.f)) return glm::vec3(0.f);
             h = glm::normalize(h);
@@ -125,7 +179,7 @@ inline glm::vec3 bsdf_f(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi)
             return F * (beckmann_d(h, alpha) * g / (4.f * wo.z * wi.z));
         }
         case BsdfKind::phong: {
-            if (wo.z <= 0.f || wi.z <= 0.f) return glm::vec3(0.f);
+            if (wo.z <= 0.f || wi.z <= 0.f || bsdf_has_delta(b)) return glm::vec3(0.f);
             const float c = glm::dot(reflect_local(wo), wi);
             if (c <= 0.f) return glm::vec3(0.f);
             return b.albedo * ((b.exponent + 2.f) * (0.5f * kInvPi) * std::pow(c, b.exponent));
@@ -133,13 +187,7 @@ inline glm::vec3 bsdf_f(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi)
         case BsdfKind::metallic_roughness: {
             if (wo.z <= 0.f || wi.z <= 0.f) return glm::vec3(0.f);
             const bsdf_detail::MetallicRoughness m(b, wo);
-            glm::vec3 h = wo + wi;
-            if (h == glm::vec3(0.f)) return glm::vec3(0.f);
-            h = glm::normalize(h);
-            const float vh = std::max(0.f, glm::dot(wo, h));
-            const float g = 1.f / (1.f + ggx_lambda(wo, m.alpha) + ggx_lambda(wi, m.alpha));
-            const glm::vec3 spec = m.f_spec(vh) * (ggx_d(h, m.alpha) * g / (4.f * wo.z * wi.z));
-            return spec + m.f_base(wi);
+            return m.f_glossy(b, wo, wi) + m.f_base(wi);
         }
     }
     return glm::vec3(0.f);
@@ -151,7 +199,7 @@ inline float bsdf_pdf(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi) {
         case BsdfKind::mirror:
         case BsdfKind::glass: return 0.f;
         case BsdfKind::conductor: {
-            if (wo.z <= 0.f || wi.z <= 0.f) return 0.f;
+            if (wo.z <= 0.f || wi.z <= 0.f || bsdf_has_delta(b)) return 0.f;
             glm::vec3 h = wo + wi;
             if (h == glm::vec3(0.f)) return 0.f;
             h = glm::normalize(h);
@@ -159,7 +207,7 @@ inline float bsdf_pdf(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi) {
             return oh > 0.f ? beckmann_pdf_h(h, std::max(b.alpha, kMinAlpha)) / (4.f * oh) : 0.f;
         }
         case BsdfKind::phong: {
-            if (wo.z <= 0.f || wi.z <= 0.f) return 0.f;
+            if (wo.z <= 0.f || wi.z <= 0.f || bsdf_has_delta(b)) return 0.f;
             const float c = glm::dot(reflect_local(wo), wi);
             return c > 0.f ? (b.exponent + 1.f) * (0.5f * kInvPi) * std::pow(c, b.exponent) : 0.f;
         }
@@ -167,13 +215,7 @@ inline float bsdf_pdf(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi) {
             if (wo.z <= 0.f || wi.z <= 0.f) return 0.f;
             const bsdf_detail::MetallicRoughness m(b, wo);
             const float ps = m.p_spec(wo);
-            glm::vec3 h = wo + wi;
-            float spec = 0.f;
-            if (h != glm::vec3(0.f)) {
-                h = glm::normalize(h);
-                const float oh = glm::dot(wo, h);
-                if (oh > 0.f) spec = ggx_visible_pdf_h(wo, h, m.alpha) / (4.f * oh);
-            }
+            const float spec = b.alpha < kSmoothAlpha ? 0.f : m.pdf_glossy(wo, wi);
             return ps * spec + (1.f - ps) * cosine_hemisphere_pdf(wi.z);
         }
     }
@@ -229,6 +271,13 @@ inline bool bsdf_sample(const Bsdf& b, const glm::vec3& wo, float uc, glm::vec2 
             return s.wi.z < 0.f;
         }
         case BsdfKind::conductor: {
+            if (bsdf_has_delta(b)) {
+                s.wi = reflect_local(wo);
+                s.pdf = 1.f;
+                s.weight = fresnel_conductor(wo.z, b.eta, b.k);
+                s.delta = true;
+                return true;
+            }
             const glm::vec3 h = beckmann_sample_h(u, std::max(b.alpha, kMinAlpha));
             const float oh = glm::dot(wo, h);
             if (oh <= 0.f) return false;
@@ -236,6 +285,14 @@ inline bool bsdf_sample(const Bsdf& b, const glm::vec3& wo, float uc, glm::vec2 
             return bsdf_detail::weigh(b, wo, s);
         }
         case BsdfKind::phong: {
+            if (bsdf_has_delta(b)) {
+                // The lobe's limit: ∫ f cos θi dωi → albedo · cos θo as the exponent grows.
+                s.wi = reflect_local(wo);
+                s.pdf = 1.f;
+                s.weight = b.albedo * wo.z;
+                s.delta = true;
+                return true;
+            }
             const float c = std::pow(u.x, 1.f / (b.exponent + 1.f));
             const float sn = std::sqrt(std::max(0.f, 1.f - c * c));
             const float phi = 2.f * kPi * u.y;
@@ -244,7 +301,16 @@ inline bool bsdf_sample(const Bsdf& b, const glm::vec3& wo, float uc, glm::vec2 
         }
         case BsdfKind::metallic_roughness: {
             const bsdf_detail::MetallicRoughness m(b, wo);
-            if (uc < m.p_spec(wo)) {
+            const float ps = m.p_spec(wo);
+            if (uc < ps && b.alpha < kSmoothAlpha) {
+                // The smooth specular lobe: a mirror whose Fresnel is Schlick's at h = n.
+                s.wi = reflect_local(wo);
+                s.pdf = ps;
+                s.weight = m.f_spec(wo.z) / ps;
+                s.delta = true;
+                return true;
+            }
+            if (uc < ps) {
                 const glm::vec3 h = ggx_sample_visible_h(wo, u, m.alpha);
                 const float oh = glm::dot(wo, h);
                 if (oh <= 0.f) return false;
@@ -256,6 +322,32 @@ inline bool bsdf_sample(const Bsdf& b, const glm::vec3& wo, float uc, glm::vec2 
         }
     }
     return false;
+}
+
+// The non-delta part of a BSDF in the two pieces direct lighting treats differently
+// (engine/render/path_integrator.h): the diffuse piece, which `hemisphere` and `importance`
+// estimate their CS184 way, and the glossy lobe, always estimated by MIS.
+struct BsdfSplit {
+    glm::vec3 diffuse{0.f};
+    glm::vec3 glossy{0.f};
+};
+
+inline BsdfSplit bsdf_split(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi) {
+    BsdfSplit r;
+    if (wo.z <= 0.f || wi.z <= 0.f) return r;
+    switch (b.kind) {
+        case BsdfKind::lambertian: r.diffuse = b.albedo * kInvPi; break;
+        case BsdfKind::conductor:
+        case BsdfKind::phong: r.glossy = bsdf_f(b, wo, wi); break;
+        case BsdfKind::metallic_roughness: {
+            const bsdf_detail::MetallicRoughness m(b, wo);
+            r.diffuse = m.f_base(wi);
+            r.glossy = m.f_glossy(b, wo, wi);
+            break;
+        }
+        default: break;
+    }
+    return r;
 }
 
 }  // namespace tessera

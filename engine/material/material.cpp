@@ -21,7 +21,7 @@ Material make_material(const MaterialDesc& d) {
             break;
         case MaterialKind::microfacet:
             b.kind = BsdfKind::conductor;
-            b.alpha = std::max(d.roughness, kMinAlpha);
+            b.alpha = std::max(d.roughness, 0.f);  // below kSmoothAlpha: a delta lobe
             b.eta = d.eta;
             b.k = d.k;
             break;
@@ -32,7 +32,7 @@ Material make_material(const MaterialDesc& d) {
         case MaterialKind::metallic_roughness:
             b.kind = BsdfKind::metallic_roughness;
             b.metallic = std::clamp(d.metallic, 0.f, 1.f);
-            b.alpha = std::max(d.roughness * d.roughness, kMinAlpha);
+            b.alpha = d.roughness * d.roughness;  // below kSmoothAlpha: a delta lobe
             b.ior = d.ior;
             b.specular = std::max(0.f, d.specular);
             break;

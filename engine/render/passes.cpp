@@ -1,9 +1,8 @@
 #include "engine/render/passes.h"
 
-#include "engine/render/light_sampler.h"
-
 #include <algorithm>
 
+#include "engine/render/light_sampler.h"
 #include "engine/render/tile_context.h"
 #include "engine/scene/render_scene.h"
 
@@ -60,6 +59,8 @@ void describe_render(const RenderScene& scene, const RenderSettings& settings, c
                                               : std::string("indirect bounces (max_depth <= 1)"));
         if (!scene.has_lights() && !settings.environment) left_out.push_back("direct lighting: no lights or emitters, no shadow rays");
         else if (settings.direct == DirectLighting::mis) built.push_back("MIS: light and BSDF samples");
+        else if (std::any_of(scene.materials.begin(), scene.materials.end(), [](const Material& m) { return bsdf_has_glossy(m.bsdf); }))
+            built.push_back("MIS of light and lobe samples for glossy lobes (the diffuse part as `direct` says)");
         if (scene.area_lights.size() > 1 && settings.direct != DirectLighting::hemisphere) {
             const LightSelection sel = chosen_light_selection(scene, settings.light_selection);
             const char* name = sel == LightSelection::tree ? "light tree" : sel == LightSelection::power ? "by power" : "every light";

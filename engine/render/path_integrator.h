@@ -1,11 +1,13 @@
 #pragma once
 // Unidirectional path tracing with the CS184 semantics: max_depth 0 shows emitters only,
 // 1 adds direct lighting, n adds up to n bounces; `accumulate` sums bounces 0..n and `nth`
-// keeps only bounce n. Direct lighting is estimated at every vertex by its own rays
-// (hemisphere, light, or MIS of light and BSDF samples), so all three strategies estimate the
-// same integral; the continuation ray only carries the path and never adds emission itself,
-// except after a delta lobe (mirror, glass), whose light no light sample can find: there the
-// continuation's emission stands in for that vertex's direct lighting, so it is counted once.
+// keeps only bounce n. Direct lighting at every vertex comes from light samples (and uniform
+// hemisphere samples for the diffuse part under `hemisphere`), so all three strategies
+// estimate the same integral. The continuation ray adds emission only where that vertex's
+// estimate needs it: after a delta lobe (mirror, glass, smooth metal), whose light no light
+// sample can find, with weight one; and as the BSDF sample of MIS (the whole BSDF under `mis`,
+// a glossy lobe always), weighted against the light samples. Either way it counts for the
+// vertex it left, once.
 #include <algorithm>
 #include <cmath>
 
@@ -25,7 +27,10 @@ public:
     PathIntegrator(const RenderScene& scene, const RenderSettings& settings, RenderStats& stats)
         : s_(scene), st_(settings), stats_(stats),
           env_(settings.environment && !settings.environment->empty() ? settings.environment.get() : nullptr),
-          selection_(chosen_light_selection(scene, settings.light_selection)) {}
+          selection_(chosen_light_selection(scene, settings.light_selection)),
+          by_power_(selection_ == LightSelection::power && scene.area_lights.size() > 1),
+          by_tree_(selection_ == LightSelection::tree && !scene.light_tree.empty()),
+          light_samples_(float(std::max(1, settings.light_rays))) {}
 
     glm::vec3 radiance(Ray ray, Sampler& rng) {
         Hit hit;
@@ -49,42 +54,74 @@ public:
             if (bsdf_is_black(b)) break;  // nothing is reflected from here on
             const Frame frame(si.ns);
             const glm::vec3 wo_l = frame.to_local(wo);
-            // A delta lobe sees lights only along its own directions: its continuation carries
-            // the emission it finds, in place of direct lighting, for this same bounce.
-            const bool delta = bsdf_is_delta(b);
-            if (!delta) {
-                if (include(depth)) L += beta * direct(si, b, frame, wo_l, rng);
-                if (depth == st_.max_depth) break;
+            // A delta lobe sees lights only along its own directions: a continuation drawn from
+            // it carries the emission it finds, in place of direct lighting, for this same
+            // bounce. The rest of the BSDF gets light samples here; where MIS applies (the
+            // whole BSDF under `mis`, a glossy lobe always) the continuation is also its BSDF
+            // sample, as in pbrt, so MIS costs no ray of its own.
+            const bool has_delta = bsdf_has_delta(b);
+            const bool only_delta = has_delta && bsdf_is_delta(b);
+            const MisPart part = only_delta ? MisPart::none : mis_part(b);
+            const bool last = depth == st_.max_depth;
+            if (!only_delta) {
+                if (include(depth)) L += beta * direct(si, b, frame, wo_l, part, rng);
+                if (last && !has_delta && part == MisPart::none) break;
             }
-            if (st_.russian_roulette > 0.f) {
-                if (rng.next_float() >= st_.russian_roulette) break;
-                beta /= st_.russian_roulette;
-            }
-            glm::vec3 wi;
+            // Roulette before the continuation unless the continuation is this vertex's BSDF
+            // sample too: then after its emission is counted.
+            const bool mis_here = part != MisPart::none && include(depth) && (!s_.area_lights.empty() || env_);
+            if (!mis_here && !last && !roulette(beta, rng)) break;
+            glm::vec3 wi, weight;
+            float pdf = 0.f;
+            bool delta = false;  // the continuation came from a delta lobe
             if (b.kind == BsdfKind::lambertian) {
                 // Cosine-weighted: f·cos/pdf of the Lambertian lobe is its albedo.
                 const glm::vec2 u = rng.next_2d();
-                wi = frame.to_world(sample_cosine_hemisphere(u.x, u.y));
+                const glm::vec3 wl = sample_cosine_hemisphere(u.x, u.y);
+                wi = frame.to_world(wl);
                 if (glm::dot(wi, si.ng) <= 0.f) break;  // below the true surface (shading normal bent away)
-                beta *= b.albedo;
+                weight = b.albedo;
+                pdf = cosine_hemisphere_pdf(wl.z);
             } else {
                 BsdfSample bs;
                 if (!sample(b, back, wo_l, rng, bs)) break;
+                // At the last vertex only a delta lobe's light, or MIS's share, is still to count.
+                if (last && !bs.delta && !mis_here) break;
                 wi = frame.to_world(bs.wi);
                 if ((glm::dot(wi, si.ng) > 0.f) != (bs.wi.z > 0.f)) break;  // the true surface disagrees
-                beta *= bs.weight;
+                weight = bs.weight;
+                pdf = bs.pdf;
+                delta = bs.delta;
             }
             Ray next = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri);
             ++stats_.bounce_rays;
-            if (!intersect(s_, next, hit, stats_.traversal)) {
-                if (delta && include(depth)) L += beta * background(wi);
-                break;
-            }
-            si = surface_at(s_, next, hit);
+            const glm::vec3 beta_here = beta;
+            beta *= weight;
+            const bool hit_next = intersect(s_, next, hit, stats_.traversal);
             if (delta) {
+                if (!hit_next) {
+                    if (include(depth)) L += beta * background(wi);
+                    break;
+                }
+                si = surface_at(s_, next, hit);
                 if (include(depth)) L += beta * emitted(si, hit, -wi);
-                if (depth == st_.max_depth) break;
+            } else if (mis_here) {
+                // The emission the continuation finds, weighted against the light samples that
+                // could have found it (`n` of them, power heuristic), for this vertex's bounce.
+                const glm::vec3 fw = part == MisPart::whole ? weight : glossy_weight(b, wo_l, frame.to_local(wi), pdf);
+                if (!hit_next) {
+                    if (env_) L += beta_here * fw * environment_radiance(*env_, wi) * bsdf_mis_weight(pdf, environment_pdf(*env_, wi));
+                    break;
+                }
+                const SurfaceInteraction from = si;
+                si = surface_at(s_, next, hit);
+                L += beta_here * fw * mis_emission(from, b, frame, wo_l, wi, si, hit);
+            } else {
+                if (!hit_next) break;
+                si = surface_at(s_, next, hit);
             }
+            if (last) break;
+            if (mis_here && !roulette(beta, rng)) break;
             wo = -wi;
         }
         return L;
@@ -138,15 +175,87 @@ private:
 
     static float power_heuristic(float a, float b) { return a * a / (a * a + b * b); }
 
-    // Direct lighting at a vertex whose BSDF has no delta lobe. A Lambertian BSDF keeps its
-    // constant f and cosine density without a call per sample.
-    glm::vec3 direct(const SurfaceInteraction& si, const Bsdf& b, const Frame& frame, const glm::vec3& wo_l, Sampler& rng) {
+    // Which part of a vertex's BSDF is estimated by MIS of light samples and the continuation
+    // (its one BSDF sample): all of it under `mis`, a glossy lobe under every strategy.
+    enum class MisPart { none, glossy, whole };
+    MisPart mis_part(const Bsdf& b) const {
+        if (st_.direct == DirectLighting::mis) return MisPart::whole;
+        return bsdf_has_glossy(b) ? MisPart::glossy : MisPart::none;
+    }
+    // Power-heuristic weights between `light_samples_` light samples of density pdf_l and one
+    // BSDF sample of density pdf_b (Veach's heuristic with the sample counts).
+    float bsdf_mis_weight(float pdf_b, float pdf_l) const { return power_heuristic(pdf_b, light_samples_ * pdf_l); }
+    float light_mis_weight(float pdf_l, float pdf_b) const { return power_heuristic(light_samples_ * pdf_l, pdf_b); }
+
+    // The continuation's density toward wi, as the light samples' weights see it.
+    static float continuation_pdf(const Bsdf& b, const glm::vec3& wo_l, const glm::vec3& wl) {
+        return b.kind == BsdfKind::lambertian ? (wl.z > 0.f ? cosine_hemisphere_pdf(wl.z) : 0.f) : bsdf_pdf(b, wo_l, wl);
+    }
+    // The glossy lobe's f·cos/pdf for a continuation drawn from the whole BSDF with density pdf.
+    static glm::vec3 glossy_weight(const Bsdf& b, const glm::vec3& wo_l, const glm::vec3& wl, float pdf) {
+        return pdf > 0.f ? bsdf_split(b, wo_l, wl).glossy * (wl.z / pdf) : glm::vec3(0.f);
+    }
+
+    // Russian roulette on the path's throughput; false ends the path.
+    bool roulette(glm::vec3& beta, Sampler& rng) const {
+        if (st_.russian_roulette <= 0.f) return true;
+        if (rng.next_float() >= st_.russian_roulette) return false;
+        beta /= st_.russian_roulette;
+        return true;
+    }
+
+    // The emission a continuation from `from` (BSDF b, local frame) found at `hs`, times its
+    // MIS weight against the light samples that could have chosen the same point. The weight's
+    // geometry is taken from the shading point, not from the offset ray origin (whose offset is
+    // not small against the distance far from the origin), as the light sample computes it, so
+    // the two weights sum to one.
+    glm::vec3 mis_emission(const SurfaceInteraction& from, const Bsdf& b, const Frame& frame, const glm::vec3& wo_l,
+                           const glm::vec3& wi, const SurfaceInteraction& hs, const Hit& h) const {
+        if (h.sphere) return glm::vec3(0.f);
+        const uint32_t lti = s_.tri_shading[h.prim].light;
+        if (lti == kNoLight) return glm::vec3(0.f);
+        const glm::vec3 Le = emitted(hs, h, -wi);
+        if (Le == glm::vec3(0.f)) return glm::vec3(0.f);
+        const glm::vec3 d = anchored_difference(hs.anchor, hs.local, from.anchor, from.local);
+        const float dist = glm::length(d);
+        if (!(dist > 0.f)) return glm::vec3(0.f);
+        const glm::vec3 wp = d / dist;
+        const float pdf_bp = continuation_pdf(b, wo_l, frame.to_local(wp));
+        float pdf_l;
+        if (by_tree_) {
+            const LightTriangle& lt = s_.light_triangles[lti];
+            const float cos_l = std::abs(glm::dot(hs.ng, wp));
+            pdf_l = cos_l > 0.f ? light_tree_pmf(s_.light_tree, from.p, from.ns, lti) * dist * dist / (cos_l * lt.area) : 0.f;
+        } else {
+            const AreaLight& light = s_.area_lights[s_.light_triangles[lti].light];
+            pdf_l = area_light_pdf(light, hs.ng, wp, dist) * (by_power_ ? light.power_pmf : 1.f);
+        }
+        return Le * bsdf_mis_weight(pdf_bp, pdf_l);
+    }
+
+    // Direct lighting at a vertex from the non-delta part of its BSDF, by light samples (and,
+    // under `hemisphere`, uniform hemisphere samples for the diffuse part). The diffuse part
+    // follows `direct` (CS184: hemisphere samples, light samples, or MIS of light and BSDF
+    // samples); a glossy lobe is always estimated by MIS, since neither light nor BSDF samples
+    // alone find both small lights and narrow lobes. `part` says what MIS covers: its light
+    // samples are weighted here against the continuation, which radiance() weighs in turn as
+    // the BSDF sample. A Lambertian BSDF keeps its constant f without a call per sample.
+    glm::vec3 direct(const SurfaceInteraction& si, const Bsdf& b, const Frame& frame, const glm::vec3& wo_l, MisPart part,
+                     Sampler& rng) {
         if (!s_.has_lights() && !env_) return glm::vec3(0.f);
         const bool lambert = b.kind == BsdfKind::lambertian;
         const glm::vec3 f_lambert = b.albedo * kInvPi;
+        const bool hemisphere = st_.direct == DirectLighting::hemisphere;
         auto f = [&](const glm::vec3& wi) { return lambert ? f_lambert : bsdf_f(b, wo_l, frame.to_local(wi)); };
-        auto pdf_bsdf = [&](const glm::vec3& wi, float cos_i) {
-            return lambert ? cosine_hemisphere_pdf(cos_i) : bsdf_pdf(b, wo_l, frame.to_local(wi));
+        // f toward a light sample of density `pdf`, MIS-weighted where MIS applies; under
+        // `hemisphere` only the glossy lobe (the diffuse part has its own samples).
+        auto f_light = [&](const glm::vec3& wi, float pdf) -> glm::vec3 {
+            if (part == MisPart::none) return f(wi);
+            const glm::vec3 wl = frame.to_local(wi);
+            const float w = light_mis_weight(pdf, continuation_pdf(b, wo_l, wl));
+            if (part == MisPart::whole) return f(wi) * w;
+            const BsdfSplit p = bsdf_split(b, wo_l, wl);
+            return hemisphere ? p.glossy * w : p.diffuse + p.glossy * w;
         };
         glm::vec3 Ld(0.f);
         // Delta lights have one deterministic direction: one shadow ray each, in every strategy.
@@ -169,37 +278,40 @@ private:
             }
         }
         const int n = std::max(1, st_.light_rays);
-        if (st_.direct == DirectLighting::hemisphere) {
+        if (hemisphere) {
+            // The diffuse part from uniform hemisphere samples (all of a Lambertian BSDF).
             const int count = n * int(s_.area_lights.size() + (s_.has_sky ? 1 : 0) + (env_ ? 1 : 0));
             for (int i = 0; i < count; ++i) {
                 const glm::vec2 u = rng.next_2d();
-                const glm::vec3 wi = frame.to_world(sample_uniform_hemisphere(u.x, u.y));
+                const glm::vec3 wl = sample_uniform_hemisphere(u.x, u.y);
+                const glm::vec3 wi = frame.to_world(wl);
                 if (glm::dot(wi, si.ng) <= 0.f) continue;
+                const glm::vec3 fd = lambert ? f_lambert : bsdf_split(b, wo_l, wl).diffuse;
+                if (fd == glm::vec3(0.f)) continue;
                 Ray r = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri);
                 ++stats_.shadow_rays;
                 Hit h;
                 glm::vec3 Le;
                 if (intersect(s_, r, h, stats_.traversal)) Le = emitted(surface_at(s_, r, h), h, -wi);
                 else Le = background(wi);
-                Ld += f(wi) * Le * (glm::dot(si.ns, wi) / (uniform_hemisphere_pdf() * float(count)));
+                Ld += fd * Le * (glm::dot(si.ns, wi) / (uniform_hemisphere_pdf() * float(count)));
             }
-            return Ld;
+            if (part == MisPart::none) return Ld;
         }
-        const bool mis = st_.direct == DirectLighting::mis;
-        const bool by_power = selection_ == LightSelection::power && s_.area_lights.size() > 1;
-        const bool by_tree = selection_ == LightSelection::tree && !s_.light_tree.empty();
+        const bool by_power = by_power_, by_tree = by_tree_;
         // A light sample, its light chosen with probability `pick`.
         auto shade = [&](const LightSample& ls, float pick) {
             const float c = glm::dot(si.ns, ls.wi);
             if (c <= 0.f || glm::dot(si.ng, ls.wi) <= 0.f) return;
+            const float pdf = ls.pdf_w * pick;
+            const glm::vec3 fw = f_light(ls.wi, pdf);
+            if (fw == glm::vec3(0.f)) return;
             ++stats_.shadow_rays;
             if (occluded(s_, spawn_ray_between(si.p, si.p_err, si.ng, ls.point, ls.point_err, ls.n, si.tri), stats_.traversal)) return;
-            const float pdf = ls.pdf_w * pick;
-            const float w = mis ? power_heuristic(pdf, pdf_bsdf(ls.wi, c)) : 1.f;
             const glm::vec3 Le = s_.textured_emission
                                      ? emission_at(s_, s_.materials[s_.tri_shading[ls.prim].material], ls.prim, ls.b1, ls.b2)
                                      : ls.Le;
-            Ld += f(ls.wi) * Le * (w * c / (pdf * float(n)));
+            Ld += fw * Le * (c / (pdf * float(n)));
         };
         auto light_sample = [&](const AreaLight& light, float pick) {
             LightSample ls;
@@ -241,69 +353,16 @@ private:
                 if (!sample_environment(*env_, u, wi, pdf, Le)) continue;
                 const float c = glm::dot(si.ns, wi);
                 if (c <= 0.f || glm::dot(si.ng, wi) <= 0.f) continue;
+                const glm::vec3 fw = f_light(wi, pdf);
+                if (fw == glm::vec3(0.f)) continue;
                 ++stats_.shadow_rays;
                 if (occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri), stats_.traversal)) continue;
-                const float w = mis ? power_heuristic(pdf, pdf_bsdf(wi, c)) : 1.f;
-                Ld += f(wi) * Le * (w * c / (pdf * float(n)));
-            }
-        }
-        if (mis && (!s_.area_lights.empty() || env_)) {
-            // BSDF samples, shared by all area lights; each hit counts for the light it found.
-            for (int i = 0; i < n; ++i) {
-                glm::vec3 wl, weight;  // weight: f·cos/pdf
-                float pdf_b;
-                if (lambert) {
-                    const glm::vec2 u = rng.next_2d();
-                    wl = sample_cosine_hemisphere(u.x, u.y);
-                    pdf_b = cosine_hemisphere_pdf(wl.z);
-                    weight = f_lambert * (wl.z / pdf_b);
-                } else {
-                    BsdfSample bs;
-                    if (!sample(b, false, wo_l, rng, bs)) continue;
-                    wl = bs.wi;
-                    pdf_b = bs.pdf;
-                    weight = bs.weight;
-                }
-                const glm::vec3 wi = frame.to_world(wl);
-                if (glm::dot(wi, si.ng) <= 0.f || wl.z <= 0.f) continue;
-                Ray r = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri);
-                ++stats_.shadow_rays;
-                Hit h;
-                if (!intersect(s_, r, h, stats_.traversal)) {
-                    // Left the scene: the environment's share of this sample.
-                    if (env_) Ld += environment_radiance(*env_, wi) * weight * (power_heuristic(pdf_b, environment_pdf(*env_, wi)) / float(n));
-                    continue;
-                }
-                if (h.sphere) continue;
-                const uint32_t lti = s_.tri_shading[h.prim].light;
-                if (lti == kNoLight) continue;
-                const uint32_t li = s_.light_triangles[lti].light;
-                const SurfaceInteraction hs = surface_at(s_, r, h);
-                const glm::vec3 Le = emitted(hs, h, -wi);
-                if (Le == glm::vec3(0.f)) continue;
-                const AreaLight& hit_light = s_.area_lights[li];
-                // The weight as the light sample of the same point computes it: geometry from
-                // the shading point, not from the offset ray origin (whose offset is not small
-                // against the distance far from the origin), so the two weights sum to one.
-                const glm::vec3 d = anchored_difference(hs.anchor, hs.local, si.anchor, si.local);
-                const float dist = glm::length(d);
-                if (!(dist > 0.f)) continue;
-                const glm::vec3 wp = d / dist;
-                const float pdf_bp = pdf_bsdf(wp, std::max(0.f, glm::dot(si.ns, wp)));
-                float pdf_l;
-                if (by_tree) {
-                    const LightTriangle& lt = s_.light_triangles[lti];
-                    const float cos_l = std::abs(glm::dot(hs.ng, wp));
-                    pdf_l = cos_l > 0.f ? light_tree_pmf(s_.light_tree, si.p, si.ns, lti) * dist * dist / (cos_l * lt.area) : 0.f;
-                } else {
-                    pdf_l = area_light_pdf(hit_light, hs.ng, wp, dist) * (by_power ? hit_light.power_pmf : 1.f);
-                }
-                Ld += Le * weight * (power_heuristic(pdf_bp, pdf_l) / float(n));
+                Ld += fw * Le * (c / (pdf * float(n)));
             }
         }
         if (s_.has_sky) {
             // The sky is sampled with the BSDF: f·L·cos/pdf is the sample's weight times L
-            // (for the Lambertian lobe, its albedo).
+            // (for the Lambertian lobe, its albedo). A delta lobe's share is its continuation's.
             for (int i = 0; i < n; ++i) {
                 glm::vec3 wi, weight;
                 if (lambert) {
@@ -312,7 +371,7 @@ private:
                     weight = b.albedo;
                 } else {
                     BsdfSample bs;
-                    if (!sample(b, false, wo_l, rng, bs) || bs.wi.z <= 0.f) continue;
+                    if (!sample(b, false, wo_l, rng, bs) || bs.delta || bs.wi.z <= 0.f) continue;
                     wi = frame.to_world(bs.wi);
                     weight = bs.weight;
                 }
@@ -329,6 +388,8 @@ private:
     RenderStats& stats_;
     const EnvironmentMap* env_;  // none: black beyond the scene
     LightSelection selection_;   // `automatic` resolved for this scene
+    bool by_power_, by_tree_;    // how area lights share the light samples
+    float light_samples_;        // per light (`all`) or in all (`power`, `tree`), and for the environment
 };
 
 }  // namespace tessera

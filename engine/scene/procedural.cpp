@@ -74,6 +74,35 @@ SceneDescription cornell_spheres() {
     return s;
 }
 
+SceneDescription cornell_glossy() {
+    SceneDescription s = cornell_spheres();
+    s.source = "builtin:cornell_glossy";
+    MaterialDesc gold;
+    gold.name = "rough_gold";
+    gold.kind = MaterialKind::metallic_roughness;
+    gold.albedo = glm::vec3(1.f, 0.78f, 0.34f);
+    gold.metallic = 1.f;
+    gold.roughness = 0.3f;
+    gold.origin = here("rough_gold");
+    s.materials.push_back(gold);
+    s.spheres[0].material = int(s.materials.size()) - 1;
+    MaterialDesc plastic;
+    plastic.name = "glossy_plastic";
+    plastic.kind = MaterialKind::metallic_roughness;
+    plastic.albedo = glm::vec3(0.2f, 0.4f, 0.8f);
+    plastic.roughness = 0.15f;
+    plastic.origin = here("glossy_plastic");
+    s.materials.push_back(plastic);
+    s.spheres[1].material = int(s.materials.size()) - 1;
+    return s;
+}
+
+SceneDescription lamp_room(int lamps) {
+    SceneDescription s = many_lights(lamps);
+    s.source = "builtin:lamp_room";
+    return s;
+}
+
 SceneDescription many_lights(int lamps) {
     SceneDescription s = cornell_spheres();
     s.source = "builtin:many_lights";
@@ -85,7 +114,9 @@ SceneDescription many_lights(int lamps) {
         const float z = -0.9f + 1.8f * (float(i / side) + 0.5f) / float(side);
         const float radiance = 1.f * std::pow(100.f, rng.next_float());  // 1 to 100
         const int m = add_material(s, "lamp" + std::to_string(i), glm::vec3(0.f), glm::vec3(radiance));
-        const float h = 0.04f, y = 1.49f;
+        // Half a lamp's side: 4 cm, less where the grid is dense, so lamps never overlap (two
+        // coplanar lamps over the same spot are a different scene to light and BSDF samples).
+        const float h = std::min(0.04f, 0.35f * 1.8f / float(side)), y = 1.49f;
         add_quad(s, "lamp" + std::to_string(i), m, {x - h, y, z - h}, {x + h, y, z - h}, {x + h, y, z + h}, {x - h, y, z + h});
     }
     return s;
@@ -295,7 +326,7 @@ uint64_t displaced_sphere_triangles(const std::string& name) {
     return tris;
 }
 
-const char* const kBuiltins[] = {"builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace", "builtin:many_lights",
+const char* const kBuiltins[] = {"builtin:cornell_box", "builtin:cornell_spheres", "builtin:cornell_glossy", "builtin:lamp_room", "builtin:furnace", "builtin:many_lights",
                                  "builtin:scattered_lights", "builtin:lamp_field"};
 
 }  // namespace
@@ -303,7 +334,7 @@ const char* const kBuiltins[] = {"builtin:cornell_box", "builtin:cornell_spheres
 void check_builtin_name(const std::string& name) {
     for (const char* b : kBuiltins) if (name == b) return;
     if (displaced_sphere_triangles(name)) return;
-    throw SceneError(SourceLocation{name, 0, ""}, "unknown built-in scene (builtin:cornell_box, builtin:cornell_spheres, "
+    throw SceneError(SourceLocation{name, 0, ""}, "unknown built-in scene (builtin:cornell_box, builtin:cornell_spheres, builtin:cornell_glossy, builtin:lamp_room, "
                                                   "builtin:furnace, builtin:many_lights, builtin:scattered_lights, builtin:lamp_field, "
                                                   "builtin:displaced_sphere?triangles=N)");
 }
@@ -312,6 +343,8 @@ SceneDescription builtin_scene(const std::string& name) {
     check_builtin_name(name);
     if (name == "builtin:cornell_box") return cornell_box();
     if (name == "builtin:cornell_spheres") return cornell_spheres();
+    if (name == "builtin:cornell_glossy") return cornell_glossy();
+    if (name == "builtin:lamp_room") return lamp_room();
     if (name == "builtin:furnace") return furnace_box(0.5f, 1.f);
     if (name == "builtin:many_lights") return many_lights();
     if (name == "builtin:scattered_lights") return scattered_lights();

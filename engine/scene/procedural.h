@@ -13,7 +13,14 @@ namespace tessera {
 SceneDescription cornell_box();
 // The same with two analytic spheres (radius 0.3 and 0.25) on the floor.
 SceneDescription cornell_spheres();
-// The Cornell box with spheres lit by `lamps` small ceiling lamps whose radiance spans two
+// The same with a rough gold sphere (glTF metallic 1, roughness 0.3) and a glossy blue plastic
+// one (metallic 0, roughness 0.15): the glossy scene class of the Cycles comparison.
+SceneDescription cornell_glossy();
+// The Cornell box with spheres lit by 1,000 small ceiling lamps (many_lights(1000)): the
+// many-lamp room of the Cycles comparison.
+SceneDescription lamp_room(int lamps = 1000);
+// The Cornell box with spheres lit by `lamps` small ceiling lamps (8 cm, smaller where the grid
+// is dense so that none overlap) whose radiance spans two
 // orders of magnitude (for light selection by power).
 SceneDescription many_lights(int lamps = 32);
 // The Cornell box with spheres lit only by `lamps` small two-sided square lamps (3 cm) scattered
@@ -34,7 +41,7 @@ SceneDescription furnace_sphere(float albedo, float emission, float radius = 1.f
 // A noisy subdivided sphere with at least `min_triangles` triangles and a directional light.
 SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed = 1);
 
-// "builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace", "builtin:many_lights", "builtin:scattered_lights",
+// "builtin:cornell_box", "builtin:cornell_spheres", "builtin:cornell_glossy", "builtin:lamp_room", "builtin:furnace", "builtin:many_lights", "builtin:scattered_lights",
 // "builtin:lamp_field",
 // "builtin:displaced_sphere?triangles=N" (N ≤ 20 million). Throws SceneError for other names.
 SceneDescription builtin_scene(const std::string& name);

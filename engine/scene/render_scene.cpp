@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <span>
 
 #include "engine/accel/triangle4_leaves.h"
@@ -209,16 +210,22 @@ void build_sphere_accel(const std::vector<Aabb>& bounds, const RenderSceneOption
 void report_materials(const std::vector<Material>& materials, BuildReport& report) {
     static constexpr const char* names[] = {"lambertian", "mirror", "glass", "conductor (Beckmann)", "glossy (Phong)",
                                             "glTF metallic-roughness (GGX)"};
-    size_t counts[std::size(names)] = {};
-    for (const Material& m : materials) ++counts[size_t(m.bsdf.kind)];
+    size_t counts[std::size(names)] = {}, delta = 0;
+    for (const Material& m : materials) {
+        ++counts[size_t(m.bsdf.kind)];
+        if (bsdf_has_delta(m.bsdf)) ++delta;
+    }
     std::string used;
     for (size_t k = 0; k < std::size(names); ++k)
         if (counts[k]) used += (used.empty() ? "" : ", ") + std::to_string(counts[k]) + " " + names[k];
     report.built.push_back("materials: " + used);
     if (counts[0] == materials.size())
         report.left_out.push_back("non-Lambertian BSDFs: every material is Lambertian (f = albedo/π, cosine sampling)");
-    else if (!counts[size_t(BsdfKind::mirror)] && !counts[size_t(BsdfKind::glass)])
-        report.left_out.push_back("delta BSDF paths: no mirror or glass in the scene");
+    else if (!delta)
+        report.left_out.push_back("delta BSDF paths: no mirror, glass or smooth lobe (α < 0.001) in the scene");
+    else
+        report.built.push_back("delta lobes (mirror, glass, smooth metal or coat): " + std::to_string(delta) +
+                               " material(s), sampled from the BSDF only");
 }
 
 // What the materials read per hit (textures, alpha, vertex colours): one MaterialTextures each,
@@ -295,8 +302,14 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     build_sphere_accel(bounds, options, s);
     clock.lap("spheres");
 
-    if (frame_camera(desc.camera, s.bounds, s.camera))
-        s.report.built.push_back("default camera framing the scene (the scene has none)");
+    if (frame_camera(desc.camera, s.bounds, s.camera)) {
+        // Where it stands, so that another renderer can be given the same view (scripts/bench_cycles.sh).
+        char where[256];
+        std::snprintf(where, sizeof where, "from (%.6g, %.6g, %.6g) toward (%.6g, %.6g, %.6g), vertical field of view %.6g°",
+                      s.camera.position.x, s.camera.position.y, s.camera.position.z, s.camera.look_at.x, s.camera.look_at.y,
+                      s.camera.look_at.z, s.camera.vfov_deg);
+        s.report.built.push_back(std::string("default camera framing the scene (the scene has none): ") + where);
+    }
     clock.lap("camera");
     s.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return s;

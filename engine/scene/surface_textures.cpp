@@ -163,7 +163,7 @@ void apply_textures(const RenderScene& s, const MaterialTextures& mt, uint32_t p
         // glTF: roughness in green, metallic in blue; the factors (already in bsdf) multiply them.
         const glm::vec4 t = lookup(s, mt.metallic_roughness, sh, b1, b2, false);
         const float roughness = std::sqrt(bsdf.alpha) * t.y;
-        bsdf.alpha = std::max(roughness * roughness, kMinAlpha);
+        bsdf.alpha = roughness * roughness;  // below kSmoothAlpha: a delta lobe
         bsdf.metallic = std::clamp(bsdf.metallic * t.z, 0.f, 1.f);
     }
     if (mt.normal.used() && !s.tangents.empty()) {

@@ -6,13 +6,23 @@
 #
 # One render per count: bench_cycles.sh repeats the whole script in its rounds.
 #
-# The same integral as Tessera's: every material a Lambertian of its glTF base colour plus its
-# emission (KHR_materials_emissive_strength included), no world light; Tessera's max_depth d is
+# Two material models, by the environment variable CYCLES_MATERIALS:
+# - `diffuse` (the default): the same integral as Tessera's on a Lambertian scene: every material
+#   a Lambertian of its glTF base colour plus its emission (KHR_materials_emissive_strength
+#   included);
+# - `gltf`: the materials as Blender's glTF importer makes them (Principled BSDF, textures
+#   included), with Cycles' own defaults for glossy and transmission bounces and caustics on: the
+#   scene classes whose materials are not Lambertian (each renderer is then measured against its
+#   own converged render, since the two material models differ slightly).
+# CYCLES_ENVIRONMENT=FILE lights the scene with a lat-long map as Tessera's `-e` does (the same
+# directions: the image's left edge is Tessera's u = 0); without it the world is black.
+# Tessera's max_depth d is
 # Cycles' max_bounces d - 1 (Tessera counts the camera ray's hit as depth 1); a box filter one
 # pixel wide (Tessera's pixel samples are uniform over the pixel); no clamping, no denoising,
 # no adaptive sampling, no filmic view transform. `ROULETTE off` sets min_light_bounces to the
 # bounce count, which turns Cycles' Russian roulette off (Tessera's default has none).
 import json
+import math
 import os
 import sys
 import time
@@ -36,13 +46,18 @@ bpy.ops.import_scene.gltf(filepath=scene_path)
 scene = bpy.context.scene
 cams = [o for o in scene.objects if o.type == "CAMERA"]
 if not cams:
-    sys.exit("cycles_render: the scene has no camera")
+    sys.exit("cycles_render: the scene has no camera (bench_cycles.sh adds Tessera's default one)")
 scene.camera = cams[0]
 # glTF's yfov is vertical: fit the sensor to the height, as Tessera does.
 cams[0].data.sensor_fit = "VERTICAL"
 
+materials = os.environ.get("CYCLES_MATERIALS", "diffuse")
+environment = os.environ.get("CYCLES_ENVIRONMENT", "")
+if materials not in ("diffuse", "gltf"):
+    sys.exit("cycles_render: CYCLES_MATERIALS is diffuse or gltf")
+
 # Diffuse materials: base colour and emission read from the importer's Principled BSDF.
-for mat in bpy.data.materials:
+for mat in (bpy.data.materials if materials == "diffuse" else []):
     if not mat.use_nodes:
         continue
     nodes = mat.node_tree.nodes
@@ -80,9 +95,28 @@ for mat in bpy.data.materials:
     links.new(emit.outputs["Emission"], add.inputs[1])
     links.new(add.outputs["Shader"], out.inputs["Surface"])
 
-world = bpy.data.worlds.new("black")
+world = bpy.data.worlds.new("world")
 world.use_nodes = True
-world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+background = world.node_tree.nodes["Background"]
+if environment:
+    # Tessera's lat-long map (engine/scene/environment.h, glTF's +y up) seen in Blender's +z-up
+    # world (the importer turns glTF's -z into +y): the two equirectangular conventions are a
+    # quarter turn apart about the vertical, which turning the lookup by -90° about z undoes.
+    # Checked on CesiumMilkTruck under scenes/sky.exr: mean absolute difference to Tessera's
+    # image 0.046 at -90°, 0.20 to 0.87 at the other quarter turns.
+    wn, wl = world.node_tree.nodes, world.node_tree.links
+    tex = wn.new("ShaderNodeTexEnvironment")
+    tex.image = bpy.data.images.load(environment)
+    tex.interpolation = "Closest"  # Tessera's radiance is constant over a texel
+    coord = wn.new("ShaderNodeTexCoord")
+    mapping = wn.new("ShaderNodeMapping")
+    mapping.inputs["Rotation"].default_value[2] = -math.pi / 2
+    wl.new(coord.outputs["Generated"], mapping.inputs["Vector"])
+    wl.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    wl.new(tex.outputs["Color"], background.inputs["Color"])
+    background.inputs["Strength"].default_value = 1.0
+else:
+    background.inputs["Strength"].default_value = 0.0
 scene.world = world
 
 scene.render.engine = "CYCLES"
@@ -94,8 +128,12 @@ c.sample_clamp_direct = 0.0
 c.sample_clamp_indirect = 0.0
 c.max_bounces = max(0, max_depth - 1)
 c.diffuse_bounces = max(0, max_depth - 1)
-c.glossy_bounces = c.transmission_bounces = c.volume_bounces = c.transparent_max_bounces = 0
-c.caustics_reflective = c.caustics_refractive = False
+if materials == "diffuse":
+    c.glossy_bounces = c.transmission_bounces = c.volume_bounces = c.transparent_max_bounces = 0
+    c.caustics_reflective = c.caustics_refractive = False
+else:
+    c.glossy_bounces = c.transmission_bounces = max(0, max_depth - 1)
+    c.caustics_reflective = c.caustics_refractive = True
 c.min_light_bounces = c.max_bounces if not roulette else 0
 c.pixel_filter_type = "BOX"
 c.filter_width = 1.0
