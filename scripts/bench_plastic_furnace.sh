@@ -31,7 +31,7 @@ for j in range(nv):
     for i in range(nu):
         a = j * (nu + 1) + i
         b = a + nu + 1
-        idx += [a, b, a + 1, a + 1, b, b + 1]
+        idx += [a, a + 1, b, a + 1, b + 1, b]  # counter-clockwise seen from outside
 pb = b"".join(struct.pack("<3f", *p) for p in pos)  # on the unit sphere, positions are normals
 ib = b"".join(struct.pack("<I", i) for i in idx)
 buf = pb + pb + ib

@@ -63,13 +63,14 @@ public:
             const bool only_delta = has_delta && bsdf_is_delta(b);
             const MisPart part = only_delta ? MisPart::none : mis_part(b);
             const bool last = depth == st_.max_depth;
+            // Whether the continuation is this vertex's MIS BSDF sample (lights it could find).
+            const bool mis_here = part != MisPart::none && include(depth) && (!s_.area_lights.empty() || env_);
             if (!only_delta) {
                 if (include(depth)) L += beta * direct(si, b, frame, wo_l, part, rng);
-                if (last && !has_delta && part == MisPart::none) break;
+                if (last && !has_delta && !mis_here) break;
             }
-            // Roulette before the continuation unless the continuation is this vertex's BSDF
-            // sample too: then after its emission is counted.
-            const bool mis_here = part != MisPart::none && include(depth) && (!s_.area_lights.empty() || env_);
+            // Roulette before the continuation unless it is the MIS BSDF sample: then after its
+            // emission is counted.
             if (!mis_here && !last && !roulette(beta, rng)) break;
             glm::vec3 wi, weight;
             float pdf = 0.f;
@@ -94,7 +95,9 @@ public:
                 delta = bs.delta;
             }
             Ray next = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri);
-            ++stats_.bounce_rays;
+            // At the last vertex MIS's BSDF sample is direct lighting's ray, not a bounce.
+            if (last && !delta) ++stats_.shadow_rays;
+            else ++stats_.bounce_rays;
             const glm::vec3 beta_here = beta;
             beta *= weight;
             const bool hit_next = intersect(s_, next, hit, stats_.traversal);
