@@ -113,7 +113,7 @@ public:
                 // could have found it (`n` of them, power heuristic), for this vertex's bounce.
                 const glm::vec3 fw = part == MisPart::whole ? weight : glossy_weight(b, wo_l, frame.to_local(wi), pdf);
                 if (!hit_next) {
-                    if (env_) L += beta_here * fw * environment_radiance(*env_, wi) * bsdf_mis_weight(pdf, environment_pdf(*env_, wi));
+                    if (env_) L += beta_here * fw * environment_radiance(*env_, wi) * bsdf_mis_weight(pdf, environment_pdf(*env_, wi, env_sampling(part)));
                     break;
                 }
                 const SurfaceInteraction from = si;
@@ -184,6 +184,13 @@ private:
     MisPart mis_part(const Bsdf& b) const {
         if (st_.direct == DirectLighting::mis) return MisPart::whole;
         return bsdf_has_glossy(b) ? MisPart::glossy : MisPart::none;
+    }
+    // The environment's light samples leave the sky below the map's mean to the BSDF sample
+    // where every one of them is MIS-weighted against it: not under `importance`, whose
+    // diffuse part has the light samples alone.
+    EnvironmentSampling env_sampling(MisPart part) const {
+        const bool all_weighted = part == MisPart::whole || (part == MisPart::glossy && st_.direct == DirectLighting::hemisphere);
+        return all_weighted ? EnvironmentSampling::compensated : EnvironmentSampling::full;
     }
     // Power-heuristic weights between `light_samples_` light samples of density pdf_l and one
     // BSDF sample of density pdf_b (Veach's heuristic with the sample counts).
@@ -349,11 +356,12 @@ private:
         }
         if (env_) {
             // The environment is one more light: `n` samples by its luminance.
+            const EnvironmentSampling how = env_sampling(part);
             for (int i = 0; i < n; ++i) {
                 const glm::vec2 u = rng.next_2d();
                 glm::vec3 wi, Le;
                 float pdf;
-                if (!sample_environment(*env_, u, wi, pdf, Le)) continue;
+                if (!sample_environment(*env_, u, wi, pdf, Le, how)) continue;
                 const float c = glm::dot(si.ns, wi);
                 if (c <= 0.f || glm::dot(si.ng, wi) <= 0.f) continue;
                 const glm::vec3 fw = f_light(wi, pdf);

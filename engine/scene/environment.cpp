@@ -20,6 +20,46 @@ int find_bin(const float* cdf, int n, float u, float& within) {
     return bin;
 }
 
+// The distribution of weights max(0, luminance − floor) × sin θ over env's texels.
+void build_distribution(const EnvironmentMap& env, float floor, EnvironmentDistribution& d) {
+    const int width = env.width, height = env.height;
+    d.floor = floor;
+    d.conditional_cdf.assign(size_t(height) * (width + 1), 0.f);
+    d.marginal_cdf.assign(height + 1, 0.f);
+    double total = 0;
+    for (int y = 0; y < height; ++y) {
+        // sin θ at the row's centre: the solid angle a texel of the row covers.
+        const double st = std::sin(kPi * (y + 0.5) / height);
+        float* cdf = &d.conditional_cdf[size_t(y) * (width + 1)];
+        double row = 0;
+        for (int x = 0; x < width; ++x) {
+            row += std::max(0.0, double(luminance_of(env.texels[size_t(y) * width + x])) - floor) * st;
+            cdf[x + 1] = float(row);
+        }
+        for (int x = 1; x <= width; ++x) cdf[x] = row > 0 ? float(cdf[x] / row) : float(x) / float(width);
+        cdf[width] = 1.f;
+        total += row;
+        d.marginal_cdf[y + 1] = float(total);
+    }
+    if (!std::isfinite(float(total)) || total * double(width) * height > 1e37)
+        throw std::invalid_argument("environment map '" + env.source + "' is too bright to sample");
+    for (int y = 1; y <= height; ++y) d.marginal_cdf[y] = total > 0 ? float(d.marginal_cdf[y] / total) : float(y) / float(height);
+    d.marginal_cdf[height] = 1.f;
+    d.total_weight = float(total);
+}
+
+// A texel's density per solid angle at polar sin st: its probability spread over its (u, v)
+// area, then over solid angle (dω = 2π² sin θ du dv). The weights used sin θ at the row's centre.
+float texel_pdf(const EnvironmentMap& env, const EnvironmentDistribution& d, int x, int y, float st) {
+    const double stc = std::sin(kPi * (y + 0.5) / env.height);
+    const double w = std::max(0.0, double(luminance_of(env.texels[size_t(y) * env.width + x])) - d.floor) * stc;
+    return float(w / d.total_weight * env.width * env.height / (2.0 * kPi * kPi * st));
+}
+
+const EnvironmentDistribution& distribution(const EnvironmentMap& env, EnvironmentSampling how) {
+    return how == EnvironmentSampling::compensated ? env.compensated : env.full;
+}
+
 }  // namespace
 
 glm::vec3 environment_direction(float u, float v) {
@@ -50,30 +90,16 @@ EnvironmentMap build_environment(int width, int height, const std::vector<float>
                                         std::to_string(i % size_t(width)) + ", " + std::to_string(i / size_t(width)) + ")");
         env.texels[i] = c;
     }
-    env.conditional_cdf.assign(size_t(height) * (width + 1), 0.f);
-    env.row_weight.assign(height, 0.f);
-    env.marginal_cdf.assign(height + 1, 0.f);
-    double total = 0;
+    build_distribution(env, 0.f, env.full);
+    // The mean luminance over solid angle, by the same row weights.
+    double lum = 0, area = 0;
     for (int y = 0; y < height; ++y) {
-        // sin θ at the row's centre: the solid angle a texel of the row covers.
         const double st = std::sin(kPi * (y + 0.5) / height);
-        float* cdf = &env.conditional_cdf[size_t(y) * (width + 1)];
-        double row = 0;
-        for (int x = 0; x < width; ++x) {
-            row += double(luminance_of(env.texels[size_t(y) * width + x])) * st;
-            cdf[x + 1] = float(row);
-        }
-        for (int x = 1; x <= width; ++x) cdf[x] = row > 0 ? float(cdf[x] / row) : float(x) / float(width);
-        cdf[width] = 1.f;
-        env.row_weight[y] = float(row);
-        total += row;
-        env.marginal_cdf[y + 1] = float(total);
+        for (int x = 0; x < width; ++x) lum += double(luminance_of(env.texels[size_t(y) * width + x])) * st;
+        area += st * width;
     }
-    if (!std::isfinite(float(total)) || total * double(width) * height > 1e37)
-        throw std::invalid_argument("environment map '" + env.source + "' is too bright to sample");
-    for (int y = 1; y <= height; ++y) env.marginal_cdf[y] = total > 0 ? float(env.marginal_cdf[y] / total) : float(y) / float(height);
-    env.marginal_cdf[height] = 1.f;
-    env.total_weight = float(total);
+    build_distribution(env, float(lum / area), env.compensated);
+    if (!(env.compensated.total_weight > 0.f)) env.compensated = env.full;
     return env;
 }
 
@@ -84,25 +110,24 @@ glm::vec3 environment_radiance(const EnvironmentMap& env, const glm::vec3& dir) 
     return env.texels[size_t(y) * env.width + x];
 }
 
-float environment_pdf(const EnvironmentMap& env, const glm::vec3& dir) {
-    if (!(env.total_weight > 0.f)) return 0.f;
+float environment_pdf(const EnvironmentMap& env, const glm::vec3& dir, EnvironmentSampling how) {
+    const EnvironmentDistribution& d = distribution(env, how);
+    if (!(d.total_weight > 0.f)) return 0.f;
     const glm::vec2 uv = environment_uv(dir);
     const int x = std::min(env.width - 1, int(uv.x * float(env.width)));
     const int y = std::min(env.height - 1, int(uv.y * float(env.height)));
     const float st = std::sin(kPi * uv.y);  // as sampling computes it (not √(1 − y²): it loses digits at the poles)
     if (!(st > 0.f)) return 0.f;
-    // The texel's probability spread over its (u, v) area, then over solid angle
-    // (dω = 2π² sin θ du dv). The weights used sin θ at the row's centre.
-    const double stc = std::sin(kPi * (y + 0.5) / env.height);
-    const double p = double(luminance_of(env.texels[size_t(y) * env.width + x])) * stc / env.total_weight;
-    return float(p * env.width * env.height / (2.0 * kPi * kPi * st));
+    return texel_pdf(env, d, x, y, st);
 }
 
-bool sample_environment(const EnvironmentMap& env, glm::vec2 uv, glm::vec3& wi, float& pdf, glm::vec3& radiance) {
-    if (!(env.total_weight > 0.f)) return false;
+bool sample_environment(const EnvironmentMap& env, glm::vec2 uv, glm::vec3& wi, float& pdf, glm::vec3& radiance,
+                        EnvironmentSampling how) {
+    const EnvironmentDistribution& d = distribution(env, how);
+    if (!(d.total_weight > 0.f)) return false;
     float fy, fx;
-    const int y = find_bin(env.marginal_cdf.data(), env.height, uv.y, fy);
-    const int x = find_bin(&env.conditional_cdf[size_t(y) * (env.width + 1)], env.width, uv.x, fx);
+    const int y = find_bin(d.marginal_cdf.data(), env.height, uv.y, fy);
+    const int x = find_bin(&d.conditional_cdf[size_t(y) * (env.width + 1)], env.width, uv.x, fx);
     // Kept off the texel's edges by a hair, so that the direction maps back to this texel
     // (its radiance and density) whatever the rounding; the radiance is constant over it.
     fx = std::clamp(fx, 1e-3f, 1.f - 1e-3f);
@@ -112,9 +137,7 @@ bool sample_environment(const EnvironmentMap& env, glm::vec2 uv, glm::vec3& wi, 
     radiance = env.texels[size_t(y) * env.width + x];
     const float st = std::sin(kPi * v);
     if (!(st > 0.f)) return false;
-    const double stc = std::sin(kPi * (y + 0.5) / env.height);
-    const double p = double(luminance_of(radiance)) * stc / env.total_weight;
-    pdf = float(p * env.width * env.height / (2.0 * kPi * kPi * st));
+    pdf = texel_pdf(env, d, x, y, st);
     return pdf > 0.f;
 }
 

@@ -99,5 +99,35 @@ TEST(PathIntegratorEnvironment, StrategiesAgreeUnderTheSun) {
     EXPECT_GT(means[1], 0.1);
 }
 
+// The same with a glossy plastic floor and a rough gold sphere: the glossy lobes' light samples
+// come from the compensated distribution under `mis` and `hemisphere` (all of them MIS-weighted)
+// and from the full one under `importance` (whose diffuse part has them alone).
+TEST(PathIntegratorEnvironment, GlossyStrategiesAgreeUnderTheSun) {
+    SceneDescription d = floor_scene(0.5f, {0, 2, 3}, {0, 0, 0});
+    d.materials[0].kind = MaterialKind::metallic_roughness;
+    d.materials[0].roughness = 0.3f;
+    MaterialDesc gold;
+    gold.kind = MaterialKind::metallic_roughness;
+    gold.albedo = {1.f, 0.78f, 0.34f};
+    gold.metallic = 1.f;
+    gold.roughness = 0.3f;
+    d.materials.push_back(gold);
+    d.spheres.push_back({glm::vec3(0.f, 0.5f, 0.f), 0.5f, 1, {}});
+    const RenderScene scene = build_render_scene(d, {});
+    const auto sky = std::make_shared<const EnvironmentMap>(build_environment(128, 64, sky_environment(128, 64), "sky"));
+    double means[3], ses[3];
+    for (int i = 0; i < 3; ++i) {
+        RenderSettings st = settings(2, kStrategies[i], sky);
+        st.spp = 64 / test::kWorkScale + 4;
+        const test::MeanEstimate m = test::mean_of_two_seeds(scene, st);
+        means[i] = m.mean;
+        ses[i] = m.se;
+    }
+    for (int i = 0; i < 3; ++i)
+        for (int j = i + 1; j < 3; ++j)
+            EXPECT_NEAR(means[i], means[j], 5 * std::hypot(ses[i], ses[j])) << i << " vs " << j;
+    EXPECT_GT(means[2], 0.1);
+}
+
 }  // namespace
 }  // namespace tessera

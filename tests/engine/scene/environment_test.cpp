@@ -55,7 +55,7 @@ TEST(Environment, SamplesFollowTheDistributionChiSquare) {
     for (int y = 0; y < env.height; ++y)
         for (int x = 0; x < env.width; ++x) {
             const double st = std::sin(kPi * (y + 0.5) / env.height);
-            const double e = n * luminance(env.texels[size_t(y) * env.width + x]) * st / env.total_weight;
+            const double e = n * luminance(env.texels[size_t(y) * env.width + x]) * st / env.full.total_weight;
             const double o = count[size_t(y) * env.width + x];
             if (e < 5) { pooled_o += o; pooled_e += e; continue; }
             chi += (o - e) * (o - e) / e;
@@ -83,6 +83,84 @@ TEST(Environment, PdfIntegratesToOne) {
     EXPECT_NEAR(sum / n, 1.0, 0.03);
     const EnvironmentMap flat = build_environment(64, 32, std::vector<float>(64 * 32 * 3, 1.f), "flat");
     EXPECT_NEAR(environment_pdf(flat, glm::normalize(glm::vec3(0.3f, 0.2f, -0.5f))), 1.f / (4.f * kPi), 0.01f / (4.f * kPi));
+}
+
+// The compensated distribution (for MIS'd light samples) is the luminance above the map's mean:
+// texels at or below it have density 0, the rest are sampled in proportion (χ²), each sample's
+// density is environment_pdf's, and it integrates to one. A flat map has nothing above its
+// mean: it keeps the full distribution.
+TEST(Environment, CompensatedSamplingTakesTheLuminanceAboveTheMean) {
+    // Texels of random brightness, about half of them above the mean.
+    std::vector<float> rgb(48 * 24 * 3);
+    Pcg32 texels(11, 3);
+    for (size_t i = 0; i < rgb.size(); i += 3) {
+        const float v = 2.f * texels.next_float();
+        rgb[i] = v;
+        rgb[i + 1] = 0.5f * v;
+        rgb[i + 2] = 0.25f * v;
+    }
+    const EnvironmentMap env = build_environment(48, 24, rgb, "random");
+    const auto how = EnvironmentSampling::compensated;
+    ASSERT_GT(env.compensated.floor, 0.f);
+    const int n = 400000;
+    std::vector<double> count(size_t(env.width) * env.height, 0.0);
+    Pcg32 rng(4, 7);
+    for (int i = 0; i < n; ++i) {
+        glm::vec3 wi, Le;
+        float pdf;
+        ASSERT_TRUE(sample_environment(env, {rng.next_float(), rng.next_float()}, wi, pdf, Le, how));
+        ASSERT_GT(luminance(Le), env.compensated.floor);
+        const glm::vec2 uv = environment_uv(wi);
+        const int x = std::min(env.width - 1, int(uv.x * env.width)), y = std::min(env.height - 1, int(uv.y * env.height));
+        count[size_t(y) * env.width + x] += 1;
+        ASSERT_NEAR(pdf, environment_pdf(env, wi, how), 1e-3f * pdf);
+    }
+    double chi = 0, pooled_o = 0, pooled_e = 0;
+    int cells = 0, dark = 0;
+    for (int y = 0; y < env.height; ++y)
+        for (int x = 0; x < env.width; ++x) {
+            const double st = std::sin(kPi * (y + 0.5) / env.height);
+            const double above = std::max(0.0, double(luminance(env.texels[size_t(y) * env.width + x])) - env.compensated.floor);
+            const double e = n * above * st / env.compensated.total_weight;
+            const double o = count[size_t(y) * env.width + x];
+            if (above == 0.0) {
+                ++dark;
+                EXPECT_EQ(environment_pdf(env, environment_direction((x + 0.5f) / env.width, (y + 0.5f) / env.height), how), 0.f);
+                EXPECT_EQ(o, 0.0);
+                continue;
+            }
+            if (e < 5) { pooled_o += o; pooled_e += e; continue; }
+            chi += (o - e) * (o - e) / e;
+            ++cells;
+        }
+    if (pooled_e > 0) { chi += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e; ++cells; }
+    const int dof = cells - 1;
+    EXPECT_LT(chi, dof + 5 * std::sqrt(2.0 * dof)) << "dof " << dof;
+    EXPECT_GT(dof, 300);
+    EXPECT_GT(dark, 300);
+    // Under a sun only the sun is above the mean; the density still integrates to one.
+    const EnvironmentMap sun = sky();
+    int above = 0;
+    for (const glm::vec3& c : sun.texels) above += luminance(c) > sun.compensated.floor;
+    EXPECT_GT(above, 0);
+    EXPECT_LT(above, sun.width * sun.height / 100);
+    for (const EnvironmentMap* m : {&env, &sun}) {
+        // 4x4 points within each texel, each weighted by its share of the texel's solid angle.
+        double sum = 0;
+        for (int y = 0; y < m->height; ++y)
+            for (int x = 0; x < m->width; ++x)
+                for (int j = 0; j < 4; ++j)
+                    for (int i = 0; i < 4; ++i) {
+                        const double v0 = (y + j / 4.0) / m->height, v1 = (y + (j + 1) / 4.0) / m->height;
+                        const double dw = 2.0 * kPi / (4.0 * m->width) * (std::cos(kPi * v0) - std::cos(kPi * v1));
+                        const float u = float((x + (i + 0.5) / 4.0) / m->width), v = float((v0 + v1) / 2);
+                        sum += environment_pdf(*m, environment_direction(u, v), how) * dw;
+                    }
+        EXPECT_NEAR(sum, 1.0, 0.01) << m->source;
+    }
+    const EnvironmentMap flat = build_environment(16, 8, std::vector<float>(16 * 8 * 3, 1.f), "flat");
+    const glm::vec3 d = glm::normalize(glm::vec3(0.3f, 0.2f, -0.5f));
+    EXPECT_EQ(environment_pdf(flat, d, how), environment_pdf(flat, d));
 }
 
 // Hostile maps are refused with a reason; a black map samples nothing.
