@@ -4,19 +4,31 @@
 # a bounded time on the broken-file corpus.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Each stage's time is printed when it ends (also when it fails), and the whole run's at the end.
+stage_name="setup"
+stage_start=$SECONDS
+stage_end() { echo "== $stage_name took $((SECONDS - stage_start)) s (the run so far: $SECONDS s)"; }
+stage() {
+  stage_end
+  stage_name="$1"
+  stage_start=$SECONDS
+  echo "== $1"
+}
+trap stage_end EXIT
+echo "== setup"
 bash scripts/setup.sh
 fuzz_seconds="${TESSERA_FUZZ_SECONDS:-60}"
 
-echo "== release build and tests"
+stage "release build and tests"
 bash scripts/build.sh release
 ctest --test-dir build/release --output-on-failure -j 2
 
-echo "== ASan+UBSan build and tests"
+stage "ASan+UBSan build and tests"
 bash scripts/build.sh asan
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   ctest --test-dir build/asan --output-on-failure -j 2 -LE slow
 
-echo "== fuzzers (${fuzz_seconds}s each)"
+stage "fuzzers (${fuzz_seconds}s each)"
 bash scripts/build.sh fuzz
 # Each loader on its broken files, and the real server's request handling on whole requests
 # (tests/corpus/http); a crash, a sanitizer report or a connection that never ends fails.
