@@ -1,5 +1,7 @@
 // The path integrator under an environment light: known irradiance, what escaping rays see, and
 // strategies that agree.
+#include <array>
+#include <cmath>
 #include <memory>
 
 #include <gtest/gtest.h>
@@ -54,6 +56,22 @@ RenderSettings settings(int depth, DirectLighting d, std::shared_ptr<const Envir
     return st;
 }
 
+// Each strategy's image mean under `sky` (spp_of(i) samples for kStrategies[i]), and the test
+// that every pair agrees within 5 standard errors.
+std::array<test::MeanEstimate, 3> strategies_agree(const RenderScene& scene, std::shared_ptr<const EnvironmentMap> sky,
+                                                   int (*spp_of)(int)) {
+    std::array<test::MeanEstimate, 3> m;
+    for (int i = 0; i < 3; ++i) {
+        RenderSettings st = settings(2, kStrategies[i], sky);
+        st.spp = spp_of(i);
+        m[size_t(i)] = test::mean_of_two_seeds(scene, st);
+    }
+    for (size_t i = 0; i < 3; ++i)
+        for (size_t j = i + 1; j < 3; ++j)
+            EXPECT_NEAR(m[i].mean, m[j].mean, 5 * std::hypot(m[i].se, m[j].se)) << i << " vs " << j;
+    return m;
+}
+
 // A Lambertian floor under a uniform sky of radiance 1 reflects exactly its albedo: the
 // irradiance is π from the upper hemisphere, with every strategy.
 TEST(PathIntegratorEnvironment, KnownIrradianceUnderAUniformSky) {
@@ -83,20 +101,10 @@ TEST(PathIntegratorEnvironment, StrategiesAgreeUnderTheSun) {
     d.spheres.push_back({glm::vec3(0.f, 0.5f, 0.f), 0.5f, 0, {}});
     const RenderScene scene = build_render_scene(d, {});
     const auto sky = std::make_shared<const EnvironmentMap>(build_environment(128, 64, sky_environment(128, 64), "sky"));
-    double means[3], ses[3];
-    for (int i = 0; i < 3; ++i) {
-        RenderSettings st = settings(2, kStrategies[i], sky);
-        st.spp = i == 0 ? 256 / test::kWorkScale : 32 / test::kWorkScale + 4;
-        const test::MeanEstimate m = test::mean_of_two_seeds(scene, st);
-        means[i] = m.mean;
-        ses[i] = m.se;
-    }
-    for (int i = 0; i < 3; ++i)
-        for (int j = i + 1; j < 3; ++j)
-            EXPECT_NEAR(means[i], means[j], 5 * std::hypot(ses[i], ses[j])) << i << " vs " << j;
+    const auto m = strategies_agree(scene, sky, [](int i) { return i == 0 ? 256 / test::kWorkScale : 32 / test::kWorkScale + 4; });
     // Light sampling finds the sun: its error is far below the hemisphere's at fewer samples.
-    EXPECT_LT(ses[1], ses[0]);
-    EXPECT_GT(means[1], 0.1);
+    EXPECT_LT(m[1].se, m[0].se);
+    EXPECT_GT(m[1].mean, 0.1);
 }
 
 // The same with a glossy plastic floor and a rough gold sphere: the glossy lobes' light samples
@@ -115,18 +123,8 @@ TEST(PathIntegratorEnvironment, GlossyStrategiesAgreeUnderTheSun) {
     d.spheres.push_back({glm::vec3(0.f, 0.5f, 0.f), 0.5f, 1, {}});
     const RenderScene scene = build_render_scene(d, {});
     const auto sky = std::make_shared<const EnvironmentMap>(build_environment(128, 64, sky_environment(128, 64), "sky"));
-    double means[3], ses[3];
-    for (int i = 0; i < 3; ++i) {
-        RenderSettings st = settings(2, kStrategies[i], sky);
-        st.spp = 64 / test::kWorkScale + 4;
-        const test::MeanEstimate m = test::mean_of_two_seeds(scene, st);
-        means[i] = m.mean;
-        ses[i] = m.se;
-    }
-    for (int i = 0; i < 3; ++i)
-        for (int j = i + 1; j < 3; ++j)
-            EXPECT_NEAR(means[i], means[j], 5 * std::hypot(ses[i], ses[j])) << i << " vs " << j;
-    EXPECT_GT(means[2], 0.1);
+    const auto m = strategies_agree(scene, sky, [](int) { return 64 / test::kWorkScale + 4; });
+    EXPECT_GT(m[2].mean, 0.1);
 }
 
 }  // namespace

@@ -1,6 +1,9 @@
 #include "engine/scene/environment.h"
 
+#include <algorithm>
 #include <cmath>
+#include <utility>
+#include <vector>
 #include <stdexcept>
 
 #include <gtest/gtest.h>
@@ -15,6 +18,31 @@ namespace {
 EnvironmentMap sky() { return build_environment(64, 32, sky_environment(64, 32), "sky"); }
 
 float luminance(const glm::vec3& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+
+// χ² of sample counts per texel against n draws from a distribution of total weight `total`
+// whose texel weights are weight(texel luminance) × sin θ (cells expecting under 5 pooled), and
+// its degrees of freedom. Texels of weight 0 must have no samples.
+std::pair<double, int> texel_chi_square(const EnvironmentMap& env, const std::vector<double>& count, int n, double total,
+                                        double (*weight)(double lum, double floor), double floor) {
+    double chi = 0, pooled_o = 0, pooled_e = 0;
+    int cells = 0;
+    for (int y = 0; y < env.height; ++y)
+        for (int x = 0; x < env.width; ++x) {
+            const double st = std::sin(kPi * (y + 0.5) / env.height);
+            const double w = weight(luminance(env.texels[size_t(y) * env.width + x]), floor);
+            const double e = n * w * st / total;
+            const double o = count[size_t(y) * env.width + x];
+            if (w == 0.0) {
+                EXPECT_EQ(o, 0.0) << "texel " << x << ", " << y;
+                continue;
+            }
+            if (e < 5) { pooled_o += o; pooled_e += e; continue; }
+            chi += (o - e) * (o - e) / e;
+            ++cells;
+        }
+    if (pooled_e > 0) { chi += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e; ++cells; }
+    return {chi, cells - 1};
+}
 
 // Directions and map coordinates are inverses, and a texel's colour is read back at its centre.
 TEST(Environment, DirectionsAndTexelsRoundTrip) {
@@ -50,19 +78,7 @@ TEST(Environment, SamplesFollowTheDistributionChiSquare) {
         ASSERT_NEAR(pdf, environment_pdf(env, wi), 1e-3f * pdf);
         ASSERT_EQ(Le, environment_radiance(env, wi));
     }
-    double chi = 0, pooled_o = 0, pooled_e = 0;
-    int cells = 0;
-    for (int y = 0; y < env.height; ++y)
-        for (int x = 0; x < env.width; ++x) {
-            const double st = std::sin(kPi * (y + 0.5) / env.height);
-            const double e = n * luminance(env.texels[size_t(y) * env.width + x]) * st / env.full.total_weight;
-            const double o = count[size_t(y) * env.width + x];
-            if (e < 5) { pooled_o += o; pooled_e += e; continue; }
-            chi += (o - e) * (o - e) / e;
-            ++cells;
-        }
-    if (pooled_e > 0) { chi += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e; ++cells; }
-    const int dof = cells - 1;
+    const auto [chi, dof] = texel_chi_square(env, count, n, env.full.total_weight, [](double lum, double) { return lum; }, 0.0);
     EXPECT_LT(chi, dof + 5 * std::sqrt(2.0 * dof)) << "dof " << dof;
     // The sun holds most of the weight: sampling finds it.
     EXPECT_GT(dof, 100);
@@ -115,26 +131,16 @@ TEST(Environment, CompensatedSamplingTakesTheLuminanceAboveTheMean) {
         count[size_t(y) * env.width + x] += 1;
         ASSERT_NEAR(pdf, environment_pdf(env, wi, how), 1e-3f * pdf);
     }
-    double chi = 0, pooled_o = 0, pooled_e = 0;
-    int cells = 0, dark = 0;
+    const auto [chi, dof] = texel_chi_square(env, count, n, env.compensated.total_weight,
+                                             [](double lum, double floor) { return std::max(0.0, lum - floor); },
+                                             double(env.compensated.floor));
+    int dark = 0;
     for (int y = 0; y < env.height; ++y)
-        for (int x = 0; x < env.width; ++x) {
-            const double st = std::sin(kPi * (y + 0.5) / env.height);
-            const double above = std::max(0.0, double(luminance(env.texels[size_t(y) * env.width + x])) - env.compensated.floor);
-            const double e = n * above * st / env.compensated.total_weight;
-            const double o = count[size_t(y) * env.width + x];
-            if (above == 0.0) {
+        for (int x = 0; x < env.width; ++x)
+            if (luminance(env.texels[size_t(y) * env.width + x]) <= env.compensated.floor) {
                 ++dark;
                 EXPECT_EQ(environment_pdf(env, environment_direction((x + 0.5f) / env.width, (y + 0.5f) / env.height), how), 0.f);
-                EXPECT_EQ(o, 0.0);
-                continue;
             }
-            if (e < 5) { pooled_o += o; pooled_e += e; continue; }
-            chi += (o - e) * (o - e) / e;
-            ++cells;
-        }
-    if (pooled_e > 0) { chi += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e; ++cells; }
-    const int dof = cells - 1;
     EXPECT_LT(chi, dof + 5 * std::sqrt(2.0 * dof)) << "dof " << dof;
     EXPECT_GT(dof, 300);
     EXPECT_GT(dark, 300);
