@@ -119,7 +119,10 @@ export class ApiImage {
       applyZoom(this.img);
       this.onLoad?.(headers, path);
     } catch (e) {
-      if (e.name !== 'AbortError') this.onError?.(e, path);
+      // A failure of a request already superseded is not reported: its handler would clear
+      // the image and with it the newer request (a pass image's 409 racing the job's end
+      // would drop the final image's fetch).
+      if (e.name !== 'AbortError' && !this.next) this.onError?.(e, path);
     } finally {
       this.busy = false;
       if (this.next && !this.controller.signal.aborted) {
