@@ -78,7 +78,7 @@ JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutp
             cb.pass(PassSnapshot{v.index, v.spp, v.point, img});
         };
     if (!opt.environment_file.empty()) settings.environment = load_environment(opt.environment_file);
-    else if (!scene.has_lights()) settings.environment = default_environment();
+    settings = lit_settings(std::move(settings), scene);
     if (!opt.reference_image.empty()) {
         if (!std::filesystem::exists(opt.reference_image)) throw std::runtime_error("the reference job's image was deleted");
         reference = read_image(opt.reference_image);
@@ -156,6 +156,11 @@ std::shared_ptr<const EnvironmentMap> default_environment() {
     static const auto env = std::make_shared<const EnvironmentMap>(
         build_environment(1, 1, {1.f, 1.f, 1.f}, "default uniform white sky of radiance 1 (the scene has no lights)"));
     return env;
+}
+
+RenderSettings lit_settings(RenderSettings settings, const RenderScene& scene) {
+    if (!settings.environment && !scene.has_lights()) settings.environment = default_environment();
+    return settings;
 }
 
 std::shared_ptr<PreparedScene> prepare_scene(const std::string& source, const LoadLimits& limits, const RenderSceneOptions& options) {

@@ -39,6 +39,9 @@ std::shared_ptr<const EnvironmentMap> load_environment(const std::string& path);
 // What lights a scene without lights when the job names no environment: a uniform white sky of
 // radiance 1 (most glTF models carry no lights), the same on one process and on a render farm.
 std::shared_ptr<const EnvironmentMap> default_environment();
+// The settings a scene renders with: `settings`, lit by default_environment() when neither the
+// job nor the scene has a light. One process and a render farm's nodes both render through it.
+RenderSettings lit_settings(RenderSettings settings, const RenderScene& scene);
 
 // How this runner runs the job: not part of the job (the same job gives the same image with
 // any of these).

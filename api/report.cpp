@@ -41,6 +41,29 @@ json nodes_json(const RenderReport& r) {
 
 }  // namespace
 
+json to_json(const ConvergencePoint& p) {
+    json jp = {{"seconds", p.seconds}, {"spp_mean", p.spp_mean}};
+    jp["est_rel_mse"] = p.est_rel_mse >= 0 ? json(p.est_rel_mse) : json(nullptr);
+    if (p.rel_mse >= 0) {
+        jp["rel_mse"] = p.rel_mse;
+        jp["mse"] = p.mse;
+        jp["mae"] = p.mae;
+    }
+    return jp;
+}
+
+ConvergencePoint convergence_point_from_json(const json& j) {
+    auto measured = [&](const char* k) { return j.contains(k) && j[k].is_number() ? j[k].get<double>() : -1.0; };
+    ConvergencePoint p;
+    p.seconds = j.at("seconds").get<double>();
+    p.spp_mean = j.at("spp_mean").get<double>();
+    p.est_rel_mse = measured("est_rel_mse");
+    p.rel_mse = measured("rel_mse");
+    p.mse = measured("mse");
+    p.mae = measured("mae");
+    return p;
+}
+
 json to_json(const RenderReport& r) {
     json report;
     report["settings"] = to_json(r.job);
@@ -55,16 +78,7 @@ json to_json(const RenderReport& r) {
     if (r.scene_cache.used)
         report["scene"]["cache"] = {{"hit", r.scene_cache.hit}, {"load_s", r.scene_cache.load_s}, {"build_s", r.scene_cache.build_s}};
     json points = json::array();
-    for (const ConvergencePoint& p : r.curve.points) {
-        json jp = {{"seconds", p.seconds}, {"spp_mean", p.spp_mean}};
-        jp["est_rel_mse"] = p.est_rel_mse >= 0 ? json(p.est_rel_mse) : json(nullptr);
-        if (p.rel_mse >= 0) {
-            jp["rel_mse"] = p.rel_mse;
-            jp["mse"] = p.mse;
-            jp["mae"] = p.mae;
-        }
-        points.push_back(jp);
-    }
+    for (const ConvergencePoint& p : r.curve.points) points.push_back(to_json(p));
     const std::string& ref = r.job.reference;
     report["convergence"] = {
         {"stop_reason", to_string(r.curve.stop)},

@@ -52,6 +52,10 @@ struct RenderReport {
 
 // report.json: settings, timings, statistics, scene, convergence, render, progress.
 nlohmann::json to_json(const RenderReport& r);
+// A point of the report's convergence curve: unmeasured errors are null (or absent). A render
+// farm keeps its curve in Redis in the same form.
+nlohmann::json to_json(const ConvergencePoint& p);
+ConvergencePoint convergence_point_from_json(const nlohmann::json& j);
 // The part of a report that a job's status shows ("timings", "stats", "progress"); what the
 // job store keeps, so a status poll never reads the whole report.
 nlohmann::json status_summary(const RenderReport& r);

@@ -33,7 +33,9 @@
 #include "server/cluster_keys.h"
 #include "server/cluster_lua.h"
 #include "server/command_line.h"
+#include "server/farm_records.h"
 #include "server/film_codec.h"
+#include "server/job_results.h"
 #include "server/job_service.h"
 #include "server/redis_process.h"
 #include "server/render_node.h"
@@ -66,8 +68,9 @@ double handoffs(const server::RedisUrl& url, const std::string& payload, int cli
     {
         Redis r(url);
         r.command({"FLUSHALL"});
-        r.command({"HSET", server::keys::job(job), "state", "running", "pass", "0", "tiles_total", "1000000000000", "tiles_done", "0",
-                   "max_sample", "0"});
+        std::vector<std::string> start = {"HSET", server::keys::job(job), "state", "running"};
+        for (std::string& a : server::farm_run_start(1, size_t(1) << 40, 0)) start.push_back(std::move(a));
+        r.command(start);
         r.command({"XGROUP", "CREATE", stream, server::keys::group, "0", "MKSTREAM"});
     }
     std::atomic<uint64_t> done{0};
@@ -90,10 +93,19 @@ double handoffs(const server::RedisUrl& url, const std::string& payload, int cli
                 const std::string id = ids.back();
                 ids.pop_back();
                 // Every result under its own tile index, so each is stored (none is a duplicate).
-                const std::string t = std::to_string(uint64_t(c) * 1'000'000'000ull + i++);
+                const uint64_t tile = uint64_t(c) * 1'000'000'000ull + i++;
+                server::TileCommit c;
+                c.job = job;
+                c.task_id = id;
+                c.node = consumer;
+                c.tile = size_t(tile);
+                c.payload = payload;
+                c.seconds = 0.001;
+                c.stats.samples = 1;
+                c.stats.camera_rays = 1;
                 r.eval(commit, {server::keys::job(job), server::keys::film(job), server::keys::node_tiles(job), server::keys::node_seconds(job), stream,
                                 server::keys::sums(job)},
-                       {job, t, "0", payload, consumer, "0.001", "0", "1", "1", "0", "0", "0", "0", "0", "0", "", id, server::keys::group});
+                       c.arguments());
                 ++done;
                 if (i % 256 == 0) r.command({"DEL", server::keys::film(job)});  // keeps Redis's memory bounded
             }
@@ -271,8 +283,9 @@ int bench_cluster(int argc, char** argv) {
         f.push_back(t);
         farm_id = id;
     }
-    const bool same = same_pixels((dir / "one2" / "image.exr").string(), (dir / "farm" / "jobs" / farm_id / "image.exr").string());
-    const json report = json::parse(std::ifstream(dir / "farm" / "jobs" / farm_id / "report.json"));
+    const fs::path farm_results = server::job_results_dir((dir / "farm").string(), farm_id);
+    const bool same = same_pixels((dir / "one2" / "image.exr").string(), (farm_results / "image.exr").string());
+    const json report = json::parse(std::ifstream(farm_results / "report.json"));
     std::printf("| run | wall s (median) | runs |\n|---|---|---|\n");
     std::printf("| one process, 2 threads | %.3f | %s |\n", median(one), [&] { std::string s; for (double x : one) s += std::to_string(x).substr(0, 6) + " "; return s; }().c_str());
     std::printf("| two render nodes, 1 thread each | %.3f | %s |\n", median(f), [&] { std::string s; for (double x : f) s += std::to_string(x).substr(0, 6) + " "; return s; }().c_str());

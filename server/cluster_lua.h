@@ -53,33 +53,29 @@ end
 // the task in every case: the result and the acknowledgement are one step, and one round trip.
 inline const std::string commit_tile = R"lua(
 -- KEYS: job, film, node tiles, node seconds, stream, sums
--- ARGV: id, tile, pass, film, node, seconds, timed out, samples, camera, shadow, bounce, nodes visited,
---       primitive tests, non-finite, max sample, the tile's error sums per pass target ('' if none),
---       task id, consumer group
-redis.call('XACK', KEYS[5], ARGV[18], ARGV[17])
-redis.call('XDEL', KEYS[5], ARGV[17])
+-- ARGV: field, value pairs (TileCommit::arguments); fields n:<counter> add to the run's counters
+local a = {}
+for i = 1, #ARGV, 2 do a[ARGV[i]] = ARGV[i + 1] end
+redis.call('XACK', KEYS[5], a.group, a.task)
+redis.call('XDEL', KEYS[5], a.task)
 if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return -1 end
-if tonumber(redis.call('HGET', KEYS[1], 'pass')) ~= tonumber(ARGV[3]) then return -1 end
-local p = redis.call('HGET', KEYS[2], 'p' .. ARGV[2])
-if p and tonumber(p) >= tonumber(ARGV[3]) then return 0 end
-redis.call('HSET', KEYS[2], 't' .. ARGV[2], ARGV[4], 'p' .. ARGV[2], ARGV[3])
-if ARGV[16] ~= '' then redis.call('HSET', KEYS[6], 't' .. ARGV[2], ARGV[16]) end
-redis.call('HINCRBY', KEYS[1], 'samples', ARGV[8])
-redis.call('HINCRBY', KEYS[1], 'rays_camera', ARGV[9])
-redis.call('HINCRBY', KEYS[1], 'rays_shadow', ARGV[10])
-redis.call('HINCRBY', KEYS[1], 'rays_bounce', ARGV[11])
-redis.call('HINCRBY', KEYS[1], 'nodes_visited', ARGV[12])
-redis.call('HINCRBY', KEYS[1], 'prim_tests', ARGV[13])
-redis.call('HINCRBY', KEYS[1], 'nonfinite', ARGV[14])
-if tonumber(ARGV[15]) > tonumber(redis.call('HGET', KEYS[1], 'max_sample') or '0') then
-  redis.call('HSET', KEYS[1], 'max_sample', ARGV[15])
+if tonumber(redis.call('HGET', KEYS[1], 'pass')) ~= tonumber(a.pass) then return -1 end
+local p = redis.call('HGET', KEYS[2], 'p' .. a.tile)
+if p and tonumber(p) >= tonumber(a.pass) then return 0 end
+redis.call('HSET', KEYS[2], 't' .. a.tile, a.film, 'p' .. a.tile, a.pass)
+if a.sums ~= '' then redis.call('HSET', KEYS[6], 't' .. a.tile, a.sums) end
+for i = 1, #ARGV, 2 do
+  if string.sub(ARGV[i], 1, 2) == 'n:' then redis.call('HINCRBY', KEYS[1], string.sub(ARGV[i], 3), ARGV[i + 1]) end
 end
-if ARGV[7] == '1' then redis.call('HSET', KEYS[1], 'timed_out', 1) end
-redis.call('HINCRBY', KEYS[3], ARGV[5], 1)
-redis.call('HINCRBYFLOAT', KEYS[4], ARGV[5], ARGV[6])
+if tonumber(a.max_sample) > tonumber(redis.call('HGET', KEYS[1], 'max_sample') or '0') then
+  redis.call('HSET', KEYS[1], 'max_sample', a.max_sample)
+end
+if a.timed_out == '1' then redis.call('HSET', KEYS[1], 'timed_out', 1) end
+redis.call('HINCRBY', KEYS[3], a.node, 1)
+redis.call('HINCRBYFLOAT', KEYS[4], a.node, a.seconds)
 local done = redis.call('HINCRBY', KEYS[1], 'tiles_done', 1)
 if done == tonumber(redis.call('HGET', KEYS[1], 'tiles_total')) then
-  redis.call('XADD', KEYS[5], '*', 'job', ARGV[1], 'kind', 'assemble', 'pass', ARGV[3], 'tile', 0)
+  redis.call('XADD', KEYS[5], '*', 'job', a.job, 'kind', 'assemble', 'pass', a.pass, 'tile', 0)
 end
 return 1
 )lua";

@@ -1,3 +1,4 @@
+#include "server/job_results.h"
 #include "server/job_service.h"
 
 #include <algorithm>
@@ -164,7 +165,7 @@ void JobService::publish_environment(const std::string& id, const std::string& n
     redis_store_->put_environment(id, ref, bytes);
 }
 
-std::string JobService::job_dir(const std::string& id) const { return (fs::path(config_.data_dir) / "jobs" / id).string(); }
+std::string JobService::job_dir(const std::string& id) const { return job_results_dir(config_.data_dir, id).string(); }
 
 json JobService::submit(const json& body) {
     if (!accepting_) throw Problem(503, "shutting-down", "The server is shutting down", "no new jobs are accepted").with_retry_after(5);
@@ -577,7 +578,7 @@ void JobService::run(const JobRecord& rec, Running& running) {
         if (const auto* r = std::get_if<api::RenderJob>(&job)) {
             running.sample_budget = double(r->render.spp) * r->render.width * r->render.height;
             running.max_spp = r->render.spp;
-            if (!r->reference.empty()) opt.reference_image = (fs::path(job_dir(r->reference)) / "image.exr").string();
+            if (!r->reference.empty()) opt.reference_image = job_image_exr(config_.data_dir, r->reference).string();
             if (!r->environment.empty()) {
                 const auto env = catalog_.find_environment(r->environment);
                 if (!env) throw std::runtime_error("environment map '" + r->environment + "' is no longer in the scene folders");

@@ -15,6 +15,7 @@
 #include "api/json_text.h"
 #include "api/job.h"
 #include "api/job_runner.h"
+#include "api/report.h"
 #include "engine/camera/camera.h"
 #include "engine/core/scene_error.h"
 #include "engine/io/image_io.h"
@@ -23,17 +24,10 @@
 #include "engine/scene/environment.h"
 #include "server/cluster_keys.h"
 #include "server/cluster_lua.h"
+#include "server/farm_records.h"
 #include "server/film_codec.h"
+#include "server/job_results.h"
 #include "server/scene_cache.h"
-
-// A tile's error sums at one pass target of a straight-through job travel named: one list of
-// fields for both directions, and reading uses at(), so sums from a node of another version fail
-// the job naming the missing field, not silently. (In ErrorSums' namespace, where the JSON
-// library looks for it.)
-namespace tessera {
-NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(ErrorSums, spp, est, rel, mse, mae, pixels, est_pixels, half_buffer, reference, deep_outer,
-                                   deep, deep_log_split, deep_pixels, shallow_outer, shallow, shallow_log_split, shallow_pixels)
-}  // namespace tessera
 
 namespace tessera::server {
 using api::json_text;
@@ -82,13 +76,15 @@ std::optional<Task> parse_entry(const std::string& stream, const RedisValue& e) 
 }
 
 const RedisScript kBegin{lua::transition + lua::add_tiles + R"lua(
--- KEYS: job, stream; ARGV: prefix, id, now (s), now (ms), first target, tiles
+-- KEYS: job, stream; ARGV: prefix, id, now (s), then the run's first field, value pairs (farm_run_start)
 if redis.call('HGET', KEYS[1], 'state') ~= 'queued' then return 0 end
 transition(ARGV[1], ARGV[2], 'running', 'queued', ARGV[3], '', '')
-redis.call('HSET', KEYS[1], 'pass', 0, 'target', ARGV[5], 'tiles_total', ARGV[6], 'tiles_done', 0, 'started_ms', ARGV[4],
-           'samples', 0, 'rays_camera', 0, 'rays_shadow', 0, 'rays_bounce', 0, 'nodes_visited', 0, 'prim_tests', 0,
-           'nonfinite', 0, 'max_sample', '0', 'timed_out', 0)
-add_tiles(KEYS[2], ARGV[2], 0, tonumber(ARGV[6]))
+local tiles = 0
+for i = 4, #ARGV, 2 do
+  redis.call('HSET', KEYS[1], ARGV[i], ARGV[i + 1])
+  if ARGV[i] == 'tiles_total' then tiles = tonumber(ARGV[i + 1]) end
+end
+add_tiles(KEYS[2], ARGV[2], 0, tiles)
 return 1
 )lua"};
 
@@ -127,56 +123,16 @@ redis.call('XCLAIM', KEYS[1], 'nodes', ARGV[2], 0, ARGV[1], 'JUSTID')
 return 1
 )lua"};
 
-json point_json(const ConvergencePoint& p) {
-    return {{"seconds", p.seconds}, {"spp_mean", p.spp_mean}, {"rel_mse", p.rel_mse}, {"mse", p.mse}, {"mae", p.mae},
-            {"est_rel_mse", p.est_rel_mse}};
-}
-
-ConvergencePoint point_from(const json& j) {
-    ConvergencePoint p;
-    p.seconds = j.value("seconds", 0.0);
-    p.spp_mean = j.value("spp_mean", 0.0);
-    p.rel_mse = j.value("rel_mse", -1.0);
-    p.mse = j.value("mse", -1.0);
-    p.mae = j.value("mae", -1.0);
-    p.est_rel_mse = j.value("est_rel_mse", -1.0);
-    return p;
-}
-
 // A job as a node runs it: parsed once per node (the stored job never changes).
 struct JobInfo {
     api::Job job;
     SceneRef ref;
     RenderSettings settings;  // a render job's, as nodes render it
+    // The pass driver's plan; a whole-tile plan (no stop rule needs the whole image between
+    // passes) is rendered a tile per task through every target, without a barrier per pass.
     PassPlan plan;
     std::optional<Image> reference;
-    // No stop rule needs the whole image between passes (the job stops on spp): each tile is
-    // rendered through every pass target on the node that takes it, in one task, measuring its
-    // own error after each target. The sums match pass-by-pass rendering's (samples are added
-    // in the same order), without a barrier per pass.
-    bool straight = false;
-    std::vector<int> targets;  // the pass targets, 1, 2, 4, …, spp
 };
-
-TileRect tile_rect(const RenderSettings& s, int index) {
-    const int size = std::max(1, s.tile_size);
-    const int per_row = (s.width + size - 1) / size;
-    const int x = (index % per_row) * size, y = (index / per_row) * size;
-    return {x, y, std::min(x + size, s.width), std::min(y + size, s.height)};
-}
-
-int tile_count(const RenderSettings& s) {
-    const int size = std::max(1, s.tile_size);
-    return ((s.width + size - 1) / size) * ((s.height + size - 1) / size);
-}
-
-// A job's settings as its scene renders them: a scene without lights gets the default sky, as
-// the one-process server's runner gives it, so the farm's image is the same.
-RenderSettings lit(const RenderSettings& job, const RenderScene& scene) {
-    RenderSettings s = job;
-    if (!s.environment && !scene.has_lights()) s.environment = api::default_environment();
-    return s;
-}
 
 // A job the node cannot run (scene broken, reference gone): the job fails with this reason.
 struct JobFailure : std::runtime_error {
@@ -211,12 +167,11 @@ struct RenderNode::Impl {
     // The state of a job's run as a tile needs it. A state seen running at the task's pass in the
     // last 50 ms is taken as is (one round trip less per tile: the commit checks again); any
     // other answer is read afresh, so a stale cache never drops a task.
-    struct RunState {
-        std::string state;
-        long long pass = -1, target = 0, started_ms = 0;
+    struct SeenRun {
+        FarmRun run;
         Clock::time_point read;
     };
-    std::map<std::string, RunState> states;
+    std::map<std::string, SeenRun> states;
 
     explicit Impl(NodeConfig c)
         : cfg(std::move(c)),
@@ -256,18 +211,11 @@ struct RenderNode::Impl {
                 info->settings.environment = std::move(map);
             }
             if (!rj->reference.empty()) {
-                const fs::path ref = fs::path(cfg.data_dir) / "jobs" / rj->reference / "image.exr";
+                const fs::path ref = job_image_exr(cfg.data_dir, rj->reference);
                 if (!fs::exists(ref)) throw JobFailure("the reference job's image was deleted");
                 info->reference = read_image(ref.string());
             }
             info->plan = plan_passes(info->settings, info->reference.has_value(), false);
-            const RenderSettings& s = info->settings;
-            info->straight = !info->plan.adaptive && s.target_error <= 0 && s.time_limit_s <= 0;
-            for (int t = 0, k = 0; k < info->plan.max_passes; ++k) {
-                t = pass_target(s, info->plan, t);
-                info->targets.push_back(t);
-                if (t >= s.spp) break;
-            }
         }
         std::lock_guard lock(mu);
         if (jobs.size() > 256) jobs.clear();
@@ -450,12 +398,13 @@ struct RenderNode::Impl {
         if (const auto* cj = std::get_if<api::ComparisonJob>(&info->job)) return compare(r, t, *cj, cancel);
         const auto& rj = std::get<api::RenderJob>(info->job);
         cache.get(r, info->ref, rj.scene_options);  // a scene that does not load fails the job here, once
-        const int n = tile_count(info->settings);
-        if (r.eval(kBegin, {keys::job(t.job), t.stream},
-                   {keys::prefix, t.job, num(now_s()), std::to_string(now_ms()),
-                    std::to_string(info->straight ? info->settings.spp : pass_target(info->settings, info->plan, 0)),
-                    std::to_string(n)}).as_int() == 1)
-            spdlog::info("node {}: job {} running: {} tiles per pass", name, t.job, n);
+        const PassPlan& plan = info->plan;
+        std::vector<std::string> args = {keys::prefix, t.job, num(now_s())};
+        for (std::string& a : farm_run_start(plan.whole_tiles ? plan.targets.back() : pass_target(info->settings, plan, 0),
+                                             plan.tiles.size(), now_ms()))
+            args.push_back(std::move(a));
+        if (r.eval(kBegin, {keys::job(t.job), t.stream}, args).as_int() == 1)
+            spdlog::info("node {}: job {} running: {} tiles per pass", name, t.job, plan.tiles.size());
     }
 
     // A comparison runs whole here: its configurations race each other for equal time, which
@@ -473,7 +422,7 @@ struct RenderNode::Impl {
         opt.load_limits = cfg.load_limits;
         opt.threads = 1;
         opt.job_id = t.job;
-        const fs::path dir = fs::path(cfg.data_dir) / "jobs" / t.job;
+        const fs::path dir = job_results_dir(cfg.data_dir, t.job);
         fs::create_directories(dir);
         api::RunCallbacks cb;
         cb.stop = &cancel;
@@ -482,88 +431,82 @@ struct RenderNode::Impl {
         r.eval(kTransition, {}, {keys::prefix, t.job, "succeeded", "running", num(now_s()), "", json_text(out.summary)});
     }
 
-    // The state of a job's run as a tile needs it (see run_state).
-    RunState run_state(Redis& r, const std::string& id, int pass) {
+    // The state of a job's run as a tile needs it (see SeenRun).
+    FarmRun run_state(Redis& r, const std::string& id, int pass) {
         {
             std::lock_guard lock(mu);
             auto it = states.find(id);
-            if (it != states.end() && it->second.state == "running" && it->second.pass == pass &&
+            if (it != states.end() && it->second.run.state == "running" && it->second.run.pass == pass &&
                 Clock::now() - it->second.read < std::chrono::milliseconds(50))
-                return it->second;
+                return it->second.run;
         }
-        const RedisValue v = r.command({"HMGET", keys::job(id), "state", "pass", "target", "started_ms"});
-        RunState st;
-        st.state = v.items[0].text;
-        st.pass = v.items[1].is_nil() ? -1 : v.items[1].as_int();
-        st.target = v.items[2].is_nil() ? 0 : v.items[2].as_int();
-        st.started_ms = v.items[3].is_nil() ? 0 : v.items[3].as_int();
-        st.read = Clock::now();
+        const FarmRun run = read_run(r, id);
         std::lock_guard lock(mu);
         if (states.size() > 1024) states.clear();
-        states[id] = st;
-        return st;
+        states[id] = {run, Clock::now()};
+        return run;
+    }
+
+    static FarmRun read_run(Redis& r, const std::string& id) {
+        std::vector<std::string> cmd = {"HMGET", keys::job(id)};
+        cmd.insert(cmd.end(), farm_run_fields().begin(), farm_run_fields().end());
+        return decode_farm_run(r.command(cmd));
     }
 
     // Returns whether the task was acknowledged (the commit script does it with the result).
     bool tile(Redis& r, const Task& t, std::atomic<bool>& cancel, std::atomic<bool>& acked) {
-        const RunState js = run_state(r, t.job, t.pass);
-        if (js.state != "running" || js.pass != t.pass) { ++metrics.duplicates; return false; }
-        const int target = int(js.target);
-        const long long started_ms = js.started_ms;
+        const FarmRun run = run_state(r, t.job, t.pass);
+        if (run.state != "running" || run.pass != t.pass) { ++metrics.duplicates; return false; }
         const auto info = job_info(r, t.job);
         if (!info) return false;
+        const PassPlan& plan = info->plan;
+        if (t.tile < 0 || size_t(t.tile) >= plan.tiles.size()) throw JobFailure("a task names tile " + std::to_string(t.tile) + " of " + std::to_string(plan.tiles.size()));
         const auto& rj = std::get<api::RenderJob>(info->job);
         const auto prepared = cache.get(r, info->ref, rj.scene_options);
-        const RenderSettings s = lit(info->settings, prepared->scene);
-        const TileRect rect = tile_rect(s, t.tile);
-        Film film = Film::tile(rect.x0, rect.y0, rect.width(), rect.height(), info->plan.half_buffer, info->plan.adaptive);
+        const RenderSettings s = api::lit_settings(info->settings, prepared->scene);
+        const TileRect& rect = plan.tiles[size_t(t.tile)];
+        Film film = Film::tile(rect.x0, rect.y0, rect.width(), rect.height(), plan.half_buffer, plan.adaptive);
         if (t.pass > 0) {
             const RedisValue f = r.command({"HGET", keys::film(t.job), "t" + std::to_string(t.tile)});
             if (f.is_nil()) throw JobFailure("the film of tile " + std::to_string(t.tile) + " is missing from Redis");
             film = decode_film(f.text);
         }
-        const long long deadline = s.time_limit_s > 0 ? started_ms + (long long)(s.time_limit_s * 1000.0) : 0;
+        const long long deadline = s.time_limit_s > 0 ? run.started_ms + (long long)(s.time_limit_s * 1000.0) : 0;
         auto late = [&] { return deadline && now_ms() > deadline; };
         auto interrupted = [&] { return cancel.load() || stopping.load(); };
         const auto t0 = Clock::now();
         const Camera camera = camera_for(prepared->scene, s);  // the context keeps a reference
         TileContext ctx(prepared->scene, s, camera);
-        bool timed_out = late();
-        json sums;  // straight through: per pass target, the tile's error sums and when it got there
-        if (info->straight) {
-            const Image* ref = info->reference ? &*info->reference : nullptr;
-            for (int k : info->targets) {
-                if (!render_tile(ctx, rect, film, k, interrupted)) break;
-                const ErrorSums e = error_sums(film, ref);
-                json j = e;
-                j["target"] = k;
-                j["at_ms"] = now_ms();
-                sums.push_back(std::move(j));
-            }
-        } else if (!timed_out && !interrupted()) {
-            timed_out = !render_tile(ctx, rect, film, target, [&] { return late() || interrupted(); }) && !interrupted();
+        TileCommit commit;
+        commit.timed_out = late();
+        if (plan.whole_tiles) {
+            const WholeTile w = render_whole_tile(ctx, plan, size_t(t.tile), film, info->reference ? &*info->reference : nullptr,
+                                                  interrupted, [&] { return double(now_ms() - run.started_ms) / 1000.0; });
+            commit.sums = whole_tile_sums_text(w.sums);
+        } else if (!commit.timed_out && !interrupted()) {
+            commit.timed_out = !render_tile(ctx, rect, film, int(run.target), [&] { return late() || interrupted(); }) && !interrupted();
         }
         if (interrupted()) return false;  // canceled, taken over, or the node stops: nothing stored
-        const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-        const RenderStats& st = ctx.stats;
-        // A job rendered straight through is finished with this tile: it ships the resolved
-        // pixels. A pass-by-pass job's next pass goes on from the whole film.
-        const std::string payload = info->straight ? encode_tile_image(film) : encode_film(film);
+        commit.job = t.job;
+        commit.task_id = t.id;
+        commit.node = name;
+        commit.tile = size_t(t.tile);
+        commit.pass = t.pass;
+        commit.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+        commit.stats = ctx.stats;
+        // A whole tile is finished with this task: it ships the resolved pixels. A pass-by-pass
+        // job's next pass goes on from the whole film.
+        commit.payload = plan.whole_tiles ? encode_tile_image(film) : encode_film(film);
         acked = true;
         const long long rc = r.eval(kCommitTile,
                                     {keys::job(t.job), keys::film(t.job), keys::node_tiles(t.job), keys::node_seconds(t.job), t.stream,
                                      keys::sums(t.job)},
-                                    {t.job, std::to_string(t.tile), std::to_string(t.pass), payload, name, num(seconds),
-                                     timed_out ? "1" : "0", std::to_string(st.samples), std::to_string(st.camera_rays),
-                                     std::to_string(st.shadow_rays), std::to_string(st.bounce_rays),
-                                     std::to_string(st.traversal.nodes_visited), std::to_string(st.traversal.prim_tests),
-                                     std::to_string(st.nonfinite_samples), num(st.max_sample), sums.is_null() ? std::string() : json_text(sums),
-                                     t.id, keys::group})
-                                .as_int();
+                                    commit.arguments())
+                                 .as_int();
         if (rc == 1) {
             ++metrics.tiles;
-            metrics.rays += st.rays();
-            metrics.render_micros += uint64_t(seconds * 1e6);
+            metrics.rays += commit.stats.rays();
+            metrics.render_micros += uint64_t(commit.seconds * 1e6);
         } else {
             ++metrics.duplicates;  // another node stored it first: the same film, dropped
         }
@@ -571,25 +514,23 @@ struct RenderNode::Impl {
     }
 
     void assemble(Redis& r, const Task& t) {
-        const RedisValue v = r.command({"HMGET", keys::job(t.job), "state", "pass", "target", "tiles_total", "started_ms", "timed_out",
-                                        "samples", "rays_camera", "rays_shadow", "rays_bounce", "nodes_visited", "prim_tests",
-                                        "nonfinite", "max_sample"});
-        if (v.items[0].text != "running" || v.items[1].is_nil() || v.items[1].as_int() != t.pass) { ++metrics.duplicates; return; }
+        const FarmRun run = read_run(r, t.job);
+        if (run.state != "running" || run.pass != t.pass) { ++metrics.duplicates; return; }
         const auto info = job_info(r, t.job);
         if (!info) return;
         const RenderSettings& s = info->settings;
         const PassPlan& plan = info->plan;
-        const int target = int(v.items[2].as_int());
-        const int n = int(v.items[3].as_int());
-        // A straight-through job's tiles are resolved pixels; a pass-by-pass job's are films.
-        Film film(info->straight ? 1 : s.width, info->straight ? 1 : s.height, plan.half_buffer, plan.adaptive);
-        Image image(info->straight ? s.width : 0, info->straight ? s.height : 0);
+        const size_t n = plan.tiles.size();
+        if (size_t(run.tiles_total) != n) throw JobFailure("the run has " + std::to_string(run.tiles_total) + " tiles, the plan " + std::to_string(n));
+        // A whole-tile job's tiles are resolved pixels; a pass-by-pass job's are films.
+        Film film(plan.whole_tiles ? 1 : s.width, plan.whole_tiles ? 1 : s.height, plan.half_buffer, plan.adaptive);
+        Image image(plan.whole_tiles ? s.width : 0, plan.whole_tiles ? s.height : 0);
         const RedisValue tiles = r.command({"HGETALL", keys::film(t.job)});
-        int found = 0;
+        size_t found = 0;
         for (size_t i = 0; i + 1 < tiles.items.size(); i += 2) {
             const std::string& field = tiles.items[i].text;
             if (field.empty() || field[0] != 't') continue;
-            if (info->straight) {
+            if (plan.whole_tiles) {
                 place_tile(decode_tile_image(tiles.items[i + 1].text), image);
             } else {
                 const Film tf = decode_film(tiles.items[i + 1].text);
@@ -598,75 +539,44 @@ struct RenderNode::Impl {
             ++found;
         }
         if (found != n) throw JobFailure("pass " + std::to_string(t.pass) + " has " + std::to_string(found) + " of " + std::to_string(n) + " tiles in Redis");
-        const long long started_ms = v.items[4].as_int();
-        const double seconds = double(now_ms() - started_ms) / 1000.0;
-        if (info->straight) return finish_straight(r, t, *info, std::move(image), film, v, n, started_ms);
-        ConvergencePoint pt;
-        if (plan.measuring) pt = measure_error(film, info->reference ? &*info->reference : nullptr);
-        else pt.spp_mean = double(v.items[6].as_int()) / (double(s.width) * s.height);
-        pt.seconds = seconds;
-        std::optional<StopReason> stop = stop_after_pass(s, plan, film, target, pt, v.items[5].as_int() == 1, false);
-        if (!stop && t.pass + 1 >= plan.max_passes) stop = StopReason::spp;
+        const double seconds = double(now_ms() - run.started_ms) / 1000.0;
         ++metrics.assemblies;
-        if (!stop) {
+        if (plan.whole_tiles) {
+            // The curve from every tile's sums per target.
+            std::vector<std::vector<TargetSums>> per_tile;
+            const RedisValue all = r.command({"HGETALL", keys::sums(t.job)});
+            for (size_t i = 0; i + 1 < all.items.size(); i += 2) per_tile.push_back(whole_tile_sums_from_text(all.items[i + 1].text));
+            RenderResult result;
+            result.curve = whole_tile_curve(plan, per_tile);
+            const ConvergencePoint last = result.curve.points.empty() ? ConvergencePoint{} : result.curve.points.back();
+            return write_results(r, t, *info, std::move(image), film, run, seconds, std::move(result), last);
+        }
+        const PassEnd end = end_pass(s, plan, film, info->reference ? &*info->reference : nullptr, t.pass, int(run.target),
+                                     run.stats.samples, seconds, run.timed_out, false);
+        if (!end.stop) {
             r.eval(kAdvance, {keys::job(t.job), keys::curve(t.job), t.stream},
-                   {t.job, std::to_string(t.pass), std::to_string(pass_target(s, plan, target)), json_text(point_json(pt)), std::to_string(n)});
+                   {t.job, std::to_string(t.pass), std::to_string(end.next_target), json_text(api::to_json(end.point)), std::to_string(n)});
             return;
         }
         RenderResult result;
-        for (const auto& p : r.command({"LRANGE", keys::curve(t.job), "0", "-1"}).items) result.curve.points.push_back(point_from(json::parse(p.text)));
-        result.curve.points.push_back(pt);
-        result.curve.stop = *stop;
-        write_results(r, t, *info, film.resolve(), film, v, n, seconds, std::move(result), pt);
-    }
-
-    // A straight-through job's only assembly: the curve from every tile's sums per pass target
-    // (a point's time is when the last tile reached that target).
-    void finish_straight(Redis& r, const Task& t, const JobInfo& info, Image image, const Film& buffers, const RedisValue& v, int n,
-                         long long started_ms) {
-        std::vector<ErrorSums> total(info.targets.size());
-        std::vector<long long> reached(info.targets.size(), started_ms);
-        std::vector<int> tiles_at(info.targets.size(), 0);
-        const RedisValue all = r.command({"HGETALL", keys::sums(t.job)});
-        for (size_t i = 0; i + 1 < all.items.size(); i += 2) {
-            const json per = json::parse(all.items[i + 1].text);
-            for (size_t k = 0; k < per.size() && k < total.size(); ++k) {
-                const json& p = per[k];
-                total[k].add(p.get<ErrorSums>());
-                reached[k] = std::max(reached[k], p.at("at_ms").get<long long>());
-                ++tiles_at[k];
-            }
-        }
-        RenderResult result;
-        for (size_t k = 0; k < total.size(); ++k) {
-            if (tiles_at[k] != n) break;  // a tile stopped short (cannot happen without a time limit)
-            ConvergencePoint pt = total[k].point();
-            pt.seconds = double(reached[k] - started_ms) / 1000.0;
-            result.curve.points.push_back(pt);
-        }
-        result.curve.stop = StopReason::spp;
-        const ConvergencePoint last = result.curve.points.empty() ? ConvergencePoint{} : result.curve.points.back();
-        write_results(r, t, info, std::move(image), buffers, v, n, double(now_ms() - started_ms) / 1000.0, std::move(result), last);
+        for (const auto& p : r.command({"LRANGE", keys::curve(t.job), "0", "-1"}).items)
+            result.curve.points.push_back(api::convergence_point_from_json(json::parse(p.text)));
+        result.curve.points.push_back(end.point);
+        result.curve.stop = *end.stop;
+        write_results(r, t, *info, film.resolve(), film, run, seconds, std::move(result), end.point);
     }
 
     // The last pass: the results, then the job's state (a node that dies in between leaves the
     // task to another, which writes the same files again). `buffers` says which film buffers the
     // render kept (the report lists them).
-    void write_results(Redis& r, const Task& t, const JobInfo& info, Image image, const Film& buffers, const RedisValue& v, int n,
+    void write_results(Redis& r, const Task& t, const JobInfo& info, Image image, const Film& buffers, const FarmRun& run,
                        double seconds, RenderResult result, const ConvergencePoint& pt) {
         const auto& rj = std::get<api::RenderJob>(info.job);
         const auto prepared = cache.get(r, info.ref, rj.scene_options);
-        const RenderSettings s = lit(info.settings, prepared->scene);
+        const RenderSettings s = api::lit_settings(info.settings, prepared->scene);
         result.image = std::move(image);
         RenderStats& st = result.stats;
-        st.samples = uint64_t(v.items[6].as_int());
-        st.camera_rays = uint64_t(v.items[7].as_int());
-        st.shadow_rays = uint64_t(v.items[8].as_int());
-        st.bounce_rays = uint64_t(v.items[9].as_int());
-        st.traversal.nodes_visited = uint64_t(v.items[10].as_int());
-        st.traversal.prim_tests = uint64_t(v.items[11].as_int());
-        st.nonfinite_samples = uint64_t(v.items[12].as_int());
-        st.max_sample = std::stof(v.items[13].text);
+        st = run.stats;
         st.render_seconds = seconds;
         describe_render(prepared->scene, s, buffers, result.built, result.left_out);
         const auto shares = r.pipeline({{"HGETALL", keys::node_tiles(t.job)}, {"HGETALL", keys::node_seconds(t.job)}});
@@ -682,10 +592,10 @@ struct RenderNode::Impl {
         done.load_s = prepared->load_s;
         done.build_s = prepared->build_s;
         done.before_write_s = seconds;
-        done.tiles_done = done.tiles_total = size_t(n);
+        done.tiles_done = done.tiles_total = info.plan.tiles.size();
         for (auto& [node, share] : by_node) done.nodes.push_back(share);
         // Written beside the final place and renamed into it: API nodes never serve half a file.
-        const fs::path dir = fs::path(cfg.data_dir) / "jobs" / t.job;
+        const fs::path dir = job_results_dir(cfg.data_dir, t.job);
         const fs::path part = dir / (".part-" + name + "-" + std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()) % 100000));
         fs::create_directories(part);
         api::RunOptions opt;
@@ -694,7 +604,7 @@ struct RenderNode::Impl {
         for (const auto& e : fs::directory_iterator(part)) fs::rename(e.path(), dir / e.path().filename());
         fs::remove_all(part);
         if (r.eval(kComplete, {keys::job(t.job), keys::curve(t.job)},
-                   {keys::prefix, t.job, std::to_string(t.pass), json_text(point_json(pt)), num(now_s()), json_text(out.summary)}).as_int() == 1)
+                   {keys::prefix, t.job, std::to_string(t.pass), json_text(api::to_json(pt)), num(now_s()), json_text(out.summary)}).as_int() == 1)
             spdlog::info("node {}: job {} succeeded ({} passes, {:.3f} s)", name, t.job, result.curve.points.size(), seconds);
     }
 

@@ -26,6 +26,14 @@ PassPlan plan_passes(const RenderSettings& settings, bool has_reference, bool ob
     p.half_buffer = settings.estimate_error || (settings.target_error > 0 && !has_reference);
     p.max_passes = p.adaptive ? (settings.spp + std::max(1, settings.adaptive->batch) - 1) / std::max(1, settings.adaptive->batch) + 1
                               : 64;
+    p.tiles = make_tiles(settings.width, settings.height, settings.tile_size);
+    p.whole_tiles = !p.adaptive && settings.target_error <= 0 && settings.time_limit_s <= 0;
+    if (!p.adaptive)
+        for (int t = 0, k = 0; k < p.max_passes; ++k) {
+            t = pass_target(settings, p, t);
+            p.targets.push_back(t);
+            if (t >= settings.spp) break;
+        }
     return p;
 }
 
@@ -48,6 +56,52 @@ std::optional<StopReason> stop_after_pass(const RenderSettings& settings, const 
         return plan.adaptive && std::any_of(film.count.begin(), film.count.end(), [&](uint32_t c) { return int(c) < settings.spp; })
                    ? StopReason::converged : StopReason::spp;
     return std::nullopt;
+}
+
+PassEnd end_pass(const RenderSettings& settings, const PassPlan& plan, const Film& film, const Image* reference, int pass,
+                 int target, uint64_t samples, double seconds, bool out_of_time, bool canceled) {
+    PassEnd e;
+    if (plan.measuring) e.point = measure_error(film, reference);
+    else e.point.spp_mean = double(samples) / (double(settings.width) * settings.height);
+    e.point.seconds = seconds;
+    e.stop = stop_after_pass(settings, plan, film, target, e.point, out_of_time, canceled);
+    if (!e.stop && pass + 1 >= plan.max_passes) e.stop = StopReason::spp;
+    if (!e.stop) e.next_target = pass_target(settings, plan, target);
+    return e;
+}
+
+WholeTile render_whole_tile(TileContext& ctx, const PassPlan& plan, size_t tile, Film& film, const Image* reference,
+                            const std::function<bool()>& cut, const std::function<double()>& clock) {
+    WholeTile out;
+    for (int k : plan.targets) {
+        if (!render_tile(ctx, plan.tiles.at(tile), film, k, cut)) {
+            out.cut_short = true;
+            break;
+        }
+        out.sums.push_back({k, clock ? clock() : 0.0, error_sums(film, reference)});
+    }
+    return out;
+}
+
+ConvergenceCurve whole_tile_curve(const PassPlan& plan, const std::vector<std::vector<TargetSums>>& per_tile) {
+    ConvergenceCurve curve;
+    for (size_t k = 0; k < plan.targets.size(); ++k) {
+        ErrorSums total;
+        double reached = 0;
+        size_t tiles_at = 0;
+        for (const auto& tile : per_tile) {
+            if (k >= tile.size()) continue;
+            total.add(tile[k].sums);
+            reached = std::max(reached, tile[k].seconds);
+            ++tiles_at;
+        }
+        if (tiles_at != plan.tiles.size()) break;  // a tile stopped short
+        ConvergencePoint pt = total.point();
+        pt.seconds = reached;
+        curve.points.push_back(pt);
+    }
+    curve.stop = StopReason::spp;
+    return curve;
 }
 
 void describe_render(const RenderScene& scene, const RenderSettings& settings, const Film& film,

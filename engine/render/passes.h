@@ -1,11 +1,14 @@
 #pragma once
-// The pass schedule of a render, shared by the one-process renderer (renderer.cpp) and render
-// nodes that each take tiles of one pass (server/render_node.cpp): the same tiles, the same
-// sample targets and the same stop rules, so a farm's image equals one process's bit for bit.
+// The pass driver: the schedule of a render, its tile tasks and the end of each pass, as plain
+// functions over plain data. The one-process renderer (renderer.cpp) runs them on its threads;
+// a render farm's nodes (server/render_node.cpp) run the same functions on tasks they take from
+// Redis, which only carries their inputs and outputs: the same tiles, sample targets and stop
+// rules, so a farm's image equals one process's bit for bit.
 // A pixel's film entries depend only on its samples, taken in order from its own random streams,
 // so where the pass boundaries fall never changes the sums.
 #include <functional>
 #include <optional>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -17,6 +20,7 @@ namespace tessera {
 
 class RenderScene;
 class TileContext;
+struct Image;
 
 struct TileRect {
     int x0, y0, x1, y1;
@@ -28,12 +32,20 @@ struct TileRect {
 // Row-major tiles of `size` pixels (the last row and column narrower).
 std::vector<TileRect> make_tiles(int width, int height, int size);
 
+// The schedule of a render, fixed by its settings before its first sample.
 struct PassPlan {
     bool adaptive = false;
     bool measuring = false;    // an error is measured after each pass
     bool progressive = false;  // several passes (doubling spp, or adaptive batches)
     bool half_buffer = false;  // the film keeps the odd samples (error estimate)
     int max_passes = 1;
+    std::vector<TileRect> tiles;
+    // No stop rule needs the whole image between passes (the render stops on spp alone): a
+    // tile may go through every pass target in one task, measuring its own error after each
+    // (a render farm does, without a barrier per pass). Its sums equal pass-by-pass rendering's:
+    // a pixel's samples are added in the same order.
+    bool whole_tiles = false;
+    std::vector<int> targets;  // the uniform pass targets, 1, 2, 4, …, spp (one: spp)
 };
 
 PassPlan plan_passes(const RenderSettings& settings, bool has_reference, bool observed);
@@ -42,14 +54,47 @@ int pass_target(const RenderSettings& settings, const PassPlan& plan, int previo
 // After a pass: why the render stops now, or nothing if another pass follows.
 std::optional<StopReason> stop_after_pass(const RenderSettings& settings, const PassPlan& plan, const Film& film,
                                           int target, const ConvergencePoint& point, bool out_of_time, bool canceled);
+
+// The end of a pass, wherever its tiles were rendered: its error point and what follows.
+struct PassEnd {
+    ConvergencePoint point;
+    std::optional<StopReason> stop;  // nothing: pass + 1 follows, at next_target
+    int next_target = 0;
+};
+// `film` covers the whole image after pass `pass` (0 first) at `target`; `samples` were taken
+// in all, `seconds` since the render started; `out_of_time` if a tile was cut short by the time
+// limit, `canceled` if the render was stopped.
+PassEnd end_pass(const RenderSettings& settings, const PassPlan& plan, const Film& film, const Image* reference, int pass,
+                 int target, uint64_t samples, double seconds, bool out_of_time, bool canceled);
+
+// A tile's error sums at one pass target of a whole-tile task, and when it got there (seconds
+// since the render started, on the clock the caller gives).
+struct TargetSums {
+    int target = 0;
+    double seconds = 0;
+    ErrorSums sums;
+};
+// A whole-tile task: tile `tile` of the plan into `film` (the tile's own: Film::tile) through
+// every pass target, its error sums measured after each (`reference`: the whole image's, or
+// null; `clock`: seconds since the render started). `cut` is checked before each row; a cut
+// task reports the targets it reached.
+struct WholeTile {
+    bool cut_short = false;
+    std::vector<TargetSums> sums;
+};
+WholeTile render_whole_tile(TileContext& ctx, const PassPlan& plan, size_t tile, Film& film, const Image* reference,
+                            const std::function<bool()>& cut, const std::function<double()>& clock = {});
+// The curve of a whole-tile render from every tile's sums: a point per target that every one of
+// `tiles` reached, timed when the last of them got there.
+ConvergenceCurve whole_tile_curve(const PassPlan& plan, const std::vector<std::vector<TargetSums>>& per_tile);
+
 // What the render builds and leaves out (film buffers, bounces, light paths), for the report.
 void describe_render(const RenderScene& scene, const RenderSettings& settings, const Film& film,
                      std::vector<std::string>& built, std::vector<std::string>& left_out);
 
-// Renders one tile of one pass into `film`, which covers the tile: the whole image, or just the
-// tile (Film::tile). `out_of_time` is checked before
-// each row: rows not started keep the samples of the previous pass. Returns false if it cut the
-// tile short.
+// A pass's task: one tile through the pass's target, into `film`, which covers the tile (the
+// whole image's, or the tile's own: Film::tile). `out_of_time` is checked before each row: rows
+// not started keep the samples of the previous pass. Returns false if it cut the tile short.
 bool render_tile(TileContext& ctx, const TileRect& tile, Film& film, int target,
                  const std::function<bool()>& out_of_time = {});
 

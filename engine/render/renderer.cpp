@@ -20,13 +20,7 @@ Camera camera_for(const RenderScene& scene, const RenderSettings& settings) {
 }
 
 void RenderStats::add(const RenderStats& o) {
-    camera_rays += o.camera_rays;
-    shadow_rays += o.shadow_rays;
-    bounce_rays += o.bounce_rays;
-    traversal.nodes_visited += o.traversal.nodes_visited;
-    traversal.prim_tests += o.traversal.prim_tests;
-    samples += o.samples;
-    nonfinite_samples += o.nonfinite_samples;
+    for_each_counter([](const char*, uint64_t& a, uint64_t b) { a += b; }, *this, o);
     max_sample = std::max(max_sample, o.max_sample);
 }
 
@@ -42,7 +36,7 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
     Film film(settings.width, settings.height, plan.half_buffer, plan.adaptive);
     describe_render(scene, settings, film, result.built, result.left_out);
     const Camera camera = camera_for(scene, settings);
-    const std::vector<TileRect> tiles = make_tiles(settings.width, settings.height, settings.tile_size);
+    const std::vector<TileRect>& tiles = plan.tiles;
     result.stats.tile_seconds.assign(tiles.size(), 0.0);
 
     int nthreads = settings.threads > 0 ? settings.threads : int(std::max(1u, std::thread::hardware_concurrency()));
@@ -55,10 +49,9 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
     std::atomic<size_t> tiles_done_total{0};
     bool stop_time = false, stop_cancel = false;
 
-    int target = 0;
+    int target = pass_target(settings, plan, 0);
     auto out_of_time = [&] { return settings.time_limit_s > 0 && elapsed() > settings.time_limit_s; };
-    for (int pass = 0; pass < plan.max_passes; ++pass) {
-        target = pass_target(settings, plan, target);
+    for (int pass = 0;; ++pass) {
         std::atomic<size_t> next_tile{0};
         std::atomic<bool> abort_pass{false};
         auto worker = [&](TileContext& ctx) {
@@ -86,16 +79,14 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
         if (callbacks.cancel && callbacks.cancel->load()) stop_cancel = true;
         if (abort_pass && !stop_cancel) stop_time = true;
 
-        ConvergencePoint pt;
-        if (plan.measuring) pt = measure_error(film, reference);
-        else pt.spp_mean = double(samples_done.load()) / (double(settings.width) * settings.height);
-        pt.seconds = elapsed();
-        result.curve.points.push_back(pt);
-        if (callbacks.on_pass) callbacks.on_pass(PassView{pass, target, pt, film});
-        if (const auto stop = stop_after_pass(settings, plan, film, target, pt, stop_time, stop_cancel)) {
-            result.curve.stop = *stop;
+        const PassEnd end = end_pass(settings, plan, film, reference, pass, target, samples_done.load(), elapsed(), stop_time, stop_cancel);
+        result.curve.points.push_back(end.point);
+        if (callbacks.on_pass) callbacks.on_pass(PassView{pass, target, end.point, film});
+        if (end.stop) {
+            result.curve.stop = *end.stop;
             break;
         }
+        target = end.next_target;
     }
     for (auto& c : contexts) result.stats.add(c->stats);
     result.image = film.resolve();

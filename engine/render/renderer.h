@@ -31,6 +31,20 @@ struct RenderStats {
     void add(const RenderStats& o);
 };
 
+// The counters of RenderStats that add up over tiles and nodes, each with its one name: adding,
+// a render farm's Redis fields and its decoding all read this list. Calls f(name, s.field...)
+// for every counter, over one or more RenderStats (const or not).
+template <class F, class... Stats>
+void for_each_counter(F&& f, Stats&... s) {
+    f("samples", s.samples...);
+    f("rays_camera", s.camera_rays...);
+    f("rays_shadow", s.shadow_rays...);
+    f("rays_bounce", s.bounce_rays...);
+    f("nodes_visited", s.traversal.nodes_visited...);
+    f("prim_tests", s.traversal.prim_tests...);
+    f("nonfinite", s.nonfinite_samples...);
+}
+
 struct RenderProgress {
     size_t tiles_done = 0;
     size_t tiles_total = 0;

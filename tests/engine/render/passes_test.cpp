@@ -1,10 +1,12 @@
-// The pass schedule as render nodes use it: tiles rendered one at a time into films of their
-// own, carried from pass to pass and assembled, give the one-process image bit for bit; a tile
-// rendered twice from the same state gives the same film (a farm's late duplicate is harmless).
+// The pass driver as render nodes use it: tiles rendered one at a time into films of their own,
+// carried from pass to pass and assembled, or each through every target at once, give the
+// one-process image bit for bit; a tile rendered twice from the same state gives the same film
+// (a farm's late duplicate is harmless).
 #include "engine/render/passes.h"
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <vector>
 
@@ -29,26 +31,25 @@ bool same_film(const Film& a, const Film& b) {
     return true;
 }
 
-// What a farm does: every pass, every tile on a context of its own, from the tile's film of the
-// pass before; after the pass, the films assembled and the stop rule applied.
-Image render_as_farm(const RenderScene& scene, const RenderSettings& s, int* passes) {
+// Each tile on a context and film of its own, in reverse order, then assembled after every pass
+// and ended by end_pass: the pass driver as a render node runs it, without the threads and the
+// shared film of renderer.cpp. (The real render nodes against a real Redis: farm_test.cpp.)
+Image render_tiles_apart(const RenderScene& scene, const RenderSettings& s, int* passes) {
     const PassPlan plan = plan_passes(s, false, false);
     const Camera camera = make_camera(scene.camera, s.width, s.height);
-    const std::vector<TileRect> tiles = make_tiles(s.width, s.height, s.tile_size);
     std::vector<Film> films;
-    for (const TileRect& t : tiles) films.push_back(Film::tile(t.x0, t.y0, t.width(), t.height(), plan.half_buffer, plan.adaptive));
+    for (const TileRect& t : plan.tiles) films.push_back(Film::tile(t.x0, t.y0, t.width(), t.height(), plan.half_buffer, plan.adaptive));
     Film image(s.width, s.height, plan.half_buffer, plan.adaptive);
-    int target = 0;
-    for (int pass = 0; pass < plan.max_passes; ++pass) {
-        target = pass_target(s, plan, target);
-        for (size_t i = tiles.size(); i-- > 0;) {  // any order
+    for (int pass = 0, target = pass_target(s, plan, 0);; ++pass) {
+        for (size_t i = plan.tiles.size(); i-- > 0;) {
             TileContext ctx(scene, s, camera);
-            EXPECT_TRUE(render_tile(ctx, tiles[i], films[i], target));
+            EXPECT_TRUE(render_tile(ctx, plan.tiles[i], films[i], target));
         }
-        for (size_t i = 0; i < tiles.size(); ++i) copy_tile_into(films[i], tiles[i], image);
-        ConvergencePoint pt = measure_error(image, nullptr);
+        for (size_t i = 0; i < plan.tiles.size(); ++i) copy_tile_into(films[i], plan.tiles[i], image);
         *passes = pass + 1;
-        if (stop_after_pass(s, plan, image, target, pt, false, false)) break;
+        const PassEnd end = end_pass(s, plan, image, nullptr, pass, target, 0, 0.0, false, false);
+        if (end.stop) break;
+        target = end.next_target;
     }
     return image.resolve();
 }
@@ -73,7 +74,7 @@ TEST(Passes, TilesRenderedApartAndAssembledEqualOneProcess) {
         if (adaptive) s.adaptive = AdaptiveSettings{4, 0.05f};
         const Image one = render(scene, s).image;
         int passes = 0;
-        const Image farm = render_as_farm(scene, s, &passes);
+        const Image farm = render_tiles_apart(scene, s, &passes);
         EXPECT_GT(passes, 1) << "the test must cross pass boundaries";
         ASSERT_EQ(one.rgb.size(), farm.rgb.size());
         EXPECT_EQ(0, std::memcmp(one.rgb.data(), farm.rgb.data(), one.rgb.size() * sizeof(float))) << "adaptive " << adaptive;
@@ -108,6 +109,60 @@ TEST(Passes, OutOfTimeKeepsTheRowsNotStarted) {
     EXPECT_FALSE(render_tile(ctx, t, f, 4, [&] { return ++rows > 3; }));
     for (int y = 0; y < t.height(); ++y)
         EXPECT_EQ(f.count[size_t(y) * size_t(f.width)], y < 3 ? 4u : 0u) << "row " << y;
+}
+
+TEST(Passes, WholeTilesGiveThePassByPassImageAndCurve) {
+    const RenderScene scene = build_render_scene(cornell_spheres(), {});
+    const RenderSettings s = settings();
+    const PassPlan plan = plan_passes(s, false, false);
+    ASSERT_TRUE(plan.whole_tiles);
+    ASSERT_EQ(plan.targets, (std::vector<int>{1, 2, 4, 8, 16}));
+    const RenderResult one = render(scene, s);
+    const Camera camera = make_camera(scene.camera, s.width, s.height);
+    Film image(s.width, s.height, plan.half_buffer, plan.adaptive);
+    std::vector<std::vector<TargetSums>> sums;
+    for (size_t i = plan.tiles.size(); i-- > 0;) {
+        TileContext ctx(scene, s, camera);
+        const TileRect& t = plan.tiles[i];
+        Film film = Film::tile(t.x0, t.y0, t.width(), t.height(), plan.half_buffer, plan.adaptive);
+        const WholeTile w = render_whole_tile(ctx, plan, i, film, nullptr, {}, [&] { return double(i); });
+        copy_tile_into(film, t, image);
+        EXPECT_FALSE(w.cut_short);
+        ASSERT_EQ(w.sums.size(), plan.targets.size());
+        sums.push_back(w.sums);
+    }
+    const Image whole = image.resolve();
+    EXPECT_EQ(0, std::memcmp(one.image.rgb.data(), whole.rgb.data(), whole.rgb.size() * sizeof(float)));
+    const ConvergenceCurve curve = whole_tile_curve(plan, sums);
+    ASSERT_EQ(curve.points.size(), one.curve.points.size());
+    for (size_t k = 0; k < curve.points.size(); ++k) {
+        // The sums add in another order than one pass over the image: equal to the last bits.
+        EXPECT_NEAR(curve.points[k].est_rel_mse, one.curve.points[k].est_rel_mse, 1e-9 * std::abs(one.curve.points[k].est_rel_mse)) << k;
+        EXPECT_DOUBLE_EQ(curve.points[k].spp_mean, one.curve.points[k].spp_mean) << k;
+        EXPECT_EQ(curve.points[k].seconds, double(plan.tiles.size() - 1)) << "timed when the last tile got there";
+    }
+    sums.pop_back();
+    EXPECT_TRUE(whole_tile_curve(plan, sums).points.empty()) << "a point needs every tile";
+}
+
+TEST(Passes, EndPassStopsOnSppAtTheLastPlannedPass) {
+    RenderSettings s = settings();
+    s.estimate_error = false;
+    const PassPlan plan = plan_passes(s, false, false);
+    EXPECT_FALSE(plan.progressive) << "nothing measured: one pass";
+    const Film film(s.width, s.height, false, false);
+    const PassEnd end = end_pass(s, plan, film, nullptr, 0, s.spp, uint64_t(s.spp) * 40 * 30, 1.5, false, false);
+    ASSERT_TRUE(end.stop);
+    EXPECT_EQ(*end.stop, StopReason::spp);
+    EXPECT_DOUBLE_EQ(end.point.spp_mean, s.spp);
+    EXPECT_EQ(end.point.seconds, 1.5);
+    EXPECT_EQ(end_pass(s, plan, film, nullptr, 0, s.spp, 0, 0.0, true, false).stop, StopReason::time_limit);
+    EXPECT_EQ(end_pass(s, plan, film, nullptr, 0, s.spp, 0, 0.0, true, true).stop, StopReason::canceled);
+    s.estimate_error = true;
+    const PassPlan doubling = plan_passes(s, false, false);
+    const PassEnd first = end_pass(s, doubling, Film(s.width, s.height, true, false), nullptr, 0, 1, 0, 0.0, false, false);
+    EXPECT_FALSE(first.stop);
+    EXPECT_EQ(first.next_target, 2);
 }
 
 TEST(Passes, TilesCoverTheImageOnce) {
