@@ -1,6 +1,14 @@
 #include "api/job_status.h"
 
+#include <algorithm>
+
 namespace tessera::api {
+
+JobProgress job_progress(const Job& job, uint64_t samples, uint64_t tiles_done, uint64_t tiles_total) {
+    const auto* r = std::get_if<RenderJob>(&job);
+    const double budget = r ? double(r->render.spp) * r->render.width * r->render.height : 0.0;
+    return {budget > 0 ? std::min(1.0, double(samples) / budget) : 0.0, tiles_done, tiles_total, samples};
+}
 
 using nlohmann::json;
 

@@ -7,6 +7,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "api/job.h"
+
 namespace tessera::api {
 
 enum class JobState { queued, running, succeeded, failed, canceled };
@@ -19,6 +21,10 @@ struct JobProgress {
     double fraction = 0;
     uint64_t tiles_done = 0, tiles_total = 0, samples_done = 0;
 };
+// A running job's progress, one rule wherever it is shown (a worker's own job, a farm's from
+// Redis): the samples taken over the job's budget of spp × pixels (a comparison has none: 0),
+// with the tiles done of its current pass.
+JobProgress job_progress(const Job& job, uint64_t samples, uint64_t tiles_done, uint64_t tiles_total);
 
 // A running render's latest finished pass (its image is served until the job ends).
 struct PassSummary {

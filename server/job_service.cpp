@@ -310,9 +310,7 @@ api::JobStatus record_status(const JobRecord& rec) {
 // (which store writes hold), so render threads publishing progress and passes never wait.
 json JobService::running_status_json(Running& r) {
     api::JobStatus st = record_status(r.rec);
-    const double budget = r.sample_budget;
-    st.live_progress = api::JobProgress{budget > 0 ? std::min(1.0, double(r.samples.load()) / budget) : 0.0,
-                                        r.tiles_done.load(), r.tiles_total.load(), r.samples.load()};
+    if (r.job) st.live_progress = api::job_progress(*r.job, r.samples.load(), r.tiles_done.load(), r.tiles_total.load());
     std::lock_guard<std::mutex> pass_lock(r.pass_mutex);
     st.latest_pass = r.pass;
     return api::to_json(st);
@@ -327,15 +325,12 @@ json JobService::status_json(const JobRecord& rec, bool locked) {
                 const long long pos = redis_store_->queue_position(rec.id);
                 st.queue_position = pos >= 0 ? size_t(pos) : 0;
             } else if (rec.state == JobState::running) {
-                if (const auto p = redis_store_->live_progress(rec.id)) {
-                    const json& cfg = st.settings;
-                    const double budget = cfg.is_object() ? cfg.value("spp", 0.0) * cfg.value("width", 0.0) * cfg.value("height", 0.0) : 0.0;
-                    st.live_progress = api::JobProgress{budget > 0 ? std::min(1.0, double(p->samples) / budget) : 0.0, p->tiles_done,
-                                                        p->tiles_total, p->samples};
-                }
+                if (const auto p = redis_store_->live_progress(rec.id))
+                    st.live_progress = api::job_progress(api::job_from_json(st.settings), p->samples, p->tiles_done, p->tiles_total);
             }
-        } catch (const StoreError&) {
-            // Progress is a courtesy: the record itself was read.
+        } catch (const std::exception&) {
+            // Progress is a courtesy (a store refusal, a record of another version): the record
+            // itself was read.
         }
     } else {
         std::unique_lock<std::mutex> lock(mutex_, std::defer_lock);
@@ -353,9 +348,7 @@ json JobService::status_json(const JobRecord& rec, bool locked) {
         auto it = running_.find(rec.id);
         if (it != running_.end()) {
             const Running& r = *it->second;
-            const double budget = r.sample_budget;
-            st.live_progress = api::JobProgress{budget > 0 ? std::min(1.0, double(r.samples.load()) / budget) : 0.0,
-                                                r.tiles_done.load(), r.tiles_total.load(), r.samples.load()};
+            if (r.job) st.live_progress = api::job_progress(*r.job, r.samples.load(), r.tiles_done.load(), r.tiles_total.load());
             if (rec.state == JobState::running) {
                 std::lock_guard<std::mutex> pass_lock(it->second->pass_mutex);
                 st.latest_pass = r.pass;
@@ -474,6 +467,11 @@ bool JobService::take_next(JobRecord& rec, std::shared_ptr<Running>& running) {
         }
         running = std::make_shared<Running>();
         running->rec = rec;
+        try {
+            running->job = api::job_from_json(json::parse(rec.spec_json));
+        } catch (const std::exception&) {
+            // run() fails the job with the reason; until then it shows no progress.
+        }
         running_[key.id] = running;
         return true;
     }
@@ -576,7 +574,6 @@ void JobService::run(const JobRecord& rec, Running& running) {
         opt.job_id = rec.id;
         opt.prepare = [this](const std::string& source, const RenderSceneOptions& options) { return scenes_.get_local(source, options); };
         if (const auto* r = std::get_if<api::RenderJob>(&job)) {
-            running.sample_budget = double(r->render.spp) * r->render.width * r->render.height;
             running.max_spp = r->render.spp;
             if (!r->reference.empty()) opt.reference_image = job_image_exr(config_.data_dir, r->reference).string();
             if (!r->environment.empty()) {

@@ -111,8 +111,8 @@ private:
         std::atomic<bool> shutdown{false};
         std::atomic<size_t> tiles_done{0}, tiles_total{0};
         std::atomic<uint64_t> samples{0};
-        std::atomic<double> sample_budget{0};  // spp × pixels: progress is samples over this
         JobRecord rec;                          // as it started: its status while it runs
+        std::optional<api::Job> job;            // rec's, typed (its progress is api::job_progress)
         std::atomic<int64_t> progress_event_ns{0};  // when progress was last published
         std::mutex pass_mutex;
         std::optional<api::PassSummary> pass;   // the latest finished pass, and its image
