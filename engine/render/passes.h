@@ -18,7 +18,7 @@
 
 namespace tessera {
 
-class RenderScene;
+struct RenderScene;
 class TileContext;
 struct Image;
 

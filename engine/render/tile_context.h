@@ -24,7 +24,7 @@ inline float illuminance(const glm::vec3& c) { return 0.2126f * c.x + 0.7152f * 
 class alignas(64) TileContext {
 public:
     TileContext(const RenderScene& scene, const RenderSettings& settings, const Camera& camera)
-        : scene_(scene), settings_(settings), camera_(camera), integrator_(scene, settings, stats) {}
+        : settings_(settings), camera_(camera), integrator_(scene, settings, stats) {}
 
     // Takes pixel (x, y), entry `p` of `film`, to `target` samples (uniform), or by one batch
     // (adaptive). Its random streams follow from its place in the image, not in the film.
@@ -86,7 +86,6 @@ public:
     RenderStats stats;
 
 private:
-    const RenderScene& scene_;
     const RenderSettings& settings_;
     const Camera& camera_;
     IntegratorDispatch integrator_;

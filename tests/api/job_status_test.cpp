@@ -28,19 +28,19 @@ TEST(JobStatus, AConvergencePointRoundTripsThroughTheReportsForm) {
     p.seconds = 1.25;
     p.spp_mean = 7.5;
     p.est_rel_mse = 0.01;
-    const ConvergencePoint q = convergence_point_from_json(to_json(p));
-    EXPECT_EQ(q.seconds, 1.25);
-    EXPECT_EQ(q.spp_mean, 7.5);
-    EXPECT_EQ(q.est_rel_mse, 0.01);
-    EXPECT_EQ(q.rel_mse, -1) << "unmeasured stays unmeasured";
-    EXPECT_TRUE(to_json(p)["rel_mse"].is_null() || !to_json(p).contains("rel_mse"));
-    p.rel_mse = 0.5;
-    p.mse = 0.25;
-    p.mae = 0.125;
-    const ConvergencePoint r = convergence_point_from_json(to_json(p));
-    EXPECT_EQ(r.rel_mse, 0.5);
-    EXPECT_EQ(r.mse, 0.25);
-    EXPECT_EQ(r.mae, 0.125);
+    EXPECT_FALSE(to_json(p).contains("rel_mse")) << "no reference: no error against it";
+    for (const double rel : {-1.0, 0.5}) {  // without a reference, then with one
+        p.rel_mse = rel;
+        p.mse = rel / 2;
+        p.mae = rel / 4;
+        const ConvergencePoint q = convergence_point_from_json(to_json(p));
+        EXPECT_EQ(q.seconds, p.seconds);
+        EXPECT_EQ(q.spp_mean, p.spp_mean);
+        EXPECT_EQ(q.est_rel_mse, p.est_rel_mse);
+        EXPECT_EQ(q.rel_mse, rel < 0 ? -1.0 : rel) << "unmeasured stays unmeasured";
+        EXPECT_EQ(q.mse, rel < 0 ? -1.0 : rel / 2);
+        EXPECT_EQ(q.mae, rel < 0 ? -1.0 : rel / 4);
+    }
 }
 
 }  // namespace

@@ -10,35 +10,15 @@
 
 #include "server/cluster_keys.h"
 #include "server/cluster_lua.h"
-#include "server/redis_process.h"
+#include "tests/server/redis_suite.h"
 
 namespace tessera::server {
 namespace {
 
-class FarmRecords : public ::testing::Test {
+class FarmRecords : public test::WithSuiteRedis<> {
 protected:
-    static void SetUpTestSuite() {
-        redis_ = new RedisServer("off");
-        if (redis_->available() && !redis_->start()) {
-            delete redis_;
-            redis_ = nullptr;
-        }
-    }
-    static void TearDownTestSuite() {
-        delete redis_;
-        redis_ = nullptr;
-    }
-    void SetUp() override {
-        if (!redis_) {
-            if (redis_required()) FAIL() << "redis-server did not start (TESSERA_REQUIRE_REDIS=1)";
-            GTEST_SKIP() << "redis-server is not installed (apt-get install redis-server): the farm's records are not tested";
-        }
-        Redis(redis_->url()).command({"FLUSHALL"});
-    }
-    static RedisServer* redis_;
+    void SetUp() override { redis_ready("the farm's records are not tested"); }
 };
-
-RedisServer* FarmRecords::redis_ = nullptr;
 
 FarmRun read_run(Redis& r, const std::string& id) {
     std::vector<std::string> cmd = {"HMGET", keys::job(id)};

@@ -18,6 +18,7 @@
 #include "server/redis_process.h"
 #include "server/sqlite_job_store.h"
 #include "tests/server/job_records.h"
+#include "tests/server/redis_suite.h"
 
 namespace tessera::server {
 namespace {
@@ -27,19 +28,8 @@ namespace fs = std::filesystem;
 using test::hex_id;
 using test::make_job;
 
-class JobStoreContract : public ::testing::TestWithParam<std::string> {
+class JobStoreContract : public test::WithSuiteRedis<::testing::TestWithParam<std::string>, true> {
 protected:
-    static void SetUpTestSuite() {
-        redis_ = new RedisServer();
-        if (redis_->available() && !redis_->start()) {
-            delete redis_;
-            redis_ = nullptr;
-        }
-    }
-    static void TearDownTestSuite() {
-        delete redis_;
-        redis_ = nullptr;
-    }
     void SetUp() override {
         const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
         std::string name = info->name();
@@ -47,14 +37,7 @@ protected:
         dir_ = fs::temp_directory_path() / ("tessera_store_contract_" + name + "_" + std::to_string(::getpid()));
         fs::remove_all(dir_);
         fs::create_directories(dir_);
-        if (GetParam() == "redis") {
-            if (!redis_) {
-                if (redis_required()) FAIL() << "redis-server did not start (TESSERA_REQUIRE_REDIS=1)";
-                GTEST_SKIP() << "redis-server is not installed (apt-get install redis-server): the Redis store is not tested";
-            }
-            Redis r(redis_->url());
-            r.command({"FLUSHALL"});
-        }
+        if (GetParam() == "redis") redis_ready("the Redis store is not tested");
     }
     void TearDown() override {
         std::error_code ec;
@@ -67,10 +50,7 @@ protected:
     }
 
     fs::path dir_;
-    static RedisServer* redis_;
 };
-
-RedisServer* JobStoreContract::redis_ = nullptr;
 
 TEST_P(JobStoreContract, InsertGetRoundTripsEveryField) {
     auto owned = open();

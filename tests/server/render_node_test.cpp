@@ -21,7 +21,7 @@
 #include "engine/io/image_io.h"
 #include "server/job_results.h"
 #include "server/job_service.h"
-#include "server/redis_process.h"
+#include "tests/server/redis_suite.h"
 
 namespace tessera::server {
 namespace {
@@ -29,24 +29,10 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-class RenderNodeFarm : public ::testing::Test {
+class RenderNodeFarm : public test::WithSuiteRedis<> {
 protected:
-    static void SetUpTestSuite() {
-        redis_ = new RedisServer("off");
-        if (redis_->available() && !redis_->start()) {
-            delete redis_;
-            redis_ = nullptr;
-        }
-    }
-    static void TearDownTestSuite() {
-        delete redis_;
-        redis_ = nullptr;
-    }
     void SetUp() override {
-        if (!redis_) {
-            if (redis_required()) FAIL() << "redis-server did not start (TESSERA_REQUIRE_REDIS=1)";
-            GTEST_SKIP() << "redis-server is not installed (apt-get install redis-server): the render farm is not tested";
-        }
+        if (!redis_ready("the render farm is not tested")) return;
         dir_ = fs::temp_directory_path() / ("tessera_render_node_" + std::to_string(::getpid()));
         fs::remove_all(dir_);
         fs::create_directories(dir_ / "scenes");
@@ -57,7 +43,6 @@ protected:
         ASSERT_NE(box.find(lamp), std::string::npos) << "the lamp of scenes/cornell_box.gltf";
         box.replace(box.find(lamp), lamp.size(), "\"emissiveStrength\": 0.0");
         std::ofstream(dir_ / "scenes" / "dark_box.gltf") << box;
-        Redis(redis_->url()).command({"FLUSHALL"});
         ServiceConfig cfg;
         cfg.data_dir = (dir_ / "data").string();
         cfg.project_scenes = TESSERA_PROJECT_SCENES;
@@ -116,10 +101,7 @@ protected:
     fs::path dir_;
     std::unique_ptr<JobService> service_;
     std::vector<std::unique_ptr<RenderNode>> nodes_;
-    static RedisServer* redis_;
 };
-
-RedisServer* RenderNodeFarm::redis_ = nullptr;
 
 struct Case {
     const char* what;
