@@ -15,7 +15,7 @@
 #include "engine/render/renderer.h"
 #include "engine/scene/procedural.h"
 #include "cli/bench_common.h"
-#include "server/command_line.h"
+#include "cli/command_line.h"
 #include "cli/commands.h"
 
 namespace tessera::cli {

@@ -14,7 +14,7 @@
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
 #include "cli/bench_common.h"
-#include "server/command_line.h"
+#include "cli/command_line.h"
 
 namespace tessera::cli {
 

@@ -8,7 +8,7 @@
 #include "engine/render/renderer.h"
 #include "engine/scene/procedural.h"
 #include "cli/bench_common.h"
-#include "server/command_line.h"
+#include "cli/command_line.h"
 
 namespace tessera::cli {
 

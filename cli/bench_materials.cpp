@@ -17,7 +17,7 @@
 #include "engine/scene/environment.h"
 #include "engine/sampling/rng.h"
 #include "cli/bench_common.h"
-#include "server/command_line.h"
+#include "cli/command_line.h"
 
 namespace tessera::cli {
 

@@ -26,7 +26,7 @@
 #include "engine/io/scene_loader.h"
 #include "engine/scene/render_scene.h"
 #include "cli/bench_common.h"
-#include "server/command_line.h"
+#include "cli/command_line.h"
 
 namespace tessera::cli {
 

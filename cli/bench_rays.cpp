@@ -21,7 +21,7 @@
 #include "engine/sampling/warp.h"
 #include "engine/scene/procedural.h"
 #include "cli/bench_common.h"
-#include "server/command_line.h"
+#include "cli/command_line.h"
 
 namespace tessera::cli {
 

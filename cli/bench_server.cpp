@@ -25,8 +25,8 @@
 #include "engine/io/scene_loader.h"
 #include "engine/render/renderer.h"
 #include "cli/bench_common.h"
-#include "server/command_line.h"
-#include "server/http_api.h"
+#include "cli/command_line.h"
+#include "server/http/http_api.h"
 #include "cli/in_process_server.h"
 
 namespace tessera::cli {

@@ -7,7 +7,7 @@
 #include "engine/io/gltf_writer.h"
 #include "engine/io/image_io.h"
 #include "engine/scene/procedural.h"
-#include "server/command_line.h"
+#include "cli/command_line.h"
 #include "cli/commands.h"
 
 namespace tessera::cli {

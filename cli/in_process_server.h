@@ -9,7 +9,7 @@
 #include <string>
 #include <thread>
 
-#include "server/http_api.h"
+#include "server/http/http_api.h"
 
 namespace tessera::cli {
 

@@ -4,7 +4,7 @@
 #include <exception>
 
 #include "cli/commands.h"
-#include "server/serve_command.h"
+#include "cli/serve_command.h"
 
 namespace {
 

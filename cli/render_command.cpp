@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "api/job_runner.h"
-#include "server/command_line.h"
+#include "cli/command_line.h"
 #include "cli/commands.h"
 #include "cli/job_flags.h"
 

@@ -1,7 +1,7 @@
 #pragma once
 // The pass driver: the schedule of a render, its tile tasks and the end of each pass, as plain
 // functions over plain data. The one-process renderer (renderer.cpp) runs them on its threads;
-// a render farm's nodes (server/render_node.cpp) run the same functions on tasks they take from
+// a render farm's nodes (server/farm/render_node.cpp) run the same functions on tasks they take from
 // Redis, which only carries their inputs and outputs: the same tiles, sample targets and stop
 // rules, so a farm's image equals one process's bit for bit.
 // A pixel's film entries depend only on its samples, taken in order from its own random streams,

@@ -21,8 +21,8 @@
 
 #include <spdlog/spdlog.h>
 
-#include "server/http_api.h"
-#include "server/job_service.h"
+#include "server/http/http_api.h"
+#include "server/queue/job_service.h"
 
 namespace {
 using namespace tessera::server;
@@ -34,7 +34,7 @@ struct Harness {
         spdlog::set_level(spdlog::level::off);
         // The server's threads (and those they start) leave libFuzzer's SIGALRM watchdog to
         // this one: an accept() it interrupted would end httplib's listener, as no signal can
-        // in `tessera serve`, whose threads block them all (server/serve_command.cpp).
+        // in `tessera serve`, whose threads block them all (cli/serve_command.cpp).
         sigset_t block, old;
         sigemptyset(&block);
         sigaddset(&block, SIGALRM);

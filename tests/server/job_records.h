@@ -3,7 +3,7 @@
 #include <cstdio>
 #include <string>
 
-#include "server/job_store.h"
+#include "server/store/job_store.h"
 
 namespace tessera::server::test {
 

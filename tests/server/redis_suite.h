@@ -6,7 +6,7 @@
 
 #include <string>
 
-#include "server/redis_process.h"
+#include "server/store/redis_process.h"
 
 namespace tessera::server::test {
 

@@ -16,7 +16,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "server/http_api.h"
+#include "server/http/http_api.h"
 
 namespace tessera::server {
 

@@ -1,0 +1,149 @@
+#include "server/farm/film_codec.h"
+
+#include <cstdint>
+#include <cstring>
+#include <stdexcept>
+#include <type_traits>
+
+namespace tessera::server {
+
+namespace {
+
+constexpr char kMagic[4] = {'T', 'F', 'L', '2'};  // 2: the error estimate's prefix sums
+
+struct Header {
+    char magic[4];
+    int32_t width, height, x0, y0;
+    uint8_t half_buffer, adaptive, pad[2];
+};
+
+static_assert(std::is_trivially_copyable_v<glm::dvec3> && sizeof(glm::dvec3) == 24);
+static_assert(std::is_trivially_copyable_v<RunningStats>);
+
+template <class T>
+void put(std::string& out, const std::vector<T>& v) {
+    out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+}
+
+template <class T>
+void get(const std::string& in, size_t& at, std::vector<T>& v) {
+    const size_t bytes = v.size() * sizeof(T);
+    if (bytes == 0) return;
+    if (in.size() - at < bytes) throw std::runtime_error("tile film: truncated");
+    std::memcpy(static_cast<void*>(v.data()), in.data() + at, bytes);
+    at += bytes;
+}
+
+}  // namespace
+
+std::string encode_film(const Film& f) {
+    Header h{};
+    std::memcpy(h.magic, kMagic, 4);
+    h.width = f.width;
+    h.height = f.height;
+    h.x0 = f.x0;
+    h.y0 = f.y0;
+    h.half_buffer = !f.sum_half.empty();
+    h.adaptive = !f.stats.empty();
+    std::string out(reinterpret_cast<const char*>(&h), sizeof h);
+    put(out, f.sum);
+    put(out, f.count);
+    if (h.half_buffer) {
+        put(out, f.sum_half);
+        put(out, f.sum_quarter);
+        put(out, f.sum_eighth);
+    }
+    if (h.adaptive) {
+        put(out, f.stats);
+        put(out, f.done);
+    }
+    return out;
+}
+
+Film decode_film(const std::string& bytes) {
+    Header h;
+    if (bytes.size() < sizeof h) throw std::runtime_error("tile film: truncated header");
+    std::memcpy(&h, bytes.data(), sizeof h);
+    if (std::memcmp(h.magic, kMagic, 4) != 0) throw std::runtime_error("tile film: not a film");
+    if (h.width <= 0 || h.height <= 0 || h.width > 65536 || h.height > 65536) throw std::runtime_error("tile film: bad size");
+    Film f = Film::tile(h.x0, h.y0, h.width, h.height, h.half_buffer != 0, h.adaptive != 0);
+    size_t at = sizeof h;
+    get(bytes, at, f.sum);
+    get(bytes, at, f.count);
+    if (h.half_buffer) {
+        get(bytes, at, f.sum_half);
+        get(bytes, at, f.sum_quarter);
+        get(bytes, at, f.sum_eighth);
+    }
+    if (h.adaptive) {
+        get(bytes, at, f.stats);
+        get(bytes, at, f.done);
+    }
+    if (at != bytes.size()) throw std::runtime_error("tile film: trailing bytes");
+    return f;
+}
+
+namespace {
+
+constexpr char kImageMagic[4] = {'T', 'T', 'I', '1'};
+
+struct ImageHeader {
+    char magic[4];
+    int32_t width, height, x0, y0;
+};
+
+}  // namespace
+
+std::string encode_tile_image(const Film& f) {
+    ImageHeader h{};
+    std::memcpy(h.magic, kImageMagic, 4);
+    h.width = f.width;
+    h.height = f.height;
+    h.x0 = f.x0;
+    h.y0 = f.y0;
+    const Image img = f.resolve();
+    std::string out(reinterpret_cast<const char*>(&h), sizeof h);
+    put(out, img.rgb);
+    put(out, img.sample_count);
+    return out;
+}
+
+TileImage decode_tile_image(const std::string& bytes) {
+    ImageHeader h;
+    if (bytes.size() < sizeof h) throw std::runtime_error("tile image: truncated header");
+    std::memcpy(&h, bytes.data(), sizeof h);
+    if (std::memcmp(h.magic, kImageMagic, 4) != 0) throw std::runtime_error("tile image: not a tile image");
+    if (h.width <= 0 || h.height <= 0 || h.width > 65536 || h.height > 65536) throw std::runtime_error("tile image: bad size");
+    TileImage t;
+    t.x0 = h.x0;
+    t.y0 = h.y0;
+    t.image = Image(h.width, h.height);
+    size_t at = sizeof h;
+    get(bytes, at, t.image.rgb);
+    get(bytes, at, t.image.sample_count);
+    if (at != bytes.size()) throw std::runtime_error("tile image: trailing bytes");
+    return t;
+}
+
+void place_tile(const TileImage& t, Image& into) {
+    if (t.x0 < 0 || t.y0 < 0 || t.x0 + t.image.width > into.width || t.y0 + t.image.height > into.height)
+        throw std::runtime_error("tile image: outside the image");
+    for (int y = 0; y < t.image.height; ++y) {
+        const size_t from = size_t(y) * t.image.width, to = size_t(t.y0 + y) * into.width + t.x0;
+        std::memcpy(&into.rgb[to * 3], &t.image.rgb[from * 3], size_t(t.image.width) * 3 * sizeof(float));
+        std::memcpy(&into.sample_count[to], &t.image.sample_count[from], size_t(t.image.width) * sizeof(float));
+    }
+}
+
+std::string content_hash(const std::string& bytes) {
+    uint64_t h = 1469598103934665603ull;
+    for (unsigned char c : bytes) {
+        h ^= c;
+        h *= 1099511628211ull;
+    }
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "fnv1a64-%016llx-%zu", static_cast<unsigned long long>(h), bytes.size());
+    return buf;
+}
+
+}  // namespace tessera::server

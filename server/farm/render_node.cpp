@@ -1,0 +1,677 @@
+#include "server/farm/render_node.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <optional>
+
+#include <spdlog/spdlog.h>
+
+#include "api/json_text.h"
+#include "api/job.h"
+#include "api/job_runner.h"
+#include "api/report.h"
+#include "engine/camera/camera.h"
+#include "engine/core/scene_error.h"
+#include "engine/io/image_io.h"
+#include "engine/render/passes.h"
+#include "engine/render/tile_context.h"
+#include "engine/scene/environment.h"
+#include "server/farm/cluster_keys.h"
+#include "server/farm/cluster_lua.h"
+#include "server/farm/farm_records.h"
+#include "server/farm/film_codec.h"
+#include "server/store/job_results.h"
+#include "server/queue/scene_cache.h"
+
+namespace tessera::server {
+using api::json_text;
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double now_s() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
+long long now_ms() {
+    return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+std::string num(double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
+
+struct Task {
+    std::string stream, id, job, kind;
+    int pass = 0, tile = 0;
+    bool reclaimed = false;  // taken over from a silent node (not a first delivery)
+    std::string key() const { return stream + " " + id; }
+};
+
+// An entry as XREADGROUP and XAUTOCLAIM return it: [id, [field, value, ...]].
+std::optional<Task> parse_entry(const std::string& stream, const RedisValue& e) {
+    if (e.items.size() < 2 || e.items[1].type != RedisValue::array) return std::nullopt;
+    Task t;
+    t.stream = stream;
+    t.id = e.items[0].text;
+    const auto& f = e.items[1].items;
+    for (size_t i = 0; i + 1 < f.size(); i += 2) {
+        const std::string& k = f[i].text;
+        const std::string& v = f[i + 1].text;
+        if (k == "job") t.job = v;
+        else if (k == "kind") t.kind = v;
+        else if (k == "pass") t.pass = std::atoi(v.c_str());
+        else if (k == "tile") t.tile = std::atoi(v.c_str());
+    }
+    return t;
+}
+
+const RedisScript kBegin{lua::transition + lua::add_tiles + R"lua(
+-- KEYS: job, stream; ARGV: prefix, id, now (s), then the run's first field, value pairs (farm_run_start)
+if redis.call('HGET', KEYS[1], 'state') ~= 'queued' then return 0 end
+transition(ARGV[1], ARGV[2], 'running', 'queued', ARGV[3], '', '')
+local tiles = 0
+for i = 4, #ARGV, 2 do
+  redis.call('HSET', KEYS[1], ARGV[i], ARGV[i + 1])
+  if ARGV[i] == 'tiles_total' then tiles = tonumber(ARGV[i + 1]) end
+end
+add_tiles(KEYS[2], ARGV[2], 0, tiles)
+return 1
+)lua"};
+
+const RedisScript kCommitTile{lua::commit_tile};
+
+const RedisScript kAdvance{lua::add_tiles + R"lua(
+-- KEYS: job, curve, stream; ARGV: id, pass, next target, point, tiles
+if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return 0 end
+if tonumber(redis.call('HGET', KEYS[1], 'pass')) ~= tonumber(ARGV[2]) then return 0 end
+redis.call('RPUSH', KEYS[2], ARGV[4])
+local next = tonumber(ARGV[2]) + 1
+redis.call('HSET', KEYS[1], 'pass', next, 'target', ARGV[3], 'tiles_done', 0)
+add_tiles(KEYS[3], ARGV[1], next, tonumber(ARGV[5]))
+return 1
+)lua"};
+
+const RedisScript kComplete{lua::transition + R"lua(
+-- KEYS: job, curve; ARGV: prefix, id, pass, point, now, summary
+if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return 0 end
+if tonumber(redis.call('HGET', KEYS[1], 'pass')) ~= tonumber(ARGV[3]) then return 0 end
+redis.call('RPUSH', KEYS[2], ARGV[4])
+return transition(ARGV[1], ARGV[2], 'succeeded', 'running', ARGV[5], '', ARGV[6])
+)lua"};
+
+const RedisScript kTransition{lua::transition + R"lua(
+return transition(ARGV[1], ARGV[2], ARGV[3], ARGV[4], ARGV[5], ARGV[6], ARGV[7])
+)lua"};
+
+// Renews a claim only while it is still this consumer's: a node resumed after a long stop must
+// not take back a task another node has claimed meanwhile.
+const RedisScript kRenew{R"lua(
+-- KEYS: stream; ARGV: id, consumer
+local p = redis.call('XPENDING', KEYS[1], 'nodes', ARGV[1], ARGV[1], 1, ARGV[2])
+if #p == 0 then return 0 end
+redis.call('XCLAIM', KEYS[1], 'nodes', ARGV[2], 0, ARGV[1], 'JUSTID')
+return 1
+)lua"};
+
+// A job as a node runs it: parsed once per node (the stored job never changes).
+struct JobInfo {
+    api::Job job;
+    SceneRef ref;
+    RenderSettings settings;  // a render job's, as nodes render it
+    // The pass driver's plan; a whole-tile plan (no stop rule needs the whole image between
+    // passes) is rendered a tile per task through every target, without a barrier per pass.
+    PassPlan plan;
+    std::optional<Image> reference;
+};
+
+// A job the node cannot run (scene broken, reference gone): the job fails with this reason.
+struct JobFailure : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+}  // namespace
+
+// How much work one read of the streams takes (see fetch), and at most how many tasks.
+constexpr double kBatchSeconds = 0.02;
+constexpr int kMaxBatch = 32;
+
+struct RenderNode::Impl {
+    NodeConfig cfg;
+    std::string name;
+    NodeMetrics metrics;
+    SceneCache cache;
+    std::atomic<bool> stopping{false};
+    std::vector<std::thread> threads;
+    std::thread heartbeat;
+    std::mutex mu;  // held, jobs
+    std::condition_variable wake;
+    struct Held {
+        Task task;
+        std::string consumer;
+        std::shared_ptr<std::atomic<bool>> cancel;  // stop working on it (job canceled, taken over, node stops)
+        std::shared_ptr<std::atomic<bool>> lost;    // another node claimed it: not ours to acknowledge
+        std::shared_ptr<std::atomic<bool>> acked;   // done here: a failed renewal means nothing then
+    };
+    std::map<std::string, Held> held;
+    std::map<std::string, std::shared_ptr<const JobInfo>> jobs;
+    // The state of a job's run as a tile needs it. A state seen running at the task's pass in the
+    // last 50 ms is taken as is (one round trip less per tile: the commit checks again); any
+    // other answer is read afresh, so a stale cache never drops a task.
+    struct SeenRun {
+        FarmRun run;
+        Clock::time_point read;
+    };
+    std::map<std::string, SeenRun> states;
+
+    explicit Impl(NodeConfig c)
+        : cfg(std::move(c)),
+          cache((fs::temp_directory_path() / ("tessera-node-" + std::to_string(::getpid()))).string(), cfg.scene_cache_mb << 20,
+                cfg.load_limits, cfg.scene_cache_idle_s) {
+        name = cfg.name;
+        if (name.empty()) {
+            char host[256] = {0};
+            ::gethostname(host, sizeof host - 1);
+            name = std::string(host) + "-" + std::to_string(::getpid());
+        }
+    }
+
+    std::shared_ptr<const JobInfo> job_info(Redis& r, const std::string& id) {
+        {
+            std::lock_guard lock(mu);
+            auto it = jobs.find(id);
+            if (it != jobs.end()) return it->second;
+        }
+        const auto v = r.pipeline({{"HGET", keys::job(id), "spec"}, {"GET", keys::job_scene(id)}, {"GET", keys::job_environment(id)}});
+        if (v[0].is_nil()) return nullptr;
+        auto info = std::make_shared<JobInfo>();
+        info->job = api::job_from_json(json::parse(v[0].text));
+        if (!v[1].is_nil()) info->ref = SceneRef::decode(v[1].text);
+        else info->ref.source = api::scene_of(info->job);  // built-in scenes need no file
+        if (const auto* rj = std::get_if<api::RenderJob>(&info->job)) {
+            info->settings = rj->render;
+            info->settings.threads = 1;
+            info->settings.estimate_error = true;  // as the server's runner: the error curve is reported
+            // The environment map the API node published; a file that does not load fails the job.
+            if (!rj->environment.empty()) {
+                if (v[2].is_nil()) throw JobFailure("the job's environment map '" + rj->environment + "' is missing from Redis");
+                const SceneRef env = SceneRef::decode(v[2].text);
+                // Named by the API node's path, as one process's report names it.
+                auto map = std::make_shared<EnvironmentMap>(*api::load_environment(cache.file_for(r, env)));
+                map->source = env.source;
+                info->settings.environment = std::move(map);
+            }
+            if (!rj->reference.empty()) {
+                const fs::path ref = job_image_exr(cfg.data_dir, rj->reference);
+                if (!fs::exists(ref)) throw JobFailure("the reference job's image was deleted");
+                info->reference = read_image(ref.string());
+            }
+            info->plan = plan_passes(info->settings, info->reference.has_value(), false);
+        }
+        std::lock_guard lock(mu);
+        if (jobs.size() > 256) jobs.clear();
+        jobs[id] = info;
+        return info;
+    }
+
+    void ack(Redis& r, const Task& t) {
+        // Deleted once acknowledged: the streams hold only work not yet done.
+        r.pipeline({{"XACK", t.stream, keys::group, t.id}, {"XDEL", t.stream, t.id}});
+    }
+
+    void fail_job(Redis& r, const std::string& id, const std::string& why) {
+        if (r.eval(kTransition, {}, {keys::prefix, id, "failed", "queued,running", num(now_s()), why, ""}).as_int() == 1)
+            spdlog::error("node {}: job {} failed: {}", name, id, why);
+    }
+
+    // A task in hand goes back: idle as if its node had gone silent, so any node claims it now.
+    void hand_back(Redis& r, const Task& t, const std::string& consumer) {
+        try {
+            r.command({"XCLAIM", t.stream, keys::group, consumer, "0", t.id, "IDLE", std::to_string(cfg.visibility_ms + 1), "JUSTID"});
+        } catch (const RedisError&) {
+        }
+    }
+
+    std::vector<std::string> streams(Redis& r) {
+        std::vector<std::string> s;
+        for (const auto& p : r.command({"ZREVRANGEBYSCORE", keys::priorities, "+inf", "-inf"}).items) s.push_back(keys::tasks(std::stoll(p.text)));
+        return s;
+    }
+
+    // Reads more tasks into `local`: those of silent nodes first, then new ones, highest priority
+    // first. A read takes about `batch_ms_` of work (from the last tasks' times), so short tiles
+    // do not cost a round trip each, while a long tile is never held back behind another.
+    void fetch(Redis& r, const std::string& consumer, std::deque<Task>& local, Clock::time_point& last_reclaim,
+               std::vector<std::string>& cached_streams, Clock::time_point& streams_read, double task_seconds) {
+        // The streams in use change only when a job of a new priority arrives: read every 250 ms.
+        if (Clock::now() - streams_read > std::chrono::milliseconds(250) || cached_streams.empty()) {
+            cached_streams = streams(r);
+            streams_read = Clock::now();
+        }
+        const std::vector<std::string>& ss = cached_streams;
+        if (ss.empty()) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(200));
+            return;
+        }
+        const int count = std::clamp(int(kBatchSeconds / std::max(task_seconds, 1e-6)), 1, kMaxBatch);
+        const std::string n = std::to_string(count);
+        if (Clock::now() - last_reclaim > std::chrono::milliseconds(std::max(100, cfg.visibility_ms / 4))) {
+            last_reclaim = Clock::now();
+            for (const auto& s : ss) {
+                const RedisValue v = r.command({"XAUTOCLAIM", s, keys::group, consumer, std::to_string(cfg.visibility_ms), "0-0", "COUNT", n});
+                if (v.items.size() >= 2)
+                    for (const auto& e : v.items[1].items)
+                        if (auto t = parse_entry(s, e)) {
+                            ++metrics.reclaimed;
+                            t->reclaimed = true;
+                            spdlog::warn("node {}: took over {} task of job {} (pass {}, tile {}) from a silent node", name, t->kind, t->job, t->pass, t->tile);
+                            local.push_back(*t);
+                        }
+                if (!local.empty()) return;
+            }
+        }
+        for (const auto& s : ss) {
+            const RedisValue v = r.command({"XREADGROUP", "GROUP", keys::group, consumer, "COUNT", n, "STREAMS", s, ">"});
+            for (const auto& st : v.items)
+                if (st.items.size() >= 2)
+                    for (const auto& e : st.items[1].items)
+                        if (auto t = parse_entry(s, e)) local.push_back(*t);
+            if (!local.empty()) return;
+        }
+        std::vector<std::string> cmd = {"XREADGROUP", "GROUP", keys::group, consumer, "COUNT", "1", "BLOCK", "500", "STREAMS"};
+        cmd.insert(cmd.end(), ss.begin(), ss.end());
+        for (size_t i = 0; i < ss.size(); ++i) cmd.push_back(">");
+        const RedisValue v = r.command(cmd);
+        // One entry per stream may come back: in stream (priority) order, kept here.
+        for (const auto& st : v.items)
+            if (st.items.size() >= 2)
+                for (const auto& e : st.items[1].items)
+                    if (auto t = parse_entry(st.items[0].text, e)) local.push_back(*t);
+    }
+
+    void worker(int index) {
+        const std::string consumer = name + "/" + std::to_string(index);
+        Redis r(cfg.redis);
+        std::deque<Task> local;
+        auto last_reclaim = Clock::now() - std::chrono::hours(1);
+        auto streams_read = last_reclaim;
+        std::vector<std::string> cached_streams;
+        double task_seconds = 1.0;  // a moving average: how many tasks one read takes
+        int backoff_ms = 100;
+        while (!stopping) {
+            if (local.empty()) {
+                try {
+                    fetch(r, consumer, local, last_reclaim, cached_streams, streams_read, task_seconds);
+                    backoff_ms = 100;
+                } catch (const RedisError& e) {
+                    ++metrics.redis_errors;
+                    spdlog::warn("node {}: {}; retrying in {} ms", name, e.what(), backoff_ms);
+                    std::this_thread::sleep_for(std::chrono::milliseconds(backoff_ms));
+                    backoff_ms = std::min(2000, backoff_ms * 2);
+                    continue;
+                }
+                // Every task read is held from now on: the heartbeat renews its claim while it
+                // waits its turn here, and stops it if its job is canceled.
+                std::lock_guard lock(mu);
+                for (const Task& t : local)
+                    held[t.key()] = {t, consumer, std::make_shared<std::atomic<bool>>(false), std::make_shared<std::atomic<bool>>(false),
+                                     std::make_shared<std::atomic<bool>>(false)};
+                if (local.empty()) continue;
+            }
+            const Task t = local.front();
+            local.pop_front();
+            Held h;
+            {
+                std::lock_guard lock(mu);
+                h = held.at(t.key());
+            }
+            const auto t0 = Clock::now();
+            // The same task again after a Redis error (a restart): every step is idempotent.
+            for (int attempt = 0; !stopping && !*h.lost; ++attempt) {
+                try {
+                    run_task(r, t, *h.cancel, *h.lost, *h.acked);
+                    break;
+                } catch (const RedisError& e) {
+                    ++metrics.redis_errors;
+                    spdlog::warn("node {}: {} task of job {}: {}; retrying", name, t.kind, t.job, e.what());
+                    std::this_thread::sleep_for(std::chrono::milliseconds(std::min(2000, 100 << std::min(attempt, 5))));
+                }
+            }
+            if (t.kind == "tile") task_seconds = 0.8 * task_seconds + 0.2 * std::chrono::duration<double>(Clock::now() - t0).count();
+            if (stopping && !*h.acked) hand_back(r, t, consumer);
+            std::lock_guard lock(mu);
+            held.erase(t.key());
+        }
+        for (const Task& t : local) hand_back(r, t, consumer);
+        std::lock_guard lock(mu);
+        for (const Task& t : local) held.erase(t.key());
+    }
+
+    void run_task(Redis& r, const Task& t, std::atomic<bool>& cancel, const std::atomic<bool>& lost, std::atomic<bool>& acked) {
+        try {
+            // A first delivery needs no count; a task taken over from a silent node counts the
+            // takeovers, so a task that kills every node that takes it fails its job.
+            if (t.reclaimed) {
+                const std::string what = t.kind == "tile" ? "tile " + std::to_string(t.tile) + " of pass " + std::to_string(t.pass)
+                                                          : "the " + t.kind + " task" + (t.kind == "assemble" ? " of pass " + std::to_string(t.pass) : "");
+                const long long taken =
+                    r.command({"HINCRBY", keys::deliveries(t.job), t.kind + ":" + std::to_string(t.pass) + ":" + std::to_string(t.tile), "1"}).as_int();
+                if (taken + 1 > cfg.max_deliveries)
+                    throw JobFailure(what + " was delivered " + std::to_string(taken + 1) +
+                                     " times: the nodes that took it stopped answering (crashed, killed, out of memory?)");
+            }
+            if (t.kind == "tile") {
+                if (tile(r, t, cancel, acked)) return;
+            } else if (t.kind == "assemble") assemble(r, t);
+            else if (t.kind == "start") begin(r, t, cancel);
+            else spdlog::warn("node {}: unknown task kind '{}' dropped", name, t.kind);
+        } catch (const RedisError&) {
+            throw;
+        } catch (const SceneError& e) {
+            fail_job(r, t.job, std::string("scene: ") + e.what());
+        } catch (const std::exception& e) {
+            fail_job(r, t.job, e.what());
+        }
+        if (!stopping && !lost) {
+            acked = true;
+            ack(r, t);
+        }
+    }
+
+    void begin(Redis& r, const Task& t, std::atomic<bool>& cancel) {
+        const RedisValue st = r.command({"HGET", keys::job(t.job), "state"});
+        const auto info = st.text == "queued" || st.text == "running" ? job_info(r, t.job) : nullptr;
+        // A comparison whose node died or stopped mid-run is still "running": it runs again here.
+        const bool rerun = st.text == "running" && info && std::holds_alternative<api::ComparisonJob>(info->job);
+        if (st.text != "queued" && !rerun) { ++metrics.duplicates; return; }
+        if (!info) return;
+        ++metrics.starts;
+        if (const auto* cj = std::get_if<api::ComparisonJob>(&info->job)) return compare(r, t, *cj, cancel);
+        const auto& rj = std::get<api::RenderJob>(info->job);
+        cache.get(r, info->ref, rj.scene_options);  // a scene that does not load fails the job here, once
+        const PassPlan& plan = info->plan;
+        std::vector<std::string> args = {keys::prefix, t.job, num(now_s())};
+        for (std::string& a : farm_run_start(plan.whole_tiles ? plan.targets.back() : pass_target(info->settings, plan, 0),
+                                             plan.tiles.size(), now_ms()))
+            args.push_back(std::move(a));
+        if (r.eval(kBegin, {keys::job(t.job), t.stream}, args).as_int() == 1)
+            spdlog::info("node {}: job {} running: {} tiles per pass", name, t.job, plan.tiles.size());
+    }
+
+    // A comparison runs whole here: its configurations race each other for equal time, which
+    // tiles spread over nodes would not keep equal.
+    void compare(Redis& r, const Task& t, const api::ComparisonJob& job, std::atomic<bool>& cancel) {
+        const std::string state = r.command({"HGET", keys::job(t.job), "state"}).text;
+        if (state != "running" &&
+            r.eval(kTransition, {}, {keys::prefix, t.job, "running", "queued", num(now_s()), "", ""}).as_int() != 1)
+            return;  // canceled meanwhile
+        api::RunOptions opt;
+        const auto info = job_info(r, t.job);
+        // The comparison loads the scene itself (each configuration builds its own BVH): only
+        // the file is needed here.
+        opt.scene_source = cache.file_for(r, info->ref);
+        opt.load_limits = cfg.load_limits;
+        opt.threads = 1;
+        opt.job_id = t.job;
+        const fs::path dir = job_results_dir(cfg.data_dir, t.job);
+        fs::create_directories(dir);
+        api::RunCallbacks cb;
+        cb.stop = &cancel;
+        const api::JobOutcome out = api::run_job(job, opt, api::RunOutputs::in_directory(dir.string()), cb);
+        if (out.stopped) return;
+        r.eval(kTransition, {}, {keys::prefix, t.job, "succeeded", "running", num(now_s()), "", json_text(out.summary)});
+    }
+
+    // The state of a job's run as a tile needs it (see SeenRun).
+    FarmRun run_state(Redis& r, const std::string& id, int pass) {
+        {
+            std::lock_guard lock(mu);
+            auto it = states.find(id);
+            if (it != states.end() && it->second.run.state == "running" && it->second.run.pass == pass &&
+                Clock::now() - it->second.read < std::chrono::milliseconds(50))
+                return it->second.run;
+        }
+        const FarmRun run = read_run(r, id);
+        std::lock_guard lock(mu);
+        if (states.size() > 1024) states.clear();
+        states[id] = {run, Clock::now()};
+        return run;
+    }
+
+    static FarmRun read_run(Redis& r, const std::string& id) {
+        std::vector<std::string> cmd = {"HMGET", keys::job(id)};
+        cmd.insert(cmd.end(), farm_run_fields().begin(), farm_run_fields().end());
+        return decode_farm_run(r.command(cmd));
+    }
+
+    // Returns whether the task was acknowledged (the commit script does it with the result).
+    bool tile(Redis& r, const Task& t, std::atomic<bool>& cancel, std::atomic<bool>& acked) {
+        const FarmRun run = run_state(r, t.job, t.pass);
+        if (run.state != "running" || run.pass != t.pass) { ++metrics.duplicates; return false; }
+        const auto info = job_info(r, t.job);
+        if (!info) return false;
+        const PassPlan& plan = info->plan;
+        if (t.tile < 0 || size_t(t.tile) >= plan.tiles.size()) throw JobFailure("a task names tile " + std::to_string(t.tile) + " of " + std::to_string(plan.tiles.size()));
+        const auto& rj = std::get<api::RenderJob>(info->job);
+        const auto prepared = cache.get(r, info->ref, rj.scene_options);
+        const RenderSettings s = api::lit_settings(info->settings, prepared->scene);
+        const TileRect& rect = plan.tiles[size_t(t.tile)];
+        Film film = Film::tile(rect.x0, rect.y0, rect.width(), rect.height(), plan.half_buffer, plan.adaptive);
+        if (t.pass > 0) {
+            const RedisValue f = r.command({"HGET", keys::film(t.job), "t" + std::to_string(t.tile)});
+            if (f.is_nil()) throw JobFailure("the film of tile " + std::to_string(t.tile) + " is missing from Redis");
+            film = decode_film(f.text);
+        }
+        const long long deadline = s.time_limit_s > 0 ? run.started_ms + (long long)(s.time_limit_s * 1000.0) : 0;
+        auto late = [&] { return deadline && now_ms() > deadline; };
+        auto interrupted = [&] { return cancel.load() || stopping.load(); };
+        const auto t0 = Clock::now();
+        const Camera camera = camera_for(prepared->scene, s);  // the context keeps a reference
+        TileContext ctx(prepared->scene, s, camera);
+        TileCommit commit;
+        commit.timed_out = late();
+        if (plan.whole_tiles) {
+            const WholeTile w = render_whole_tile(ctx, plan, size_t(t.tile), film, info->reference ? &*info->reference : nullptr,
+                                                  interrupted, [&] { return double(now_ms() - run.started_ms) / 1000.0; });
+            commit.sums = whole_tile_sums_text(w.sums);
+        } else if (!commit.timed_out && !interrupted()) {
+            commit.timed_out = !render_tile(ctx, rect, film, int(run.target), [&] { return late() || interrupted(); }) && !interrupted();
+        }
+        if (interrupted()) return false;  // canceled, taken over, or the node stops: nothing stored
+        commit.job = t.job;
+        commit.task_id = t.id;
+        commit.node = name;
+        commit.tile = size_t(t.tile);
+        commit.pass = t.pass;
+        commit.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+        commit.stats = ctx.stats;
+        // A whole tile is finished with this task: it ships the resolved pixels. A pass-by-pass
+        // job's next pass goes on from the whole film.
+        commit.payload = plan.whole_tiles ? encode_tile_image(film) : encode_film(film);
+        acked = true;
+        const long long rc = r.eval(kCommitTile,
+                                    {keys::job(t.job), keys::film(t.job), keys::node_tiles(t.job), keys::node_seconds(t.job), t.stream,
+                                     keys::sums(t.job)},
+                                    commit.arguments())
+                                 .as_int();
+        if (rc == 1) {
+            ++metrics.tiles;
+            metrics.rays += commit.stats.rays();
+            metrics.render_micros += uint64_t(commit.seconds * 1e6);
+        } else {
+            ++metrics.duplicates;  // another node stored it first: the same film, dropped
+        }
+        return true;
+    }
+
+    void assemble(Redis& r, const Task& t) {
+        const FarmRun run = read_run(r, t.job);
+        if (run.state != "running" || run.pass != t.pass) { ++metrics.duplicates; return; }
+        const auto info = job_info(r, t.job);
+        if (!info) return;
+        const RenderSettings& s = info->settings;
+        const PassPlan& plan = info->plan;
+        const size_t n = plan.tiles.size();
+        if (size_t(run.tiles_total) != n) throw JobFailure("the run has " + std::to_string(run.tiles_total) + " tiles, the plan " + std::to_string(n));
+        // A whole-tile job's tiles are resolved pixels; a pass-by-pass job's are films.
+        Film film(plan.whole_tiles ? 1 : s.width, plan.whole_tiles ? 1 : s.height, plan.half_buffer, plan.adaptive);
+        Image image(plan.whole_tiles ? s.width : 0, plan.whole_tiles ? s.height : 0);
+        const RedisValue tiles = r.command({"HGETALL", keys::film(t.job)});
+        size_t found = 0;
+        for (size_t i = 0; i + 1 < tiles.items.size(); i += 2) {
+            const std::string& field = tiles.items[i].text;
+            if (field.empty() || field[0] != 't') continue;
+            if (plan.whole_tiles) {
+                place_tile(decode_tile_image(tiles.items[i + 1].text), image);
+            } else {
+                const Film tf = decode_film(tiles.items[i + 1].text);
+                copy_tile_into(tf, {tf.x0, tf.y0, tf.x0 + tf.width, tf.y0 + tf.height}, film);
+            }
+            ++found;
+        }
+        if (found != n) throw JobFailure("pass " + std::to_string(t.pass) + " has " + std::to_string(found) + " of " + std::to_string(n) + " tiles in Redis");
+        const double seconds = double(now_ms() - run.started_ms) / 1000.0;
+        ++metrics.assemblies;
+        if (plan.whole_tiles) {
+            // The curve from every tile's sums per target.
+            std::vector<std::vector<TargetSums>> per_tile;
+            const RedisValue all = r.command({"HGETALL", keys::sums(t.job)});
+            for (size_t i = 0; i + 1 < all.items.size(); i += 2) per_tile.push_back(whole_tile_sums_from_text(all.items[i + 1].text));
+            RenderResult result;
+            result.curve = whole_tile_curve(plan, per_tile);
+            const ConvergencePoint last = result.curve.points.empty() ? ConvergencePoint{} : result.curve.points.back();
+            return write_results(r, t, *info, std::move(image), film, run, seconds, std::move(result), last);
+        }
+        const PassEnd end = end_pass(s, plan, film, info->reference ? &*info->reference : nullptr, t.pass, int(run.target),
+                                     run.stats.samples, seconds, run.timed_out, false);
+        if (!end.stop) {
+            r.eval(kAdvance, {keys::job(t.job), keys::curve(t.job), t.stream},
+                   {t.job, std::to_string(t.pass), std::to_string(end.next_target), json_text(api::to_json(end.point)), std::to_string(n)});
+            return;
+        }
+        RenderResult result;
+        for (const auto& p : r.command({"LRANGE", keys::curve(t.job), "0", "-1"}).items)
+            result.curve.points.push_back(api::convergence_point_from_json(json::parse(p.text)));
+        result.curve.points.push_back(end.point);
+        result.curve.stop = *end.stop;
+        write_results(r, t, *info, film.resolve(), film, run, seconds, std::move(result), end.point);
+    }
+
+    // The last pass: the results, then the job's state (a node that dies in between leaves the
+    // task to another, which writes the same files again). `buffers` says which film buffers the
+    // render kept (the report lists them).
+    void write_results(Redis& r, const Task& t, const JobInfo& info, Image image, const Film& buffers, const FarmRun& run,
+                       double seconds, RenderResult result, const ConvergencePoint& pt) {
+        const auto& rj = std::get<api::RenderJob>(info.job);
+        const auto prepared = cache.get(r, info.ref, rj.scene_options);
+        const RenderSettings s = api::lit_settings(info.settings, prepared->scene);
+        result.image = std::move(image);
+        RenderStats& st = result.stats;
+        st = run.stats;
+        st.render_seconds = seconds;
+        describe_render(prepared->scene, s, buffers, result.built, result.left_out);
+        const auto shares = r.pipeline({{"HGETALL", keys::node_tiles(t.job)}, {"HGETALL", keys::node_seconds(t.job)}});
+        std::map<std::string, api::NodeShare> by_node;
+        for (size_t i = 0; i + 1 < shares[0].items.size(); i += 2) {
+            auto& ns = by_node[shares[0].items[i].text];
+            ns.node = shares[0].items[i].text;
+            ns.tiles = size_t(shares[0].items[i + 1].as_int());
+        }
+        for (size_t i = 0; i + 1 < shares[1].items.size(); i += 2) by_node[shares[1].items[i].text].seconds = std::stod(shares[1].items[i + 1].text);
+        st.threads = int(by_node.size());
+        api::FinishedRender done{rj, prepared->scene, s, result};
+        done.load_s = prepared->load_s;
+        done.build_s = prepared->build_s;
+        done.before_write_s = seconds;
+        done.tiles_done = done.tiles_total = info.plan.tiles.size();
+        for (auto& [node, share] : by_node) done.nodes.push_back(share);
+        // Written beside the final place and renamed into it: API nodes never serve half a file.
+        const fs::path dir = job_results_dir(cfg.data_dir, t.job);
+        const fs::path part = dir / (".part-" + name + "-" + std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()) % 100000));
+        fs::create_directories(part);
+        api::RunOptions opt;
+        opt.job_id = t.job;
+        const api::JobOutcome out = api::write_render(done, opt, api::RunOutputs::in_directory(part.string()));
+        for (const auto& e : fs::directory_iterator(part)) fs::rename(e.path(), dir / e.path().filename());
+        fs::remove_all(part);
+        if (r.eval(kComplete, {keys::job(t.job), keys::curve(t.job)},
+                   {keys::prefix, t.job, std::to_string(t.pass), json_text(api::to_json(pt)), num(now_s()), json_text(out.summary)}).as_int() == 1)
+            spdlog::info("node {}: job {} succeeded ({} passes, {:.3f} s)", name, t.job, result.curve.points.size(), seconds);
+    }
+
+    void beat() {
+        Redis r(cfg.redis);
+        const auto period = std::chrono::milliseconds(std::max(50, cfg.visibility_ms / 4));
+        while (!stopping) {
+            try {
+                std::vector<Held> now;
+                {
+                    std::lock_guard lock(mu);
+                    for (const auto& [k, h] : held) now.push_back(h);
+                }
+                for (const Held& h : now) {
+                    if (*h.acked) continue;
+                    if (r.eval(kRenew, {h.task.stream}, {h.task.id, h.consumer}).as_int() == 0) {
+                        if (*h.acked) continue;  // acknowledged meanwhile
+                        spdlog::warn("node {}: task of job {} was taken over by another node; dropping it", name, h.task.job);
+                        *h.lost = true;
+                        *h.cancel = true;
+                        continue;
+                    }
+                    const std::string st = r.command({"HGET", keys::job(h.task.job), "state"}).text;
+                    if (st != "running" && st != "queued") *h.cancel = true;  // canceled (or gone): stop within a row
+                }
+                const json m = {{"tiles", metrics.tiles.load()}, {"assemblies", metrics.assemblies.load()},
+                                {"starts", metrics.starts.load()}, {"duplicates", metrics.duplicates.load()},
+                                {"reclaimed", metrics.reclaimed.load()}, {"redis_errors", metrics.redis_errors.load()},
+                                {"rays", metrics.rays.load()}, {"render_seconds", double(metrics.render_micros.load()) * 1e-6},
+                                {"threads", cfg.threads}, {"scene_cache_hits", cache.hits()}, {"scene_cache_misses", cache.misses()},
+                                {"last_seen", now_s()}};
+                r.command({"HSET", keys::nodes, name, json_text(m)});
+            } catch (const RedisError& e) {
+                ++metrics.redis_errors;
+            }
+            std::unique_lock lock(mu);
+            wake.wait_for(lock, period, [&] { return stopping.load(); });
+        }
+    }
+};
+
+RenderNode::RenderNode(NodeConfig config) : impl_(std::make_unique<Impl>(std::move(config))) {}
+
+RenderNode::~RenderNode() { stop(); }
+
+void RenderNode::start() {
+    Impl& m = *impl_;
+    for (int i = 0; i < std::max(1, m.cfg.threads); ++i) m.threads.emplace_back([&m, i] { m.worker(i); });
+    m.heartbeat = std::thread([&m] { m.beat(); });
+    spdlog::info("render node {} on {} ({} threads, visibility {} ms)", m.name, m.cfg.redis.redacted(), m.cfg.threads, m.cfg.visibility_ms);
+}
+
+void RenderNode::stop() {
+    Impl& m = *impl_;
+    {
+        std::lock_guard lock(m.mu);
+        m.stopping = true;
+        for (auto& [k, h] : m.held) *h.cancel = true;
+    }
+    m.wake.notify_all();
+    for (auto& t : m.threads) if (t.joinable()) t.join();
+    m.threads.clear();
+    if (m.heartbeat.joinable()) m.heartbeat.join();
+}
+
+const std::string& RenderNode::name() const { return impl_->name; }
+NodeMetrics& RenderNode::metrics() { return impl_->metrics; }
+void RenderNode::drop_idle_scenes() { impl_->cache.drop_idle(); }
+
+}  // namespace tessera::server

@@ -1,0 +1,186 @@
+#include "server/queue/scene_cache.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cctype>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "server/farm/cluster_keys.h"
+#include "server/farm/film_codec.h"
+
+namespace tessera::server {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::string options_key(const RenderSceneOptions& o) {
+    std::ostringstream s;
+    s << int(o.bvh.type) << ',' << o.bvh.max_leaf_size << ',' << o.bvh.sah_bins << ',' << int(o.triangle_test) << ','
+      << o.bvh.traversal_cost << ',' << o.bvh.intersection_cost << ',' << o.bvh.leaf_block << ',' << o.min_prims_for_bvh << ','
+      << int(o.embree_quality);
+    return s.str();
+}
+
+std::string read_file(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return {};
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+}  // namespace
+
+SceneRef SceneRef::decode(const std::string& s) {
+    SceneRef r;
+    std::istringstream in(s);
+    std::getline(in, r.source);
+    std::getline(in, r.hash);
+    std::getline(in, r.ext);
+    return r;
+}
+
+SceneCache::SceneCache(std::string dir, int64_t max_bytes, LoadLimits limits, double idle_s)
+    : dir_(std::move(dir)), max_bytes_(max_bytes),
+      idle_(std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(idle_s))),
+      limits_(limits) {}
+
+void SceneCache::drop_idle() {
+    std::lock_guard lock(mu_);
+    drop_idle_locked();
+}
+
+void SceneCache::drop_idle_locked() {
+    const auto now = std::chrono::steady_clock::now();
+    // A scene a running job still holds stays: dropped, the next job on it would prepare a
+    // second copy beside the first.
+    lru_.remove_if([&](const Entry& e) { return now - e.used > idle_ && e.scene.use_count() == 1; });
+}
+
+std::string SceneCache::file_for(Redis& redis, const SceneRef& ref) {
+    if (ref.hash.empty()) return ref.source;  // built-in
+    const fs::path cached = fs::path(dir_) / (ref.hash + ref.ext);
+    if (fs::exists(cached)) return cached.string();
+    // The same file on this node's disk (a shared volume, the same image's catalog) when its
+    // bytes are the job's; otherwise the bytes the API node published.
+    std::string bytes = read_file(ref.source);
+    if (bytes.empty() || content_hash(bytes) != ref.hash) {
+        const RedisValue v = redis.command({"GET", keys::scene(ref.hash)});
+        if (v.is_nil()) throw std::runtime_error("scene " + ref.hash + " is neither on this node nor in Redis");
+        bytes = v.text;
+        if (content_hash(bytes) != ref.hash) throw std::runtime_error("scene " + ref.hash + " in Redis does not match its hash");
+    }
+    fs::create_directories(dir_);
+    // A name of this thread's own: threads of a node miss the cache together at a job's start.
+    static std::atomic<uint64_t> writes{0};
+    const fs::path part = cached.string() + ".part" + std::to_string(::getpid()) + "-" + std::to_string(++writes);
+    {
+        std::ofstream out(part, std::ios::binary | std::ios::trunc);
+        out.write(bytes.data(), std::streamsize(bytes.size()));
+        if (!out) throw std::runtime_error("cannot write " + part.string());
+    }
+    fs::rename(part, cached);  // atomic: another thread reads whole files only
+    return cached.string();
+}
+
+std::shared_ptr<const PreparedScene> SceneCache::find(const std::string& key) {
+    std::lock_guard lock(mu_);
+    drop_idle_locked();
+    for (auto it = lru_.begin(); it != lru_.end(); ++it)
+        if (it->key == key) {
+            lru_.splice(lru_.begin(), lru_, it);
+            it->used = std::chrono::steady_clock::now();
+            ++hits_;
+            return it->scene;
+        }
+    ++misses_;
+    return nullptr;
+}
+
+// Two threads may both have prepared a scene they both missed: the first kept wins.
+std::shared_ptr<const PreparedScene> SceneCache::keep(const std::string& key, std::shared_ptr<const PreparedScene> scene) {
+    std::lock_guard lock(mu_);
+    for (const Entry& e : lru_)
+        if (e.key == key) return e.scene;
+    lru_.push_front({key, scene, std::chrono::steady_clock::now()});
+    int64_t total = 0;
+    for (const Entry& e : lru_) total += int64_t(e.scene->bytes);
+    // The budget holds for every entry, the newest too: a scene larger than the whole budget is
+    // rendered by the jobs that hold it and then freed, not kept.
+    while (!lru_.empty() && total > max_bytes_) {
+        total -= int64_t(lru_.back().scene->bytes);
+        lru_.pop_back();
+    }
+    return scene;
+}
+
+std::shared_ptr<const PreparedScene> SceneCache::get(Redis& redis, const SceneRef& ref, const RenderSceneOptions& options) {
+    const std::string key = (ref.hash.empty() ? ref.source : ref.hash) + "|" + options_key(options);
+    if (auto hit = find(key)) return hit;
+    // Prepared outside the lock: jobs on other scenes are not held up meanwhile.
+    return keep(key, api::prepare_scene(file_for(redis, ref), limits_, options));
+}
+
+namespace {
+
+// A file as it is now: device, inode, size, and modification and change times (ctime cannot
+// be set back by tools that restore mtime, cp -p or rsync -t). "" when it cannot be read.
+std::string file_identity(const std::string& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) return {};
+    return std::to_string(st.st_dev) + ":" + std::to_string(st.st_ino) + ":" + std::to_string(st.st_size) + ":" +
+           std::to_string(st.st_mtim.tv_sec) + "." + std::to_string(st.st_mtim.tv_nsec) + ":" +
+           std::to_string(st.st_ctim.tv_sec) + "." + std::to_string(st.st_ctim.tv_nsec);
+}
+
+// What a scene file's preparation reads: the file, and for a .gltf the buffers beside it
+// (external .bin files). "" when the file cannot be read: nothing is kept then.
+std::string scene_identity(const std::string& source) {
+    std::string id = file_identity(source);
+    if (id.empty()) return {};
+    std::error_code ec;
+    id = fs::weakly_canonical(source, ec).string() + "#" + id;
+    fs::path p(source);
+    std::string ext = p.extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (ext == ".gltf") {
+        std::vector<std::string> beside;
+        for (const auto& e : fs::directory_iterator(p.parent_path().empty() ? fs::path(".") : p.parent_path(), ec))
+            if (e.path().extension() == ".bin") beside.push_back(e.path().filename().string() + "#" + file_identity(e.path().string()));
+        std::sort(beside.begin(), beside.end());
+        for (const auto& b : beside) id += "|" + b;
+    }
+    return id;
+}
+
+}  // namespace
+
+std::pair<std::shared_ptr<const PreparedScene>, bool> SceneCache::get_local(const std::string& source, const RenderSceneOptions& options) {
+    if (source.rfind("builtin:", 0) == 0) {
+        const std::string key = source + "|" + options_key(options);
+        if (auto hit = find(key)) return {hit, true};
+        return {keep(key, api::prepare_scene(source, limits_, options)), false};
+    }
+    // A file edited or replaced (an upload under the same name, a folder synced anew) is
+    // another key; one that changed while it was being prepared is rendered but not kept.
+    const std::string before = scene_identity(source);
+    const std::string key = before + "|" + options_key(options);
+    if (!before.empty())
+        if (auto hit = find(key)) return {hit, true};
+    auto prepared = api::prepare_scene(source, limits_, options);
+    if (before.empty() || scene_identity(source) != before) return {prepared, false};
+    return {keep(key, prepared), false};
+}
+
+}  // namespace tessera::server

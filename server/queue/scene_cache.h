@@ -1,0 +1,68 @@
+#pragma once
+// Prepared scenes, loaded and built once, then reused by every job (and a render node's every
+// tile) that names the same scene bytes with the same build options: a render node's, and the
+// one-process server's. Least recently used scenes go first when the estimated memory passes
+// the bound (a scene in use stays alive until its jobs finish: entries are shared pointers).
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "api/job_runner.h"
+#include "engine/io/scene_loader.h"
+#include "engine/scene/render_scene.h"
+#include "server/store/redis_client.h"
+
+namespace tessera::server {
+
+// What a farm's job names: a built-in scene, or a scene file by content hash (its bytes are in
+// Redis under keys::scene(hash), published by the API node that accepted the job).
+struct SceneRef {
+    std::string source;  // "builtin:NAME[?params]", or the file's path on the API node
+    std::string hash;    // content_hash of the file; "" for built-ins
+    std::string ext;     // the file's extension (".dae", ".gltf", ".glb"), which picks the loader
+    std::string encode() const { return source + "\n" + hash + "\n" + ext; }
+    static SceneRef decode(const std::string& s);
+};
+
+using api::PreparedScene;
+
+class SceneCache {
+public:
+    // Entries unused for `idle_s` seconds are dropped (at the next use of the cache, or by
+    // drop_idle()): an idle server gives a large scene's memory back.
+    SceneCache(std::string dir, int64_t max_bytes, LoadLimits limits, double idle_s = 30);
+    // Throws SceneError (a broken file) or std::runtime_error (its bytes are gone from Redis).
+    std::shared_ptr<const PreparedScene> get(Redis& redis, const SceneRef& ref, const RenderSceneOptions& options);
+    // The job's scene as a file on this node (a built-in's name as is); throws std::runtime_error.
+    std::string file_for(Redis& redis, const SceneRef& ref);
+    // A scene this process reads itself: a file path (keyed by its identity, so an edited or
+    // replaced file is a new scene) or builtin:NAME[?params]. Throws SceneError. The second
+    // value says whether it was prepared before.
+    std::pair<std::shared_ptr<const PreparedScene>, bool> get_local(const std::string& source, const RenderSceneOptions& options);
+    void drop_idle();
+    uint64_t hits() const { return hits_; }
+    uint64_t misses() const { return misses_; }
+
+private:
+    std::shared_ptr<const PreparedScene> find(const std::string& key);
+    std::shared_ptr<const PreparedScene> keep(const std::string& key, std::shared_ptr<const PreparedScene> scene);
+    void drop_idle_locked();
+    struct Entry {
+        std::string key;
+        std::shared_ptr<const PreparedScene> scene;
+        std::chrono::steady_clock::time_point used;
+    };
+    std::string dir_;
+    int64_t max_bytes_;
+    std::chrono::steady_clock::duration idle_;
+    LoadLimits limits_;
+    std::mutex mu_;
+    std::list<Entry> lru_;  // most recent first
+    std::atomic<uint64_t> hits_{0}, misses_{0};  // read by /metrics without the lock
+};
+
+}  // namespace tessera::server

@@ -1,0 +1,267 @@
+#include "server/store/redis_job_store.h"
+
+#include <algorithm>
+#include <map>
+#include <stdexcept>
+
+#include "server/farm/cluster_keys.h"
+#include "server/farm/cluster_lua.h"
+
+namespace tessera::server {
+
+namespace {
+
+constexpr size_t kMaxListLimit = 1000;
+
+const RedisScript kInsert{R"lua(
+-- KEYS: job, seq, all jobs, prefix of per-state sets, queue, priorities, task stream
+-- ARGV: id, spec, priority, created_at, state, started_at, finished_at, error, report, attempts
+if redis.call('EXISTS', KEYS[1]) == 1 then return redis.error_reply('UNIQUE constraint: job id ' .. ARGV[1] .. ' exists') end
+local seq = redis.call('INCR', KEYS[2])
+redis.call('HSET', KEYS[1], 'id', ARGV[1], 'state', ARGV[5], 'spec', ARGV[2], 'priority', ARGV[3], 'seq', seq,
+           'created_at', ARGV[4], 'started_at', ARGV[6], 'finished_at', ARGV[7], 'error', ARGV[8], 'report', ARGV[9],
+           'attempts', ARGV[10])
+redis.call('ZADD', KEYS[3], seq, ARGV[1])
+redis.call('ZADD', KEYS[4] .. ARGV[5], seq, ARGV[1])
+if ARGV[5] == 'queued' then
+  redis.call('ZADD', KEYS[5], string.format('%.0f', (1000 - tonumber(ARGV[3])) * 1e12 + seq), ARGV[1])
+  redis.call('ZADD', KEYS[6], ARGV[3], ARGV[3])
+  redis.pcall('XGROUP', 'CREATE', KEYS[7], 'nodes', '0', 'MKSTREAM')
+  redis.call('XADD', KEYS[7], '*', 'job', ARGV[1], 'kind', 'start', 'pass', '0', 'tile', '0')
+end
+return seq
+)lua"};
+
+const RedisScript kTransition{lua::transition + R"lua(
+-- ARGV: prefix, id, new state, allowed old states, time, error, report
+return transition(ARGV[1], ARGV[2], ARGV[3], ARGV[4], ARGV[5], ARGV[6], ARGV[7])
+)lua"};
+
+const RedisScript kRemoveFinal{R"lua(
+-- ARGV: prefix, id; KEYS: the job's cluster keys to drop with it
+local k = ARGV[1] .. 'job:' .. ARGV[2]
+local st = redis.call('HGET', k, 'state')
+if st ~= 'succeeded' and st ~= 'failed' and st ~= 'canceled' then return 0 end
+redis.call('DEL', k)
+redis.call('ZREM', ARGV[1] .. 'jobs', ARGV[2])
+redis.call('ZREM', ARGV[1] .. 'jobs:' .. st, ARGV[2])
+for i = 1, #KEYS do redis.call('DEL', KEYS[i]) end
+return 1
+)lua"};
+
+std::string num(double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
+
+JobRecord from_hash(const RedisValue& v) {
+    std::map<std::string, std::string> f;
+    for (size_t i = 0; i + 1 < v.items.size(); i += 2) f[v.items[i].text] = v.items[i + 1].text;
+    JobRecord r;
+    r.id = f["id"];
+    if (!parse_job_state(f["state"], r.state)) throw StoreError("job store: job " + r.id + " has a bad state '" + f["state"] + "'", false);
+    r.spec_json = f["spec"];
+    r.priority = std::atoi(f["priority"].c_str());
+    r.seq = std::atoll(f["seq"].c_str());
+    r.created_at = std::atof(f["created_at"].c_str());
+    r.started_at = std::atof(f["started_at"].c_str());
+    r.finished_at = std::atof(f["finished_at"].c_str());
+    r.error = f["error"];
+    r.report_json = f["report"];
+    r.attempts = std::atoi(f["attempts"].c_str());
+    return r;
+}
+
+}  // namespace
+
+template <class Fn>
+auto RedisJobStore::locked(const char* op, Fn&& fn) const {
+    std::lock_guard lock(mu_);
+    try {
+        return fn();
+    } catch (const RedisError& e) {
+        throw StoreError(std::string("job store: ") + op + ": " + e.what(), e.out_of_memory);
+    }
+}
+
+RedisJobStore::RedisJobStore(const RedisUrl& url, int64_t max_bytes) : redis_(url), max_bytes_(max_bytes) {
+    locked("connect", [&] { return redis_.command({"PING"}); });
+}
+
+RedisJobStore::~RedisJobStore() = default;
+
+void RedisJobStore::set_max_bytes(int64_t max_bytes) {
+    std::lock_guard lock(mu_);
+    max_bytes_ = max_bytes;
+}
+
+void RedisJobStore::insert(JobRecord& rec) {
+    locked("insert", [&] {
+        if (max_bytes_ > 0) {
+            const std::string info = redis_.command({"INFO", "memory"}).text;
+            const size_t at = info.find("used_memory:");
+            const long long used = at == std::string::npos ? 0 : std::atoll(info.c_str() + at + 12);
+            if (used > max_bytes_)
+                throw StoreError("job store: insert: Redis holds " + std::to_string(used) + " bytes, the bound is " +
+                                     std::to_string(max_bytes_), true);
+        }
+        const std::string priority = std::to_string(rec.priority);
+        const RedisValue seq = redis_.eval(kInsert,
+                                           {keys::job(rec.id), keys::seq, keys::all_jobs, keys::jobs_in(""), keys::queue,
+                                            keys::priorities, keys::tasks(rec.priority)},
+                                           {rec.id, rec.spec_json, priority, num(rec.created_at), to_string(rec.state),
+                                            num(rec.started_at), num(rec.finished_at), rec.error, rec.report_json,
+                                            std::to_string(rec.attempts)});
+        rec.seq = seq.as_int();
+        return 0;
+    });
+}
+
+std::optional<JobRecord> RedisJobStore::get(const std::string& id) const {
+    return locked("get", [&]() -> std::optional<JobRecord> {
+        const RedisValue v = redis_.command({"HGETALL", keys::job(id)});
+        if (v.items.empty()) return std::nullopt;
+        return from_hash(v);
+    });
+}
+
+std::vector<JobRecord> RedisJobStore::records(const std::vector<std::string>& ids) const {
+    std::vector<std::vector<std::string>> cmds;
+    for (const auto& id : ids) cmds.push_back({"HGETALL", keys::job(id)});
+    std::vector<JobRecord> out;
+    if (cmds.empty()) return out;
+    for (const RedisValue& v : redis_.pipeline(cmds))
+        if (!v.items.empty()) out.push_back(from_hash(v));  // removed meanwhile: skipped
+    return out;
+}
+
+std::vector<JobRecord> RedisJobStore::list(std::optional<JobState> state, size_t offset, size_t limit) const {
+    limit = std::min(limit, kMaxListLimit);
+    return locked("list", [&] {
+        if (limit == 0 || offset > size_t(1) << 50) return std::vector<JobRecord>{};
+        const std::string key = state ? keys::jobs_in(to_string(*state)) : keys::all_jobs;
+        std::vector<std::string> ids;
+        for (const auto& v : redis_.command({"ZREVRANGE", key, std::to_string(offset), std::to_string(offset + limit - 1)}).items)
+            ids.push_back(v.text);
+        return records(ids);
+    });
+}
+
+std::vector<std::string> RedisJobStore::ids(std::optional<JobState> state, size_t limit) const {
+    return locked("ids", [&] {
+        std::vector<std::string> out;
+        if (limit == 0) return out;
+        const std::string key = state ? keys::jobs_in(to_string(*state)) : keys::all_jobs;
+        for (const auto& v : redis_.command({"ZREVRANGE", key, "0", std::to_string(limit - 1)}).items) out.push_back(v.text);
+        return out;
+    });
+}
+
+size_t RedisJobStore::count(std::optional<JobState> state) const {
+    return locked("count", [&] {
+        return size_t(redis_.command({"ZCARD", state ? keys::jobs_in(to_string(*state)) : keys::all_jobs}).as_int());
+    });
+}
+
+bool RedisJobStore::mark_running(const std::string& id, double started_at) {
+    return locked("mark running", [&] {
+        return redis_.eval(kTransition, {}, {keys::prefix, id, "running", "queued", num(started_at), "", ""}).as_int() == 1;
+    });
+}
+
+bool RedisJobStore::finish(const std::string& id, JobState state, double finished_at, const std::string& error,
+                           const std::string& report_json) {
+    if (!is_final(state)) throw std::invalid_argument("job store: finish: " + std::string(to_string(state)) + " is not a final state");
+    return locked("finish", [&] {
+        return redis_.eval(kTransition, {}, {keys::prefix, id, to_string(state), "queued,running", num(finished_at), error, report_json})
+                   .as_int() == 1;
+    });
+}
+
+bool RedisJobStore::requeue(const std::string& id) {
+    return locked("requeue", [&] {
+        return redis_.eval(kTransition, {}, {keys::prefix, id, "queued", "running", "0", "", ""}).as_int() == 1;
+    });
+}
+
+int RedisJobStore::requeue_all_running() {
+    std::vector<std::string> ids = locked("requeue all", [&] {
+        std::vector<std::string> v;
+        for (const auto& item : redis_.command({"ZRANGE", keys::jobs_in("running"), "0", "-1"}).items) v.push_back(item.text);
+        return v;
+    });
+    int n = 0;
+    for (const auto& id : ids) n += requeue(id) ? 1 : 0;
+    return n;
+}
+
+std::vector<JobRecord> RedisJobStore::queued_in_order() const {
+    return locked("queued", [&] {
+        std::vector<std::string> ids;
+        for (const auto& v : redis_.command({"ZRANGE", keys::queue, "0", "-1"}).items) ids.push_back(v.text);
+        return records(ids);
+    });
+}
+
+long long RedisJobStore::queue_position(const std::string& id) const {
+    return locked("queue position", [&] {
+        const RedisValue v = redis_.command({"ZRANK", keys::queue, id});
+        return v.is_nil() ? -1LL : v.as_int();
+    });
+}
+
+bool RedisJobStore::remove_final(const std::string& id) {
+    return locked("remove", [&] {
+        return redis_.eval(kRemoveFinal,
+                           {keys::film(id), keys::deliveries(id), keys::node_tiles(id), keys::node_seconds(id), keys::curve(id),
+                            keys::job_scene(id), keys::job_environment(id), keys::sums(id)},
+                           {keys::prefix, id})
+                   .as_int() == 1;
+    });
+}
+
+}  // namespace tessera::server
+
+namespace tessera::server {
+
+void RedisJobStore::put_scene(const std::string& job_id, const SceneRef& ref, const std::string* bytes) {
+    locked("publish scene", [&] {
+        std::vector<std::vector<std::string>> cmds;
+        if (bytes) cmds.push_back({"SET", keys::scene(ref.hash), *bytes, "NX"});
+        cmds.push_back({"SET", keys::job_scene(job_id), ref.encode()});
+        redis_.pipeline(cmds);
+        return 0;
+    });
+}
+
+void RedisJobStore::put_environment(const std::string& job_id, const SceneRef& ref, const std::string& bytes) {
+    locked("publish environment", [&] {
+        redis_.pipeline({{"SET", keys::scene(ref.hash), bytes, "NX"}, {"SET", keys::job_environment(job_id), ref.encode()}});
+        return 0;
+    });
+}
+
+std::optional<RedisJobStore::LiveProgress> RedisJobStore::live_progress(const std::string& id) const {
+    return locked("progress", [&]() -> std::optional<LiveProgress> {
+        const RedisValue v = redis_.command({"HMGET", keys::job(id), "tiles_done", "tiles_total", "samples", "pass"});
+        if (v.items.size() < 4 || v.items[1].is_nil()) return std::nullopt;
+        LiveProgress p;
+        p.tiles_done = size_t(v.items[0].as_int());
+        p.tiles_total = size_t(v.items[1].as_int());
+        p.samples = uint64_t(v.items[2].as_int());
+        p.pass = int(v.items[3].as_int());
+        return p;
+    });
+}
+
+std::vector<std::pair<std::string, std::string>> RedisJobStore::nodes() const {
+    return locked("nodes", [&] {
+        std::vector<std::pair<std::string, std::string>> out;
+        const RedisValue v = redis_.command({"HGETALL", keys::nodes});
+        for (size_t i = 0; i + 1 < v.items.size(); i += 2) out.emplace_back(v.items[i].text, v.items[i + 1].text);
+        return out;
+    });
+}
+
+}  // namespace tessera::server

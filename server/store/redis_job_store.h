@@ -1,0 +1,67 @@
+#pragma once
+// The job store of a render farm: every record in Redis, so any API node answers for any job.
+// A job is a hash (tessera:job:<id>); sorted sets keep submission order overall and per state,
+// and run order for the queued ones. Each change is one Lua script, atomic in Redis. Queuing a
+// job also adds its first task ("start") to the stream of its priority (cluster_keys.h), in the
+// same script, so an accepted job can never be recorded without being scheduled.
+// Durability is Redis's: see docs/scaling.md (AOF, appendfsync everysec).
+#include <memory>
+#include <mutex>
+
+#include "server/store/job_store.h"
+#include "server/store/redis_client.h"
+#include "server/queue/scene_cache.h"
+
+namespace tessera::server {
+
+class RedisJobStore final : public JobStore {
+public:
+    // Connects and checks that Redis answers; throws StoreError.
+    explicit RedisJobStore(const RedisUrl& url, int64_t max_bytes = 0);
+    ~RedisJobStore() override;
+
+    void insert(JobRecord& rec) override;
+    std::optional<JobRecord> get(const std::string& id) const override;
+    std::vector<JobRecord> list(std::optional<JobState> state, size_t offset, size_t limit) const override;
+    size_t count(std::optional<JobState> state) const override;
+    bool mark_running(const std::string& id, double started_at) override;
+    bool finish(const std::string& id, JobState state, double finished_at, const std::string& error,
+                const std::string& report_json) override;
+    bool requeue(const std::string& id) override;
+    int requeue_all_running() override;
+    std::vector<JobRecord> queued_in_order() const override;
+    bool remove_final(const std::string& id) override;
+    void set_max_bytes(int64_t max_bytes) override;
+
+    // The position of a queued job in run order (0: next), or -1.
+    long long queue_position(const std::string& id) const;
+    // The newest `limit` job ids in a state (or of all jobs), without their records: what a
+    // watcher compares look to look.
+    std::vector<std::string> ids(std::optional<JobState> state, size_t limit) const;
+
+    // Farm side. Publishes what a job's scene is (and the file's bytes, once per content) before
+    // the job is queued, so render nodes load exactly the bytes the job named.
+    void put_scene(const std::string& job_id, const SceneRef& ref, const std::string* bytes);
+    // The job's environment map: its bytes under its content hash, and the job's reference to it.
+    void put_environment(const std::string& job_id, const SceneRef& ref, const std::string& bytes);
+    struct LiveProgress {
+        size_t tiles_done = 0, tiles_total = 0;
+        uint64_t samples = 0;
+        int pass = 0;
+    };
+    // A running job's progress across all nodes (tiles of the current pass, samples overall).
+    std::optional<LiveProgress> live_progress(const std::string& id) const;
+    // The render nodes' last heartbeats: name → their metrics (JSON text).
+    std::vector<std::pair<std::string, std::string>> nodes() const;
+
+private:
+    template <class Fn>
+    auto locked(const char* op, Fn&& fn) const;
+    std::vector<JobRecord> records(const std::vector<std::string>& ids) const;
+
+    mutable std::mutex mu_;
+    mutable Redis redis_;
+    int64_t max_bytes_ = 0;
+};
+
+}  // namespace tessera::server

@@ -1,0 +1,109 @@
+#include "server/farm/film_codec.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <stdexcept>
+
+namespace tessera::server {
+namespace {
+
+Film sample_film(bool half, bool adaptive) {
+    Film f = Film::tile(32, 16, 5, 3, half, adaptive);
+    for (size_t i = 0; i < f.sum.size(); ++i) {
+        f.sum[i] = glm::dvec3(0.1 * double(i), 1.0 / 3.0, -0.0);
+        f.count[i] = uint32_t(i * 7);
+        if (half) {
+            f.sum_half[i] = glm::dvec3(1e-300, 1e300, double(i));
+            f.sum_quarter[i] = glm::dvec3(-1e-310, 2.0, double(i) / 3.0);
+            f.sum_eighth[i] = glm::dvec3(0.25, -7.0, double(i) / 7.0);
+        }
+        if (adaptive) {
+            f.stats[i].add(double(i));
+            f.stats[i].add(0.5);
+            f.done[i] = uint8_t(i & 1);
+        }
+    }
+    return f;
+}
+
+TEST(FilmCodec, RoundTripsBitForBit) {
+    for (bool half : {false, true})
+        for (bool adaptive : {false, true}) {
+            const Film f = sample_film(half, adaptive);
+            const Film g = decode_film(encode_film(f));
+            EXPECT_EQ(g.x0, 32);
+            EXPECT_EQ(g.y0, 16);
+            EXPECT_EQ(g.width, 5);
+            EXPECT_EQ(g.height, 3);
+            EXPECT_EQ(0, std::memcmp(f.sum.data(), g.sum.data(), f.sum.size() * sizeof(f.sum[0])));
+            ASSERT_EQ(f.sum_half.size(), g.sum_half.size());
+            ASSERT_EQ(f.sum_quarter.size(), g.sum_quarter.size());
+            if (half) {
+                EXPECT_EQ(0, std::memcmp(f.sum_half.data(), g.sum_half.data(), f.sum_half.size() * sizeof(glm::dvec3)));
+                EXPECT_EQ(0, std::memcmp(f.sum_quarter.data(), g.sum_quarter.data(), f.sum_quarter.size() * sizeof(glm::dvec3)));
+                EXPECT_EQ(0, std::memcmp(f.sum_eighth.data(), g.sum_eighth.data(), f.sum_eighth.size() * sizeof(glm::dvec3)));
+            }
+            EXPECT_EQ(f.count, g.count);
+            EXPECT_EQ(f.done, g.done);
+            ASSERT_EQ(f.stats.size(), g.stats.size());
+            for (size_t i = 0; i < f.stats.size(); ++i) EXPECT_EQ(f.stats[i].m2, g.stats[i].m2);
+            EXPECT_EQ(encode_film(g), encode_film(f));
+        }
+}
+
+TEST(FilmCodec, ATileImagePlacedEqualsTheResolvedFilm) {
+    // Two tiles of a 5x6 image, resolved on their nodes and placed, against the whole film
+    // resolved at once: equal bit for bit.
+    Film whole(5, 6, true, false);
+    Film top = Film::tile(0, 0, 5, 3, true, false), bottom = Film::tile(0, 3, 5, 3, true, false);
+    for (int y = 0; y < 6; ++y)
+        for (int x = 0; x < 5; ++x) {
+            const size_t i = size_t(y) * 5 + x;
+            whole.sum[i] = glm::dvec3(0.1 * double(i), 1.0 / 3.0, 7e-8 * double(i * i));
+            whole.count[i] = uint32_t(1 + i % 4);
+            Film& t = y < 3 ? top : bottom;
+            const size_t j = size_t(y % 3) * 5 + x;
+            t.sum[j] = whole.sum[i];
+            t.count[j] = whole.count[i];
+        }
+    Image placed(5, 6);
+    for (const Film* t : {&top, &bottom}) place_tile(decode_tile_image(encode_tile_image(*t)), placed);
+    const Image want = whole.resolve();
+    EXPECT_EQ(placed.rgb, want.rgb);
+    EXPECT_EQ(placed.sample_count, want.sample_count);
+    EXPECT_EQ(encode_tile_image(top).size(), 20u + 15u * 16u);
+}
+
+TEST(FilmCodec, TileImagesRefuseWhatTheyDidNotWriteOrWhatDoesNotFit) {
+    const std::string good = encode_tile_image(sample_film(true, false));
+    EXPECT_THROW(decode_tile_image(good.substr(0, good.size() - 1)), std::runtime_error);
+    EXPECT_THROW(decode_tile_image(good + "x"), std::runtime_error);
+    EXPECT_THROW(decode_tile_image(encode_film(sample_film(true, false))), std::runtime_error);
+    Image small(8, 8);
+    EXPECT_THROW(place_tile(decode_tile_image(good), small), std::runtime_error);  // x0 = 32
+}
+
+TEST(FilmCodec, RefusesWhatItDidNotWrite) {
+    const std::string good = encode_film(sample_film(true, true));
+    EXPECT_THROW(decode_film(""), std::runtime_error);
+    EXPECT_THROW(decode_film(good.substr(0, good.size() - 1)), std::runtime_error);
+    EXPECT_THROW(decode_film(good + "x"), std::runtime_error);
+    std::string bad = good;
+    bad[0] = 'X';
+    EXPECT_THROW(decode_film(bad), std::runtime_error);
+    std::string huge = good;
+    const int32_t w = 1 << 30;
+    std::memcpy(&huge[4], &w, 4);
+    EXPECT_THROW(decode_film(huge), std::runtime_error);
+}
+
+TEST(ContentHash, NamesBytes) {
+    EXPECT_EQ(content_hash("abc"), content_hash(std::string("abc")));
+    EXPECT_NE(content_hash("abc"), content_hash("abd"));
+    EXPECT_NE(content_hash(std::string("a\0", 2)), content_hash("a"));
+    EXPECT_EQ(content_hash("").rfind("fnv1a64-", 0), 0u);
+}
+
+}  // namespace
+}  // namespace tessera::server

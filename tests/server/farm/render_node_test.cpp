@@ -1,0 +1,152 @@
+// The render farm's nodes against a real redis-server (Debian's, on a random loopback port in a
+// directory of the test's own): an API node's JobService and two RenderNodes of one thread each,
+// in this process, render jobs of every kind of pass schedule; each image must equal, bit for
+// bit, the one the same job gives in one process (api::run_job, as `tessera render` and the
+// server's workers run it), and the counters summed over the farm's tiles must equal one
+// process's.
+#include "server/farm/render_node.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "api/job.h"
+#include "api/job_fields.h"
+#include "api/job_runner.h"
+#include "engine/io/image_io.h"
+#include "server/store/job_results.h"
+#include "server/queue/job_service.h"
+#include "tests/server/redis_suite.h"
+
+namespace tessera::server {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+class RenderNodeFarm : public test::WithSuiteRedis<> {
+protected:
+    void SetUp() override {
+        if (!redis_ready("the render farm is not tested")) return;
+        dir_ = fs::temp_directory_path() / ("tessera_render_node_" + std::to_string(::getpid()));
+        fs::remove_all(dir_);
+        fs::create_directories(dir_ / "scenes");
+        // The Cornell box with its lamp off: lit by the default sky on both sides.
+        std::ifstream in(fs::path(TESSERA_PROJECT_SCENES) / "cornell_box.gltf");
+        std::string box((std::istreambuf_iterator<char>(in)), {});
+        const std::string lamp = "\"emissiveStrength\": 10.0";
+        ASSERT_NE(box.find(lamp), std::string::npos) << "the lamp of scenes/cornell_box.gltf";
+        box.replace(box.find(lamp), lamp.size(), "\"emissiveStrength\": 0.0");
+        std::ofstream(dir_ / "scenes" / "dark_box.gltf") << box;
+        ServiceConfig cfg;
+        cfg.data_dir = (dir_ / "data").string();
+        cfg.project_scenes = TESSERA_PROJECT_SCENES;
+        cfg.scene_dirs = {(dir_ / "scenes").string()};
+        cfg.redis_url = "redis://127.0.0.1:" + std::to_string(redis_->port());
+        service_ = std::make_unique<JobService>(cfg);
+        for (int i = 0; i < 2; ++i) {
+            NodeConfig nc;
+            nc.redis = redis_->url();
+            nc.data_dir = cfg.data_dir;
+            nc.name = "test-node-" + std::to_string(i + 1);
+            nc.threads = 1;
+            nodes_.push_back(std::make_unique<RenderNode>(nc));
+            nodes_.back()->start();
+        }
+    }
+    void TearDown() override {
+        for (auto& n : nodes_) n->stop();
+        nodes_.clear();
+        if (service_) service_->shutdown();
+        service_.reset();
+        std::error_code ec;
+        fs::remove_all(dir_, ec);
+    }
+
+    // Submits `body` to the farm and waits for it; returns its id.
+    std::string run_on_farm(const json& body) {
+        const std::string id = service_->submit(body)["id"];
+        const auto t0 = std::chrono::steady_clock::now();
+        for (;;) {
+            const json s = service_->status(id);
+            if (s["state"] == "succeeded") return id;
+            if (s["state"] == "failed" || s["state"] == "canceled") {
+                ADD_FAILURE() << "farm job " << s.dump();
+                return id;
+            }
+            if (std::chrono::steady_clock::now() - t0 > std::chrono::seconds(120)) {
+                ADD_FAILURE() << "farm job did not finish in 120 s: " << s.dump();
+                return id;
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        }
+    }
+
+    // The same job in one process, as `tessera render` runs it.
+    fs::path run_in_one_process(const json& body, const std::string& scene_file, const std::string& name) {
+        const api::RenderJob job = api::parse_render_job(body, api::JobLimits::none());
+        api::RunOptions opt;
+        opt.scene_source = scene_file;
+        opt.threads = 2;
+        const fs::path out = dir_ / name;
+        api::run_job(job, opt, api::RunOutputs::in_directory(out.string()));
+        return out;
+    }
+
+    fs::path dir_;
+    std::unique_ptr<JobService> service_;
+    std::vector<std::unique_ptr<RenderNode>> nodes_;
+};
+
+struct Case {
+    const char* what;
+    json body;
+    const char* scene_file;  // under scenes/ or the test's own folder
+};
+
+TEST_F(RenderNodeFarm, EveryPassScheduleGivesOneProcessImageBitForBit) {
+    const std::string project = TESSERA_PROJECT_SCENES;
+    const std::string own = (dir_ / "scenes").string();
+    const std::vector<Case> cases = {
+        // No stop rule needs the whole image: whole tiles, through every target in one task.
+        {"whole tiles", {{"scene", "cornell_spheres"}, {"width", 48}, {"height", 36}, {"spp", 8}, {"max_depth", 3}, {"tile_size", 16}},
+         "cornell_spheres.gltf"},
+        // Adaptive sampling: pass by pass, each pass's film assembled and carried on.
+        {"adaptive", {{"scene", "cornell_spheres"}, {"width", 40}, {"height", 30}, {"spp", 16}, {"max_depth", 3}, {"tile_size", 16},
+                      {"adaptive", {{"batch", 4}, {"tolerance", 0.05}}}},
+         "cornell_spheres.gltf"},
+        // A target error never reached: pass by pass to the last target.
+        {"target error", {{"scene", "cornell_box"}, {"width", 36}, {"height", 28}, {"spp", 8}, {"max_depth", 2}, {"tile_size", 12},
+                          {"target_error", 1e-12}},
+         "cornell_box.gltf"},
+        // No lights: the default sky on the nodes as in one process.
+        {"no lights", {{"scene", "dark_box"}, {"width", 32}, {"height", 24}, {"spp", 4}, {"max_depth", 2}, {"tile_size", 16}},
+         "dark_box.gltf"},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.what);
+        const std::string id = run_on_farm(c.body);
+        const fs::path farm = job_results_dir((dir_ / "data").string(), id);
+        const std::string file = (fs::exists(fs::path(own) / c.scene_file) ? fs::path(own) : fs::path(project)) / c.scene_file;
+        const fs::path one = run_in_one_process(c.body, file, std::string("one-") + c.what);
+        const Image a = read_image((farm / "image.exr").string()), b = read_image((one / "image.exr").string());
+        ASSERT_EQ(a.rgb.size(), b.rgb.size());
+        EXPECT_EQ(0, std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float))) << "pixels";
+        EXPECT_EQ(a.sample_count, b.sample_count) << "sample counts";
+        const json fr = json::parse(std::ifstream(farm / "report.json")), orep = json::parse(std::ifstream(one / "report.json"));
+        for (const char* k : {"rays_camera", "rays_shadow", "rays_bounce", "nonfinite_samples", "spp_mean", "max_sample_luminance"})
+            EXPECT_EQ(fr["stats"][k], orep["stats"][k]) << k;
+        EXPECT_EQ(fr["convergence"]["stop_reason"], orep["convergence"]["stop_reason"]);
+        EXPECT_EQ(fr["convergence"]["points"].size(), orep["convergence"]["points"].size());
+        EXPECT_EQ(fr["scene"]["built"], orep["scene"]["built"]) << "the same light (the default sky where there is none)";
+        EXPECT_EQ(fr["nodes"].size() >= 1, true) << "the farm's report names its nodes";
+    }
+}
+
+}  // namespace
+}  // namespace tessera::server
