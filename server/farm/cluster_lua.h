@@ -80,4 +80,56 @@ end
 return 1
 )lua";
 
+// Starts a render job's run: queued → running, the run's first fields, the first pass's tiles.
+inline const std::string begin_run = transition + add_tiles + R"lua(
+-- KEYS: job, stream; ARGV: prefix, id, now (s), then the run's first field, value pairs (farm_run_start)
+if redis.call('HGET', KEYS[1], 'state') ~= 'queued' then return 0 end
+transition(ARGV[1], ARGV[2], 'running', 'queued', ARGV[3], '', '')
+local tiles = 0
+for i = 4, #ARGV, 2 do
+  redis.call('HSET', KEYS[1], ARGV[i], ARGV[i + 1])
+  if ARGV[i] == 'tiles_total' then tiles = tonumber(ARGV[i + 1]) end
+end
+add_tiles(KEYS[2], ARGV[2], 0, tiles)
+return 1
+)lua";
+
+// Ends a pass that does not stop the render: its point on the curve, the next pass's target
+// and tiles (once: a pass gone by returns 0).
+inline const std::string advance_pass = add_tiles + R"lua(
+-- KEYS: job, curve, stream; ARGV: id, pass, next target, point, tiles
+if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return 0 end
+if tonumber(redis.call('HGET', KEYS[1], 'pass')) ~= tonumber(ARGV[2]) then return 0 end
+redis.call('RPUSH', KEYS[2], ARGV[4])
+local next = tonumber(ARGV[2]) + 1
+redis.call('HSET', KEYS[1], 'pass', next, 'target', ARGV[3], 'tiles_done', 0)
+add_tiles(KEYS[3], ARGV[1], next, tonumber(ARGV[5]))
+return 1
+)lua";
+
+// Ends the run's last pass: its point on the curve, then succeeded with the status summary (once).
+inline const std::string complete_run = transition + R"lua(
+-- KEYS: job, curve; ARGV: prefix, id, pass, point, now, summary
+if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return 0 end
+if tonumber(redis.call('HGET', KEYS[1], 'pass')) ~= tonumber(ARGV[3]) then return 0 end
+redis.call('RPUSH', KEYS[2], ARGV[4])
+return transition(ARGV[1], ARGV[2], 'succeeded', 'running', ARGV[5], '', ARGV[6])
+)lua";
+
+// Moves a job between states (transition, as a script of its own).
+inline const std::string transition_job = transition + R"lua(
+-- ARGV: prefix, id, new state, allowed old states, time, error, report
+return transition(ARGV[1], ARGV[2], ARGV[3], ARGV[4], ARGV[5], ARGV[6], ARGV[7])
+)lua";
+
+// Renews a claim only while it is still this consumer's: a node resumed after a long stop must
+// not take back a task another node has claimed meanwhile.
+inline const std::string renew_claim = R"lua(
+-- KEYS: stream; ARGV: id, consumer
+local p = redis.call('XPENDING', KEYS[1], 'nodes', ARGV[1], ARGV[1], 1, ARGV[2])
+if #p == 0 then return 0 end
+redis.call('XCLAIM', KEYS[1], 'nodes', ARGV[2], 0, ARGV[1], 'JUSTID')
+return 1
+)lua";
+
 }  // namespace tessera::server::lua

@@ -32,10 +32,7 @@ end
 return seq
 )lua"};
 
-const RedisScript kTransition{lua::transition + R"lua(
--- ARGV: prefix, id, new state, allowed old states, time, error, report
-return transition(ARGV[1], ARGV[2], ARGV[3], ARGV[4], ARGV[5], ARGV[6], ARGV[7])
-)lua"};
+const RedisScript kTransition{lua::transition_job};
 
 const RedisScript kRemoveFinal{R"lua(
 -- ARGV: prefix, id; KEYS: the job's cluster keys to drop with it
