@@ -62,7 +62,7 @@ double median(std::vector<double> v) {
 // at a time with XREADGROUP, each result stored by the commit script (which acknowledges and
 // deletes its task in the same call) with `payload` as the tile's bytes.
 double handoffs(const server::RedisUrl& url, const std::string& payload, int clients, double seconds) {
-    const RedisScript commit{server::lua::commit_tile};
+    const RedisScript commit{server::commit_tile_script()};
     const RedisScript add{server::lua::add_tiles + "add_tiles(KEYS[1], ARGV[1], ARGV[2], tonumber(ARGV[3]))"};
     const std::string job = "benchbenchbench0", stream = server::keys::tasks(0);
     {

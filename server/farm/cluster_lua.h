@@ -51,11 +51,10 @@ end
 // a pass gone by or a job no longer running returns -1), adds its statistics to the job and its
 // node's share, queues `assemble` when it was the pass's last tile, and acknowledges and deletes
 // the task in every case: the result and the acknowledgement are one step, and one round trip.
-inline const std::string commit_tile = R"lua(
+// It follows the prologue made from TileCommit's fields (farm_records.h, commit_tile_script),
+// which binds them by name in `a` and adds the counters in add_counters.
+inline const std::string commit_tile_body = R"lua(
 -- KEYS: job, film, node tiles, node seconds, stream, sums
--- ARGV: field, value pairs (TileCommit::arguments); fields n:<counter> add to the run's counters
-local a = {}
-for i = 1, #ARGV, 2 do a[ARGV[i]] = ARGV[i + 1] end
 redis.call('XACK', KEYS[5], a.group, a.task)
 redis.call('XDEL', KEYS[5], a.task)
 if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return -1 end
@@ -64,9 +63,7 @@ local p = redis.call('HGET', KEYS[2], 'p' .. a.tile)
 if p and tonumber(p) >= tonumber(a.pass) then return 0 end
 redis.call('HSET', KEYS[2], 't' .. a.tile, a.film, 'p' .. a.tile, a.pass)
 if a.sums ~= '' then redis.call('HSET', KEYS[6], 't' .. a.tile, a.sums) end
-for i = 1, #ARGV, 2 do
-  if string.sub(ARGV[i], 1, 2) == 'n:' then redis.call('HINCRBY', KEYS[1], string.sub(ARGV[i], 3), ARGV[i + 1]) end
-end
+add_counters(KEYS[1])
 if tonumber(a.max_sample) > tonumber(redis.call('HGET', KEYS[1], 'max_sample') or '0') then
   redis.call('HSET', KEYS[1], 'max_sample', a.max_sample)
 end

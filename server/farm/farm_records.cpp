@@ -7,6 +7,7 @@
 
 #include "api/json_text.h"
 #include "server/farm/cluster_keys.h"
+#include "server/farm/cluster_lua.h"
 
 // (In ErrorSums' namespace, where the JSON library looks for them.)
 namespace tessera {
@@ -71,12 +72,33 @@ std::vector<std::string> farm_run_start(long long target, size_t tiles, long lon
     return a;
 }
 
+std::vector<std::pair<std::string, std::string>> TileCommit::fields() const {
+    std::vector<std::pair<std::string, std::string>> f = {
+        {"job", job}, {"task", task_id}, {"group", keys::group}, {"node", node}, {"tile", std::to_string(tile)},
+        {"pass", std::to_string(pass)}, {"film", payload}, {"seconds", num(seconds)}, {"timed_out", timed_out ? "1" : "0"},
+        {"max_sample", num(stats.max_sample)}, {"sums", sums}};
+    for_each_counter([&](const char* name, uint64_t c) { f.emplace_back(std::string("n:") + name, std::to_string(c)); }, stats);
+    return f;
+}
+
 std::vector<std::string> TileCommit::arguments() const {
-    std::vector<std::string> a = {"job", job, "task", task_id, "group", keys::group, "node", node, "tile", std::to_string(tile),
-                                  "pass", std::to_string(pass), "film", payload, "seconds", num(seconds),
-                                  "timed_out", timed_out ? "1" : "0", "max_sample", num(stats.max_sample), "sums", sums};
-    for_each_counter([&](const char* name, uint64_t c) { a.insert(a.end(), {std::string("n:") + name, std::to_string(c)}); }, stats);
+    std::vector<std::string> a;
+    for (auto& [name, value] : fields()) a.push_back(std::move(value));
     return a;
+}
+
+const std::string& commit_tile_script() {
+    static const std::string script = [] {
+        std::string fields = "local a = {", counters = "local function add_counters(k)\n";
+        size_t i = 0;
+        for (const auto& [name, value] : TileCommit{}.fields()) {
+            const std::string arg = "ARGV[" + std::to_string(++i) + "]";
+            if (name.rfind("n:", 0) == 0) counters += "  redis.call('HINCRBY', k, '" + name.substr(2) + "', " + arg + ")\n";
+            else fields += name + " = " + arg + ", ";
+        }
+        return fields + "}\n" + counters + "end\n" + lua::commit_tile_body;
+    }();
+    return script;
 }
 
 std::string whole_tile_sums_text(const std::vector<TargetSums>& sums) { return api::json_text(nlohmann::json(sums)); }

@@ -1,6 +1,6 @@
 #pragma once
 // The records a render farm keeps in Redis beside the job store's, each declared once: a render
-// job's run (fields of its job hash), a tile's commit (the arguments of lua::commit_tile), a
+// job's run (fields of its job hash), a tile's commit (the arguments of its script), a
 // whole tile's error sums. Scripts take and return them by field name, never by position.
 #include <string>
 #include <vector>
@@ -27,8 +27,9 @@ FarmRun decode_farm_run(const RedisValue& values);
 // The field, value pairs a run starts with (the begin script's HSET): pass 0 at `target`.
 std::vector<std::string> farm_run_start(long long target, size_t tiles, long long started_ms);
 
-// What a node stores when it finishes a tile task, as lua::commit_tile takes it: field, value
-// pairs, the counters under "n:<name>" (added to the run's).
+// What a node stores when it finishes a tile task. Its fields are listed once (fields()): the
+// script's arguments are their values, and the script reads them by the names the same list
+// gives (commit_tile_script), so neither side counts positions.
 struct TileCommit {
     std::string job, task_id, node;
     size_t tile = 0;
@@ -38,8 +39,13 @@ struct TileCommit {
     bool timed_out = false;
     RenderStats stats;
     std::string sums;       // a whole tile's sums per target (whole_tile_sums_text), or empty
-    std::vector<std::string> arguments() const;
+    // Name and value of every field, the render counters last under "n:<counter>".
+    std::vector<std::pair<std::string, std::string>> fields() const;
+    std::vector<std::string> arguments() const;  // the values of fields(), for the script's ARGV
 };
+// lua::commit_tile_body behind a prologue made from TileCommit::fields(): `a.<field>` is the
+// argument of that name, add_counters(key) adds each counter to the run's field of its name.
+const std::string& commit_tile_script();
 
 // A whole tile's sums per target as the sums hash keeps them (JSON), and back. Reading fails
 // naming a missing field (a node of another version), never silently.

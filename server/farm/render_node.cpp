@@ -76,7 +76,11 @@ std::optional<Task> parse_entry(const std::string& stream, const RedisValue& e) 
 }
 
 const RedisScript kBegin{lua::begin_run};
-const RedisScript kCommitTile{lua::commit_tile};
+// Made on first use, not at start-up: its text comes from another file's statics.
+const RedisScript& commit_tile() {
+    static const RedisScript script{commit_tile_script()};
+    return script;
+}
 const RedisScript kAdvance{lua::advance_pass};
 const RedisScript kComplete{lua::complete_run};
 const RedisScript kTransition{lua::transition_job};
@@ -457,7 +461,7 @@ struct RenderNode::Impl {
         // job's next pass goes on from the whole film.
         commit.payload = plan.whole_tiles ? encode_tile_image(film) : encode_film(film);
         acked = true;
-        const long long rc = r.eval(kCommitTile,
+        const long long rc = r.eval(commit_tile(),
                                     {keys::job(t.job), keys::film(t.job), keys::node_tiles(t.job), keys::node_seconds(t.job), t.stream,
                                      keys::sums(t.job)},
                                     commit.arguments())

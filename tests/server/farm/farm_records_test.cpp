@@ -1,5 +1,5 @@
 // The farm's records through the real scripts on a real redis-server: a run started from
-// farm_run_start, tiles committed by lua::commit_tile from TileCommit::arguments, read back by
+// farm_run_start, tiles committed by commit_tile_script() from TileCommit::arguments, read back by
 // decode_farm_run. Every counter arrives under its own name (a swapped or dropped field shows),
 // a duplicate commit adds nothing, the pass's last tile queues its assembly.
 #include "server/farm/farm_records.h"
@@ -42,7 +42,7 @@ TEST_F(FarmRecords, TileCommitsAddEveryCounterUnderItsName) {
     EXPECT_EQ(fresh.started_ms, 123456);
     for_each_counter([](const char* name, uint64_t c) { EXPECT_EQ(c, 0u) << name; }, fresh.stats);
 
-    const RedisScript commit{lua::commit_tile};
+    const RedisScript commit{commit_tile_script()};
     auto commit_tile = [&](size_t tile, uint64_t base, float max_sample, bool timed_out) {
         const std::string task = r.command({"XADD", stream, "*", "job", id, "kind", "tile", "pass", "0", "tile", std::to_string(tile)}).text;
         TileCommit c;
