@@ -9,6 +9,11 @@ targets=()
 [ $# -gt 0 ] && targets=(--target "$@")
 jobs="${TESSERA_BUILD_JOBS:-$(nproc)}"
 # TESSERA_NATIVE=OFF builds for any x86-64 (the container image); the default tunes for this CPU.
+# The asan preset builds with clang (its objects serve the fuzzers too): a build/asan made with
+# GCC before is configured afresh.
+if [ "$preset" = asan ] && [ -f build/asan/CMakeCache.txt ] && ! grep -q '^CMAKE_CXX_COMPILER:[A-Z]*=.*clang' build/asan/CMakeCache.txt; then
+  rm -rf build/asan
+fi
 if [ ! -f "build/$preset/CMakeCache.txt" ]; then
   cmake --preset "$preset" -DTESSERA_NATIVE="${TESSERA_NATIVE:-ON}" >/dev/null
 fi

@@ -22,8 +22,7 @@ fuzz_seconds="${TESSERA_FUZZ_SECONDS:-60}"
 
 stage "release build and tests"
 bash scripts/build.sh release
-# The resource spec lets the container's build run beside the unit suites (tests/CMakeLists.txt).
-ctest --test-dir build/release --output-on-failure -j 2 --resource-spec-file "$PWD/tests/ctest_resources.json"
+ctest --test-dir build/release --output-on-failure -j 2
 
 stage "ASan+UBSan build and unit tests"
 # The unit suites and the fuzzers only: the command line's own tests run in the Release build.

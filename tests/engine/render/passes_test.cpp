@@ -33,7 +33,8 @@ bool same_film(const Film& a, const Film& b) {
 
 // Each tile on a context and film of its own, in reverse order, then assembled after every pass
 // and ended by end_pass: the pass driver as a render node runs it, without the threads and the
-// shared film of renderer.cpp. (The real render nodes against a real Redis: farm_test.cpp.)
+// shared film of renderer.cpp. (The real render nodes against a real Redis:
+// tests/server/farm/render_node_test.cpp.)
 Image render_tiles_apart(const RenderScene& scene, const RenderSettings& s, int* passes) {
     const PassPlan plan = plan_passes(s, false, false);
     const Camera camera = make_camera(scene.camera, s.width, s.height);
