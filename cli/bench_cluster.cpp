@@ -30,13 +30,13 @@
 #include "cli/bench_common.h"
 #include "engine/io/image_io.h"
 #include "engine/render/film.h"
-#include "server/farm/cluster_keys.h"
-#include "server/farm/cluster_lua.h"
+#include "server/store/cluster_keys.h"
+#include "server/store/cluster_lua.h"
 #include "cli/command_line.h"
 #include "server/farm/farm_records.h"
 #include "server/farm/film_codec.h"
 #include "server/store/job_results.h"
-#include "server/queue/job_service.h"
+#include "server/farm/farm_queue.h"
 #include "server/store/redis_process.h"
 #include "server/farm/render_node.h"
 
@@ -115,7 +115,7 @@ double handoffs(const server::RedisUrl& url, const std::string& payload, int cli
 }
 
 struct Farm {
-    server::JobService service;
+    server::FarmQueue service;
     std::vector<std::unique_ptr<server::RenderNode>> nodes;
     Farm(const server::ServiceConfig& cfg, int nodes_n, const server::RedisUrl& url) : service(cfg) {
         for (int i = 0; i < nodes_n; ++i) {
@@ -135,11 +135,11 @@ struct Farm {
     // Seconds from submission to success, and the job's id.
     std::pair<double, std::string> run(const json& job) {
         const auto t0 = Clock::now();
-        const std::string id = service.submit(job)["id"];
+        const std::string id = service.submit(job).id;
         for (;;) {
-            const json s = service.status(id);
-            if (s["state"] == "succeeded") return {since(t0), id};
-            if (s["state"] == "failed" || s["state"] == "canceled") throw std::runtime_error("bench job " + id + " " + s.dump());
+            const api::JobStatus s = service.status(id);
+            if (s.state == api::JobState::succeeded) return {since(t0), id};
+            if (api::is_final(s.state)) throw std::runtime_error("bench job " + id + " " + api::to_json(s).dump());
             std::this_thread::sleep_for(std::chrono::milliseconds(2));
         }
     }

@@ -26,6 +26,7 @@
 #include "engine/render/renderer.h"
 #include "cli/bench_common.h"
 #include "cli/command_line.h"
+#include "server/farm/farm_queue.h"
 #include "server/http/http_api.h"
 #include "cli/in_process_server.h"
 
@@ -123,7 +124,8 @@ int bench_server(int argc, char** argv) {
     cfg.data_dir = dir.string();
     cfg.project_scenes = TESSERA_DEFAULT_SCENES_DIR;
     cfg.max_queued = 1'000'000;
-    server::JobService service(cfg);
+    const auto queue = server::open_job_queue(cfg);
+    server::JobQueue& service = *queue;
     server::HttpLimits limits;
     limits.connections.header_timeout_s = 2;  // the hostile phase's slow clients are cut within its length
     server::HttpApi api(service, limits, (dir / "none.yaml").string());
@@ -254,7 +256,8 @@ int bench_server(int argc, char** argv) {
     const auto dir2 = dir.string() + "_overhead";
     std::filesystem::remove_all(dir2);
     cfg.data_dir = dir2;
-    server::JobService service2(cfg);
+    const auto queue2 = server::open_job_queue(cfg);
+    server::JobQueue& service2 = *queue2;
     server::HttpApi api2(service2, server::HttpLimits{}, "none.yaml");
     const int port2 = api2.bind("127.0.0.1", 0);
     std::thread serving2([&] { api2.serve(); });

@@ -9,13 +9,14 @@
 #include <string>
 #include <thread>
 
+#include "server/farm/farm_queue.h"
 #include "server/http/http_api.h"
 
 namespace tessera::cli {
 
 struct InProcessServer {
     std::filesystem::path dir;
-    std::unique_ptr<server::JobService> service;
+    std::unique_ptr<server::JobQueue> service;
     std::unique_ptr<server::HttpApi> api;
     int port = 0;
     std::thread serving;
@@ -26,7 +27,7 @@ struct InProcessServer {
         server::ServiceConfig cfg;
         cfg.data_dir = dir.string();
         cfg.project_scenes = TESSERA_DEFAULT_SCENES_DIR;
-        service = std::make_unique<server::JobService>(cfg);
+        service = server::open_job_queue(cfg);
         api = std::make_unique<server::HttpApi>(*service, limits, (dir / "none.yaml").string());
         port = api->bind("127.0.0.1", 0);
         serving = std::thread([this] { api->serve(); });

@@ -21,7 +21,7 @@
 
 #include "cli/command_line.h"
 #include "server/http/http_api.h"
-#include "server/queue/job_service.h"
+#include "server/farm/farm_queue.h"
 #include "server/memory_return.h"
 #include "cli/node_options.h"
 
@@ -208,11 +208,11 @@ int serve_command(int argc, char** argv) {
     tune_allocator();
 
     const std::string openapi = (std::filesystem::path(o.service.data_dir) / "openapi.yaml").string();
-    std::unique_ptr<JobService> service;
+    std::unique_ptr<JobQueue> service;
     std::unique_ptr<HttpApi> api;
     int port = 0;
     try {
-        service = std::make_unique<JobService>(o.service);
+        service = open_job_queue(o.service);
         {
             std::ofstream out(openapi);
             out << kTesseraOpenApiYaml;

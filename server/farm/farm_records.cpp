@@ -6,8 +6,8 @@
 #include <nlohmann/json.hpp>
 
 #include "api/json_text.h"
-#include "server/farm/cluster_keys.h"
-#include "server/farm/cluster_lua.h"
+#include "server/store/cluster_keys.h"
+#include "server/store/cluster_lua.h"
 
 // (In ErrorSums' namespace, where the JSON library looks for them.)
 namespace tessera {

@@ -135,15 +135,4 @@ void place_tile(const TileImage& t, Image& into) {
     }
 }
 
-std::string content_hash(const std::string& bytes) {
-    uint64_t h = 1469598103934665603ull;
-    for (unsigned char c : bytes) {
-        h ^= c;
-        h *= 1099511628211ull;
-    }
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "fnv1a64-%016llx-%zu", static_cast<unsigned long long>(h), bytes.size());
-    return buf;
-}
-
 }  // namespace tessera::server

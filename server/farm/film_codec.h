@@ -26,9 +26,4 @@ TileImage decode_tile_image(const std::string& bytes);
 // Copies a tile's pixels into the image at its place.
 void place_tile(const TileImage& tile, Image& into);
 
-// A content hash for scene files: "fnv1a64-<16 hex>-<size>". It names a file's bytes so a
-// render node loads exactly what the job named; it is not a defence against forged files (the
-// files come from the catalog and from uploads that API nodes validated).
-std::string content_hash(const std::string& bytes);
-
 }  // namespace tessera::server

@@ -22,8 +22,8 @@
 #include "engine/render/passes.h"
 #include "engine/render/tile_context.h"
 #include "engine/scene/environment.h"
-#include "server/farm/cluster_keys.h"
-#include "server/farm/cluster_lua.h"
+#include "server/store/cluster_keys.h"
+#include "server/store/cluster_lua.h"
 #include "server/farm/farm_records.h"
 #include "server/farm/film_codec.h"
 #include "server/store/job_results.h"
@@ -636,5 +636,7 @@ void RenderNode::stop() {
 const std::string& RenderNode::name() const { return impl_->name; }
 NodeMetrics& RenderNode::metrics() { return impl_->metrics; }
 void RenderNode::drop_idle_scenes() { impl_->cache.drop_idle(); }
+uint64_t RenderNode::scene_cache_hits() const { return impl_->cache.hits(); }
+uint64_t RenderNode::scene_cache_misses() const { return impl_->cache.misses(); }
 
 }  // namespace tessera::server

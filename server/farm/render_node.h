@@ -54,6 +54,9 @@ public:
     NodeMetrics& metrics();
     // Drops prepared scenes unused for the cache's idle time (called every few seconds).
     void drop_idle_scenes();
+    // Jobs' tiles that found their scene prepared, and those that prepared it.
+    uint64_t scene_cache_hits() const;
+    uint64_t scene_cache_misses() const;
 
 private:
     struct Impl;

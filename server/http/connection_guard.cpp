@@ -223,15 +223,22 @@ bool ConnectionGuard::run(int fd, bool (*serve)(void*, int), void* server) {
     }
     ++open_;
     t_connection = c;
-    const bool ok = serve(server, fd);
-    t_connection = nullptr;
-    --open_;
-    {
-        std::lock_guard<std::mutex> lock(mutex_);
-        connections_.erase(c);
-    }
-    if (c->fd >= 0) ::close(c->fd);
-    return ok;
+    // Left the same way whether serve returns or throws (out of memory building its stream):
+    // the watchdog and close_idle walk connections_, so the record leaves it before it is freed.
+    struct Leave {
+        ConnectionGuard& guard;
+        Connection* c;
+        ~Leave() {
+            t_connection = nullptr;
+            --guard.open_;
+            {
+                std::lock_guard<std::mutex> lock(guard.mutex_);
+                guard.connections_.erase(c);
+            }
+            if (c->fd >= 0) ::close(c->fd);
+        }
+    } leave{*this, c};
+    return serve(server, fd);
 }
 
 void ConnectionGuard::set_deadline(double seconds, int phase) {

@@ -24,9 +24,9 @@ void HttpApi::event_routes() {
         std::string job;
         if (req.has_param("job")) {
             job = req.get_param_value("job");
-            service_.status(job);  // 404 for a job that does not exist
+            queue_.status(job);  // 404 for a job that does not exist
         }
-        JobEvents& events = service_.events();
+        JobEvents& events = queue_.events();
         // A reconnecting client names the last event it saw; an id that is no number, or one
         // this process never gave out, gets a reset (re-read the jobs) rather than an error.
         uint64_t after = events.last_id();

@@ -271,8 +271,8 @@ bool is_chunked(const httplib::Request& req) {
 
 }  // namespace
 
-HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_path)
-    : service_(service), limits_(limits), openapi_path_(std::move(openapi_path)),
+HttpApi::HttpApi(JobQueue& queue, HttpLimits limits, std::string openapi_path)
+    : queue_(queue), limits_(limits), openapi_path_(std::move(openapi_path)),
       guard_(std::make_unique<ConnectionGuard>(limits_.connections)),
       server_(std::make_unique<GuardedServer>(
           *guard_, limits_.max_head_bytes, [this](httplib::Request& req, ConnectionStream& strm) { begin_body(req, strm); },
@@ -374,6 +374,8 @@ HttpApi::HttpApi(JobService& service, HttpLimits limits, std::string openapi_pat
                 std::rethrow_exception(ep);
             } catch (const Problem& p) {
                 send_problem(res, p);
+            } catch (const QueueError& e) {
+                send_problem(res, problem(e));
             } catch (const StoreError& e) {
                 spdlog::error("job store: {}", loggable(e.what(), 400));
                 send_problem(res, store_problem(e));
@@ -423,12 +425,12 @@ void HttpApi::serve() { server_->listen_after_bind(); }
 void HttpApi::stop() {
     if (!server_) return;
     // Event streams wait for events in connection threads: they end now, not at their timeout.
-    service_.events().close();
+    queue_.events().close();
     server_->stop();
     // Connections waiting for their next request would hold stop() for their keep-alive time.
     guard_->close_idle();
 }
-std::string HttpApi::unready_reason() { return service_.unready_reason(); }
+std::string HttpApi::unready_reason() { return queue_.unready_reason(); }
 
 // The same answers as the routes', written whole: the refusing thread has no httplib request.
 std::string HttpApi::probe_answer(const std::string& path) {
@@ -600,35 +602,35 @@ void HttpApi::routes() {
     });
 
     // Both accept a JSON body and answer 202 with the queued job's status and its Location.
-    auto accept_job = [this](json (JobService::*submit)(const json&)) {
+    auto accept_job = [this](api::JobStatus (JobQueue::*submit)(const json&)) {
         return [this, submit](const httplib::Request& req, httplib::Response& res) {
             if (req.body.size() > limits_.max_job_body)
                 throw Problem(413, "payload-too-large", "Payload too large",
                               "a request body may be at most " + std::to_string(limits_.max_job_body) + " bytes");
-            const json status = (service_.*submit)(parse_body(req, limits_.max_json_depth));
+            const json status = api::to_json((queue_.*submit)(parse_body(req, limits_.max_json_depth)));
             res.set_header("Location", status["links"]["self"].get<std::string>());
             send_json(res, 202, status);
         };
     };
-    s.Post("/v1/jobs", accept_job(&JobService::submit));
-    s.Post("/v1/comparisons", accept_job(&JobService::submit_comparison));
+    s.Post("/v1/jobs", accept_job(&JobQueue::submit));
+    s.Post("/v1/comparisons", accept_job(&JobQueue::submit_comparison));
     s.Get("/v1/jobs", [this](const httplib::Request& req, httplib::Response& res) {
         const size_t limit = size_param(req, "limit", 50, 1, 1000);
         const size_t offset = size_param(req, "offset", 0, 0, 1'000'000'000);
-        send_json(res, 200, service_.list(req.has_param("state") ? req.get_param_value("state") : "", offset, limit));
+        send_json(res, 200, to_json(queue_.list(req.has_param("state") ? req.get_param_value("state") : "", offset, limit)));
     });
     s.Get(R"(/v1/jobs/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
-        send_json(res, 200, service_.status(req.matches[1]));
+        send_json(res, 200, api::to_json(queue_.status(req.matches[1])));
     });
     s.Delete(R"(/v1/jobs/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
-        send_json(res, 200, service_.cancel(req.matches[1]));
+        send_json(res, 200, api::to_json(queue_.cancel(req.matches[1])));
     });
     s.Delete(R"(/v1/jobs/([^/]+)/results)", [this](const httplib::Request& req, httplib::Response& res) {
-        service_.delete_results(req.matches[1]);
+        queue_.delete_results(req.matches[1]);
         res.status = 204;
     });
     s.Get("/v1/job-schema", [this](const httplib::Request&, httplib::Response& res) {
-        res.set_content(json_text(api::job_schema(service_.config().job_limits)), "application/json");
+        res.set_content(json_text(api::job_schema(queue_.config().job_limits)), "application/json");
     });
     s.Get(R"(/v1/jobs/([^/]+)/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg))", [this](const httplib::Request& req, httplib::Response& res) {
         const std::string id = req.matches[1];
@@ -638,7 +640,7 @@ void HttpApi::routes() {
                          : file == "convergence.csv" ? "text/csv" : file == "convergence.svg" ? "image/svg+xml" : "image/png";
         // A running job's images are its latest finished pass, said so in the headers.
         if (file == "image.png" || file == "image.exr" || file == "rate.png") {
-            if (const auto live = service_.live_pass(id)) {
+            if (const auto live = queue_.live_pass(id)) {
                 const auto bytes = file == "image.png" ? png_bytes(*live->image, exposure)
                                  : file == "image.exr" ? exr_bytes(*live->image) : rate_png_bytes(*live->image, live->max_spp);
                 res.set_header("Cache-Control", "no-store");
@@ -650,10 +652,10 @@ void HttpApi::routes() {
                 return;
             }
         }
-        const std::string path = service_.result_path(id, file);
+        const std::string path = queue_.result_path(id, file);
         if (exposure != 0.f) {
             // Another exposure of the linear image: the EXR beside the PNG, encoded anew.
-            const std::string exr = service_.result_path(id, "image.exr");
+            const std::string exr = queue_.result_path(id, "image.exr");
             const auto bytes = png_bytes(read_image(exr), exposure);
             res.set_content(std::string(bytes.begin(), bytes.end()), type);
             return;
@@ -663,11 +665,11 @@ void HttpApi::routes() {
 
     s.Get("/v1/scenes", [this](const httplib::Request&, httplib::Response& res) {
         json scenes = json::array();
-        for (const CatalogEntry& e : service_.catalog().entries()) {
+        for (const CatalogEntry& e : queue_.catalog().entries()) {
             json j = {{"name", e.name}, {"source", e.source}, {"format", scene_format(e)}};
             try {
                 // Bound first: a range-for over .items() of a temporary would dangle.
-                const json details = service_.catalog().describe(e, service_.config().load_limits);
+                const json details = queue_.catalog().describe(e, queue_.config().load_limits);
                 for (auto& [k, v] : details.items()) j[k] = v;
             } catch (const SceneError& err) {
                 j["error"] = err.what();
@@ -682,9 +684,9 @@ void HttpApi::routes() {
         if (req.body.size() > limits_.max_upload)
             throw Problem(413, "payload-too-large", "Payload too large",
                           "an upload may be at most " + std::to_string(limits_.max_upload) + " bytes");
-        const CatalogEntry e = service_.catalog().add_upload(req.get_param_value("name"), req.body, service_.config().load_limits);
+        const CatalogEntry e = queue_.catalog().add_upload(req.get_param_value("name"), req.body, queue_.config().load_limits);
         json j = {{"id", e.name}, {"name", e.name}, {"source", e.source}, {"format", scene_format(e)}};
-        const json details = service_.catalog().describe(e, service_.config().load_limits);
+        const json details = queue_.catalog().describe(e, queue_.config().load_limits);
         for (auto& [k, v] : details.items()) j[k] = v;
         send_json(res, 201, j);
     });
@@ -696,8 +698,8 @@ std::string HttpApi::metrics_text() {
     // tessera_store_up says which.
     bool store_up = true;
     try {
-        const auto counts = service_.counts_by_state();
-        const size_t depth = service_.queue_depth();
+        const auto counts = queue_.counts_by_state();
+        const size_t depth = queue_.queue_depth();
         m << "# HELP tessera_jobs Jobs by state.\n# TYPE tessera_jobs gauge\n";
         for (const auto& [state, n] : counts) m << "tessera_jobs{state=\"" << state << "\"} " << n << "\n";
         m << "# HELP tessera_queue_depth Jobs waiting to run.\n# TYPE tessera_queue_depth gauge\ntessera_queue_depth " << depth << "\n";
@@ -708,20 +710,20 @@ std::string HttpApi::metrics_text() {
     m << "# HELP tessera_store_up Whether the job store answered (0: its figures are missing).\n# TYPE tessera_store_up gauge\n"
       << "tessera_store_up " << (store_up ? 1 : 0) << "\n";
     m << "# HELP tessera_rays_total Rays traced by finished jobs.\n# TYPE tessera_rays_total counter\ntessera_rays_total "
-      << service_.metrics().rays.load() << "\n";
+      << queue_.metrics().rays.load() << "\n";
     m << "# HELP tessera_render_seconds_total Render time of finished jobs.\n# TYPE tessera_render_seconds_total counter\n"
-      << "tessera_render_seconds_total " << double(service_.metrics().render_micros.load()) * 1e-6 << "\n";
+      << "tessera_render_seconds_total " << double(queue_.metrics().render_micros.load()) * 1e-6 << "\n";
     m << "# HELP tessera_jobs_submitted_total Jobs accepted since start.\n# TYPE tessera_jobs_submitted_total counter\n"
-      << "tessera_jobs_submitted_total " << service_.metrics().jobs_submitted.load() << "\n";
+      << "tessera_jobs_submitted_total " << queue_.metrics().jobs_submitted.load() << "\n";
     m << "# HELP tessera_store_errors_total Writes the job store refused (full or unavailable).\n"
-      << "# TYPE tessera_store_errors_total counter\ntessera_store_errors_total " << service_.metrics().store_errors.load() << "\n";
+      << "# TYPE tessera_store_errors_total counter\ntessera_store_errors_total " << queue_.metrics().store_errors.load() << "\n";
     m << "# HELP tessera_scene_cache_hits_total Jobs that found their scene prepared (loaded and built) by an earlier job.\n"
-      << "# TYPE tessera_scene_cache_hits_total counter\ntessera_scene_cache_hits_total " << service_.scene_cache().hits() << "\n"
+      << "# TYPE tessera_scene_cache_hits_total counter\ntessera_scene_cache_hits_total " << queue_.scene_cache_counts().hits << "\n"
       << "# HELP tessera_scene_cache_misses_total Jobs that prepared their scene.\n"
-      << "# TYPE tessera_scene_cache_misses_total counter\ntessera_scene_cache_misses_total " << service_.scene_cache().misses() << "\n";
+      << "# TYPE tessera_scene_cache_misses_total counter\ntessera_scene_cache_misses_total " << queue_.scene_cache_counts().misses << "\n";
     // A farm's render nodes, from their last heartbeat in Redis (any API node shows them all).
     try {
-        auto nodes = service_.render_nodes();
+        auto nodes = queue_.render_nodes();
         for (auto& [name, text] : nodes)  // a label value: no quote, backslash or newline from a node's name
             for (char& c : name) if (c == '"' || c == '\\' || c == '\n') c = '_';
         if (!nodes.empty()) {

@@ -1,5 +1,5 @@
 #pragma once
-// The HTTP API v1 over a JobService (routes in http_api.cpp, described in api/openapi.yaml).
+// The HTTP API v1 over a JobQueue (routes in http_api.cpp, described in api/openapi.yaml).
 #include <atomic>
 #include <chrono>
 #include <map>
@@ -10,7 +10,7 @@
 
 #include "server/http/bearer_auth.h"
 #include "server/http/connection_guard.h"
-#include "server/queue/job_service.h"
+#include "server/queue/job_queue.h"
 #include "server/loggable.h"
 
 namespace tessera::server {
@@ -51,7 +51,7 @@ std::string allowed_methods(const std::string& path);
 
 class HttpApi {
 public:
-    HttpApi(JobService& service, HttpLimits limits, std::string openapi_path);
+    HttpApi(JobQueue& queue, HttpLimits limits, std::string openapi_path);
     ~HttpApi();
     // Binds (port 0 picks a free port) and returns the port; throws on failure.
     int bind(const std::string& host, int port);
@@ -81,7 +81,7 @@ private:
     // whole HTTP response, or "" for any other path.
     std::string probe_answer(const std::string& path);
 
-    JobService& service_;
+    JobQueue& queue_;
     HttpLimits limits_;
     std::string openapi_path_;
     // Before server_: the guard outlives the connection threads that report to it.

@@ -1,10 +1,12 @@
 #pragma once
 // An error for the HTTP client, rendered as application/problem+json (RFC 9457). Thrown by
-// the service and the routes, caught once in http_api.cpp.
+// the routes, caught once in http_api.cpp; the queue's typed refusals become problems here and
+// nowhere else.
 #include <optional>
 #include <stdexcept>
 #include <string>
 
+#include "server/queue/queue_error.h"
 #include "server/store/job_store.h"
 
 namespace tessera::server {
@@ -26,14 +28,13 @@ struct Problem : std::runtime_error {
     Problem& with_error_id(std::string id) { error_id = std::move(id); return *this; }
 };
 
+// The status each kind of refusal answers with.
+int http_status(QueueErrorKind kind);
+
+Problem problem(const QueueError& e);
+
 // What a client sees when the store refuses: 507 while it is full (a disk, or the size bound),
 // 503 while it is unusable; both say when to retry.
-inline Problem store_problem(const StoreError& e) {
-    if (e.full)
-        return Problem(507, "insufficient-storage", "The job store is full",
-                       std::string("no space left (") + e.what() + "); retry when space is freed")
-            .with_retry_after(30);
-    return Problem(503, "store-unavailable", "The job store is unavailable", e.what()).with_retry_after(10);
-}
+inline Problem store_problem(const StoreError& e) { return problem(store_refusal(e)); }
 
 }  // namespace tessera::server

@@ -13,8 +13,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "server/farm/cluster_keys.h"
-#include "server/farm/film_codec.h"
+#include "server/store/cluster_keys.h"
 
 namespace tessera::server {
 
@@ -41,15 +40,6 @@ std::string read_file(const std::string& path) {
 }
 
 }  // namespace
-
-SceneRef SceneRef::decode(const std::string& s) {
-    SceneRef r;
-    std::istringstream in(s);
-    std::getline(in, r.source);
-    std::getline(in, r.hash);
-    std::getline(in, r.ext);
-    return r;
-}
 
 SceneCache::SceneCache(std::string dir, int64_t max_bytes, LoadLimits limits, double idle_s)
     : dir_(std::move(dir)), max_bytes_(max_bytes),

@@ -15,18 +15,9 @@
 #include "engine/io/scene_loader.h"
 #include "engine/scene/render_scene.h"
 #include "server/store/redis_client.h"
+#include "server/store/scene_ref.h"
 
 namespace tessera::server {
-
-// What a farm's job names: a built-in scene, or a scene file by content hash (its bytes are in
-// Redis under keys::scene(hash), published by the API node that accepted the job).
-struct SceneRef {
-    std::string source;  // "builtin:NAME[?params]", or the file's path on the API node
-    std::string hash;    // content_hash of the file; "" for built-ins
-    std::string ext;     // the file's extension (".dae", ".gltf", ".glb"), which picks the loader
-    std::string encode() const { return source + "\n" + hash + "\n" + ext; }
-    static SceneRef decode(const std::string& s);
-};
 
 using api::PreparedScene;
 

@@ -9,7 +9,7 @@
 
 #include "api/scene_summary.h"
 #include "engine/io/scene_loader.h"
-#include "server/http/problem.h"
+#include "server/queue/queue_error.h"
 
 namespace tessera::server {
 namespace fs = std::filesystem;
@@ -152,11 +152,11 @@ CatalogEntry SceneCatalog::add_upload(const std::string& filename, const std::st
                            std::string::npos &&
                        filename[0] != '.';
     if (!clean)
-        throw Problem(400, "invalid-scene-name", "Invalid scene file name",
+        throw QueueError(QueueErrorKind::invalid, "invalid-scene-name", "Invalid scene file name",
                       "the name must be a plain file name of letters, digits, '.', '_' and '-' (no path)")
             .with_field("name");
     if (!scene_extension(p))
-        throw Problem(400, "invalid-scene-name", "Unsupported scene format", "the name must end in .gltf, .glb or .dae")
+        throw QueueError(QueueErrorKind::invalid, "invalid-scene-name", "Unsupported scene format", "the name must end in .gltf, .glb or .dae")
             .with_field("name");
     const std::string id = random_hex(16);
     const fs::path dir = fs::path(upload_dir_) / id;
@@ -177,10 +177,10 @@ CatalogEntry SceneCatalog::add_upload(const std::string& filename, const std::st
         if (ec || !out) {
             fs::remove_all(dir, ec);
             if (err == ENOSPC || err == EDQUOT)
-                throw Problem(507, "insufficient-storage", "The upload could not be stored",
+                throw QueueError(QueueErrorKind::store_full, "insufficient-storage", "The upload could not be stored",
                               "no space left for the scene file; retry when space is freed")
                     .with_retry_after(30);
-            throw Problem(503, "storage-unavailable", "The upload could not be stored",
+            throw QueueError(QueueErrorKind::unavailable, "storage-unavailable", "The upload could not be stored",
                           std::string("writing the scene file failed: ") + std::strerror(err ? err : EIO))
                 .with_retry_after(10);
         }
@@ -194,7 +194,7 @@ CatalogEntry SceneCatalog::add_upload(const std::string& filename, const std::st
     } catch (const SceneError& e) {
         std::error_code ec;
         fs::remove_all(dir, ec);
-        throw Problem(422, "invalid-scene", "The scene file is broken", e.detail()).with_location(
+        throw QueueError(QueueErrorKind::broken_file, "invalid-scene", "The scene file is broken", e.detail()).with_location(
             filename + (e.where().line ? ":" + std::to_string(e.where().line) : "") +
             (e.where().pointer.empty() ? "" : "#" + e.where().pointer));
     }

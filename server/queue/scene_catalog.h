@@ -34,7 +34,7 @@ public:
     // Throws SceneError for a broken file.
     nlohmann::json describe(const CatalogEntry& e, const LoadLimits& limits);
     // Stores an uploaded scene after validating its name and content; returns its entry.
-    // Throws Problem (400 bad name, 422 broken scene).
+    // Throws QueueError (invalid name, broken file, store full or unavailable).
     CatalogEntry add_upload(const std::string& filename, const std::string& bytes, const LoadLimits& limits);
 
 private:

@@ -4,8 +4,8 @@
 #include <map>
 #include <stdexcept>
 
-#include "server/farm/cluster_keys.h"
-#include "server/farm/cluster_lua.h"
+#include "server/store/cluster_keys.h"
+#include "server/store/cluster_lua.h"
 
 namespace tessera::server {
 

@@ -10,7 +10,7 @@
 
 #include "server/store/job_store.h"
 #include "server/store/redis_client.h"
-#include "server/queue/scene_cache.h"
+#include "server/store/scene_ref.h"
 
 namespace tessera::server {
 

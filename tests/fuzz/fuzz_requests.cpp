@@ -22,7 +22,7 @@
 #include <spdlog/spdlog.h>
 
 #include "server/http/http_api.h"
-#include "server/queue/job_service.h"
+#include "server/farm/farm_queue.h"
 
 namespace {
 using namespace tessera::server;
@@ -50,7 +50,7 @@ struct Harness {
         cfg.job_limits.max_spp = 4;
         cfg.job_limits.max_depth = 3;
         cfg.load_limits.max_texture_bytes = 16 << 20;
-        service = std::make_unique<JobService>(cfg);
+        service = open_job_queue(cfg);
         std::ofstream(dir / "openapi.yaml") << "openapi: 3.0.3\n";
         HttpLimits limits;
         limits.max_job_body = 64 << 10;
@@ -65,7 +65,7 @@ struct Harness {
         pthread_sigmask(SIG_SETMASK, &old, nullptr);
     }
     std::filesystem::path dir;
-    std::unique_ptr<JobService> service;
+    std::unique_ptr<JobQueue> service;
     std::unique_ptr<HttpApi> api;
     std::thread thread;
     int port = 0;

@@ -16,6 +16,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "server/farm/farm_queue.h"
 #include "server/http/http_api.h"
 
 namespace tessera::server {
@@ -37,7 +38,7 @@ protected:
         cfg.max_queued = max_queued;
         cfg.max_store_bytes = max_store_bytes;
         cfg.scene_dirs = scene_dirs_;
-        service_ = std::make_unique<JobService>(cfg);
+        service_ = open_job_queue(cfg);
         std::ofstream(dir_ / "openapi.yaml") << "openapi: 3.0.3\n";
         api_ = std::make_unique<HttpApi>(*service_, limits_, (dir_ / "openapi.yaml").string());
         port_ = api_->bind("127.0.0.1", 0);
@@ -102,7 +103,7 @@ protected:
     HttpLimits limits_ = test_limits();  // a test may change them before start()
     std::vector<std::string> scene_dirs_;
     std::filesystem::path dir_;
-    std::unique_ptr<JobService> service_;
+    std::unique_ptr<JobQueue> service_;
     std::unique_ptr<HttpApi> api_;
     std::unique_ptr<httplib::Client> client_;
     std::thread thread_;

@@ -8,8 +8,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "server/farm/cluster_keys.h"
-#include "server/farm/cluster_lua.h"
+#include "server/store/cluster_keys.h"
+#include "server/store/cluster_lua.h"
 #include "tests/server/redis_suite.h"
 
 namespace tessera::server {

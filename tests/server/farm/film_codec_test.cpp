@@ -98,12 +98,5 @@ TEST(FilmCodec, RefusesWhatItDidNotWrite) {
     EXPECT_THROW(decode_film(huge), std::runtime_error);
 }
 
-TEST(ContentHash, NamesBytes) {
-    EXPECT_EQ(content_hash("abc"), content_hash(std::string("abc")));
-    EXPECT_NE(content_hash("abc"), content_hash("abd"));
-    EXPECT_NE(content_hash(std::string("a\0", 2)), content_hash("a"));
-    EXPECT_EQ(content_hash("").rfind("fnv1a64-", 0), 0u);
-}
-
 }  // namespace
 }  // namespace tessera::server

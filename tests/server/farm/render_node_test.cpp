@@ -1,5 +1,5 @@
 // The render farm's nodes against a real redis-server (Debian's, on a random loopback port in a
-// directory of the test's own): an API node's JobService and two RenderNodes of one thread each,
+// directory of the test's own): an API node's FarmQueue and two RenderNodes of one thread each,
 // in this process, render jobs of every kind of pass schedule; each image must equal, bit for
 // bit, the one the same job gives in one process (api::run_job, as `tessera render` and the
 // server's workers run it), and the counters summed over the farm's tiles must equal one
@@ -20,7 +20,7 @@
 #include "api/job_runner.h"
 #include "engine/io/image_io.h"
 #include "server/store/job_results.h"
-#include "server/queue/job_service.h"
+#include "server/farm/farm_queue.h"
 #include "tests/server/redis_suite.h"
 
 namespace tessera::server {
@@ -48,7 +48,7 @@ protected:
         cfg.project_scenes = TESSERA_PROJECT_SCENES;
         cfg.scene_dirs = {(dir_ / "scenes").string()};
         cfg.redis_url = "redis://127.0.0.1:" + std::to_string(redis_->port());
-        service_ = std::make_unique<JobService>(cfg);
+        service_ = std::make_unique<FarmQueue>(cfg);
         for (int i = 0; i < 2; ++i) {
             NodeConfig nc;
             nc.redis = redis_->url();
@@ -70,17 +70,17 @@ protected:
 
     // Submits `body` to the farm and waits for it; returns its id.
     std::string run_on_farm(const json& body) {
-        const std::string id = service_->submit(body)["id"];
+        const std::string id = service_->submit(body).id;
         const auto t0 = std::chrono::steady_clock::now();
         for (;;) {
-            const json s = service_->status(id);
-            if (s["state"] == "succeeded") return id;
-            if (s["state"] == "failed" || s["state"] == "canceled") {
-                ADD_FAILURE() << "farm job " << s.dump();
+            const api::JobStatus s = service_->status(id);
+            if (s.state == api::JobState::succeeded) return id;
+            if (api::is_final(s.state)) {
+                ADD_FAILURE() << "farm job " << api::to_json(s).dump();
                 return id;
             }
             if (std::chrono::steady_clock::now() - t0 > std::chrono::seconds(120)) {
-                ADD_FAILURE() << "farm job did not finish in 120 s: " << s.dump();
+                ADD_FAILURE() << "farm job did not finish in 120 s: " << api::to_json(s).dump();
                 return id;
             }
             std::this_thread::sleep_for(std::chrono::milliseconds(5));
@@ -99,7 +99,7 @@ protected:
     }
 
     fs::path dir_;
-    std::unique_ptr<JobService> service_;
+    std::unique_ptr<FarmQueue> service_;
     std::vector<std::unique_ptr<RenderNode>> nodes_;
 };
 

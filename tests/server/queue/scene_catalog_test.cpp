@@ -14,7 +14,7 @@
 
 #include "engine/core/scene_error.h"
 #include "engine/io/scene_loader.h"
-#include "server/http/problem.h"
+#include "server/queue/queue_error.h"
 
 namespace tessera::server {
 namespace {
@@ -86,8 +86,8 @@ TEST_F(SceneCatalogTest, UploadsKeepOnlyCleanNamesAndWholeScenes) {
         try {
             c.add_upload(bad, box_, limits);
             ADD_FAILURE() << "'" << bad << "' was taken";
-        } catch (const Problem& p) {
-            EXPECT_EQ(p.status, 400) << bad;
+        } catch (const QueueError& p) {
+            EXPECT_EQ(p.kind, QueueErrorKind::invalid) << bad;
             EXPECT_EQ(p.field.value_or("?"), "name") << bad;
         }
     }
@@ -96,8 +96,8 @@ TEST_F(SceneCatalogTest, UploadsKeepOnlyCleanNamesAndWholeScenes) {
         broken.resize(broken.size() / 2);  // cut off halfway
         c.add_upload("broken.gltf", broken, limits);
         ADD_FAILURE() << "a broken scene was taken";
-    } catch (const Problem& p) {
-        EXPECT_EQ(p.status, 422);
+    } catch (const QueueError& p) {
+        EXPECT_EQ(p.kind, QueueErrorKind::broken_file);
         EXPECT_NE(p.location.find("broken.gltf"), std::string::npos) << p.location;
     }
     EXPECT_TRUE(fs::is_empty(dir_ / "uploads")) << "nothing is kept of refused uploads";

@@ -1,0 +1,214 @@
+#include "server/farm/farm_queue.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include <spdlog/spdlog.h>
+
+#include "server/queue/local_queue.h"
+#include "server/store/scene_ref.h"
+
+namespace tessera::server {
+using nlohmann::json;
+
+std::unique_ptr<JobQueue> open_job_queue(const ServiceConfig& config) {
+    if (!config.redis_url.empty()) return std::make_unique<FarmQueue>(config);
+    QueueConfig local = config;
+    local.scene_cache_mb = config.node.scene_cache_mb;
+    local.scene_cache_idle_s = config.node.scene_cache_idle_s;
+    return std::make_unique<LocalQueue>(local);
+}
+
+FarmQueue::FarmQueue(const ServiceConfig& config) : JobQueue(config) {
+    const RedisUrl url = RedisUrl::parse(config.redis_url);
+    auto rs = std::make_unique<RedisJobStore>(url, config_.max_store_bytes);
+    redis_ = rs.get();
+    store_ = std::move(rs);
+    if (config.render_locally) {
+        NodeConfig nc = config.node;
+        nc.redis = url;
+        nc.data_dir = config_.data_dir;
+        nc.threads = config_.render_threads > 0 ? config_.render_threads : int(std::max(1u, std::thread::hardware_concurrency()));
+        nc.load_limits = config_.load_limits;
+        node_ = std::make_unique<RenderNode>(nc);
+        node_->start();
+    }
+    std::optional<Look> first;
+    try {
+        first = look();
+    } catch (const std::exception& e) {
+        spdlog::warn("events: cannot read the farm's jobs: {}", e.what());
+    }
+    watcher_ = std::thread([this, first = std::move(first)]() mutable { watch(std::move(first)); });
+}
+
+FarmQueue::~FarmQueue() { shutdown(); }
+
+void FarmQueue::shutdown() {
+    accepting_ = false;
+    {
+        std::lock_guard<std::mutex> lock(stop_mutex_);
+        stopping_ = true;
+    }
+    stop_cv_.notify_all();
+    if (watcher_.joinable()) watcher_.join();
+    events_.close();
+    // The node hands its tasks in hand back to the others.
+    if (node_) node_->stop();
+    node_.reset();
+}
+
+std::vector<std::pair<std::string, std::string>> FarmQueue::render_nodes() { return redis_->nodes(); }
+
+SceneCacheCounts FarmQueue::scene_cache_counts() const {
+    if (!node_) return {};
+    return {node_->scene_cache_hits(), node_->scene_cache_misses()};
+}
+
+void FarmQueue::release_memory() {
+    if (node_) node_->drop_idle_scenes();
+    JobQueue::release_memory();
+}
+
+std::string FarmQueue::store_unreachable() {
+    try {
+        store_->count(JobState::queued);
+    } catch (const StoreError& e) {
+        return std::string("Redis does not answer: ") + e.what();
+    }
+    return "";
+}
+
+void FarmQueue::publish_scene(const std::string& id, const std::string& scene) {
+    const auto entry = catalog_.find(scene.substr(0, scene.find('?')));
+    if (!entry)
+        throw QueueError(QueueErrorKind::not_found, "unknown-scene", "Unknown scene", "no scene named '" + scene + "'")
+            .with_field("/scene");
+    if (entry->source == "builtin") {
+        redis_->put_scene(id, SceneRef{scene, "", ""}, nullptr);
+        return;
+    }
+    const auto file = read_scene_file(entry->path);
+    if (!file)
+        throw QueueError(QueueErrorKind::unavailable, "scene-unreadable", "Scene unreadable", "cannot read scene '" + scene + "'")
+            .with_retry_after(10);
+    redis_->put_scene(id, file->ref, &file->bytes);
+}
+
+void FarmQueue::publish_environment(const std::string& id, const std::string& name) {
+    const auto entry = catalog_.find_environment(name);
+    if (!entry)
+        throw QueueError(QueueErrorKind::not_found, "unknown-environment", "Unknown environment map",
+                         "no environment map named '" + name + "'").with_field("/environment");
+    const auto file = read_scene_file(entry->path);
+    if (!file)
+        throw QueueError(QueueErrorKind::unavailable, "scene-unreadable", "Scene unreadable",
+                         "cannot read environment map '" + name + "'").with_retry_after(10);
+    redis_->put_environment(id, file->ref, file->bytes);
+}
+
+api::JobStatus FarmQueue::enqueue(const api::Job& job, JobRecord rec) {
+    try {
+        const size_t queued_now = store_->count(JobState::queued);
+        if (queued_now >= config_.max_queued)
+            throw QueueError(QueueErrorKind::queue_full, "queue-full", "The queue is full",
+                             "the queue holds " + std::to_string(queued_now) + " jobs, its limit").with_retry_after(10);
+        publish_scene(rec.id, api::scene_of(job));
+        if (const auto* rj = std::get_if<api::RenderJob>(&job); rj && !rj->environment.empty())
+            publish_environment(rec.id, rj->environment);
+        store_->insert(rec);  // durable in Redis, and its first task queued, before it is acknowledged
+        store_wrote();
+    } catch (const StoreError& e) {
+        throw refused_submission(e);
+    }
+    // The watcher publishes "created" when it sees the job.
+    queued(rec.id, job, rec.priority);
+    return status_of(rec);
+}
+
+void FarmQueue::add_live(api::JobStatus& st, const JobRecord& rec, bool) {
+    try {
+        if (rec.state == JobState::queued) {
+            // Not in the run order any more: taken meanwhile, starting.
+            const long long pos = redis_->queue_position(rec.id);
+            st.queue_position = pos >= 0 ? size_t(pos) : 0;
+        } else if (rec.state == JobState::running) {
+            if (const auto p = redis_->live_progress(rec.id))
+                st.live_progress = api::job_progress(api::job_from_json(st.settings), p->samples, p->tiles_done, p->tiles_total);
+        }
+    } catch (const std::exception&) {
+        // Progress is a courtesy (a store refusal, a record of another version): the record
+        // itself was read.
+    }
+}
+
+api::JobStatus FarmQueue::cancel(const std::string& id) {
+    status(id);  // not_found for unknown ids
+    // Queued or running alike: nodes drop its tasks, and stop a tile in hand within a row.
+    try {
+        if (store_->finish(id, JobState::canceled, unix_time_s(), "", "")) spdlog::info("job {} canceled", id);
+    } catch (const StoreError& e) {
+        throw store_refusal(e);
+    }
+    return status(id);
+}
+
+size_t FarmQueue::queue_depth() { return store_->count(JobState::queued); }
+
+FarmQueue::Look FarmQueue::look() {
+    // A look reads ids only (three sorted-set ranges) and the progress of running jobs.
+    Look now;
+    for (const std::string& id : redis_->ids(JobState::queued, 1000)) now[id] = {Seen::queued, 0};
+    for (const std::string& id : redis_->ids(JobState::running, 1000)) {
+        const auto p = redis_->live_progress(id);
+        now[id] = {Seen::running, p ? p->samples : 0};
+    }
+    // The newest jobs, whatever their state: one that came and went between two looks.
+    for (const std::string& id : redis_->ids(std::nullopt, 50)) now.emplace(id, std::pair{Seen::other, uint64_t(0)});
+    return now;
+}
+
+void FarmQueue::watch(std::optional<Look> first) {
+    // What each job looked like at the last look, kept up to date even while no one listens,
+    // so that nothing is missed in the gap while a client reconnects. Records are read for the
+    // jobs that changed, and only when someone listens. Without a first look (Redis was not
+    // there at start), the first one here is the baseline.
+    bool baseline = !first;
+    Look seen = first ? std::move(*first) : Look{};
+    for (;;) {
+        {
+            std::unique_lock<std::mutex> lock(stop_mutex_);
+            if (stop_cv_.wait_for(lock, std::chrono::milliseconds(300), [&] { return stopping_; })) return;
+        }
+        try {
+            Look now = look();
+            const bool listening = events_.subscribers() > 0;
+            std::vector<std::pair<std::string, const char*>> changes;
+            // Unfinished before, out of sight now: it finished, and 50 newer jobs came since.
+            for (const auto& [id, before] : seen)
+                if (!now.count(id) && before.first != Seen::other) changes.push_back({id, "state"});
+            if (!baseline)
+                for (const auto& [id, state] : now) {
+                    auto it = seen.find(id);
+                    if (it == seen.end()) changes.push_back({id, "created"});
+                    else if (it->second.first != state.first) changes.push_back({id, "state"});
+                    else if (state.first == Seen::running && it->second.second != state.second) changes.push_back({id, "progress"});
+                }
+            seen = std::move(now);
+            baseline = false;
+            if (!listening) continue;
+            for (const auto& [id, type] : changes) {
+                const std::optional<JobRecord> rec = store_->get(id);
+                if (!rec) continue;
+                const api::JobStatus st = status_of(*rec);
+                publish(type, st);
+                // New to us after it started: created, then the state it has reached.
+                if (std::string(type) == "created" && rec->state != JobState::queued) publish("state", st);
+            }
+        } catch (const std::exception& e) {
+            spdlog::warn("events: cannot read the farm's jobs: {}", e.what());
+        }
+    }
+}
+
+}  // namespace tessera::server

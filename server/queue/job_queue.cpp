@@ -1,0 +1,301 @@
+#include "server/queue/job_queue.h"
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <random>
+
+#include <spdlog/spdlog.h>
+
+#include "api/json_text.h"
+#include "engine/core/scene_error.h"
+#include "engine/scene/procedural.h"
+#include "server/memory_return.h"
+#include "server/store/job_results.h"
+
+namespace tessera::server {
+using api::json_text;
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::string new_id() {
+    static thread_local std::mt19937_64 rng(std::random_device{}() ^ uint64_t(unix_time_s() * 1e6));
+    static const char* hex = "0123456789abcdef";
+    std::string s(16, '0');
+    uint64_t v = rng();
+    for (auto& c : s) { c = hex[v & 15]; v >>= 4; }
+    return s;
+}
+
+bool valid_id(const std::string& id) {
+    return id.size() == 16 && id.find_first_not_of("0123456789abcdef") == std::string::npos;
+}
+
+QueueError no_such_job(const std::string& id) {
+    return QueueError(QueueErrorKind::not_found, "not-found", "No such job", "no job with id '" + id + "'");
+}
+
+// The data directory, created if need be, after a write into it: a read-only or full disk
+// stops the start with a reason that names the directory, not with SQLite's "unable to open".
+std::string writable_data_dir(const std::string& dir) {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) throw std::runtime_error("data directory " + dir + ": " + ec.message());
+    const std::string probe = (fs::path(dir) / ".write-test").string();
+    std::FILE* f = std::fopen(probe.c_str(), "w");
+    const int err = errno;
+    const bool written = f && std::fputc('x', f) != EOF && std::fflush(f) == 0;
+    const int werr = errno;
+    if (f) std::fclose(f);
+    std::remove(probe.c_str());
+    if (!f) throw std::runtime_error("data directory " + dir + " is not writable: " + std::strerror(err));
+    if (!written) throw std::runtime_error("data directory " + dir + " is not writable: " + std::strerror(werr));
+    return dir;
+}
+
+}  // namespace
+
+double unix_time_s() {
+    return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+json to_json(const JobList& list) {
+    json jobs = json::array();
+    for (const api::JobStatus& s : list.jobs) jobs.push_back(api::to_json(s));
+    return {{"jobs", jobs}, {"total", list.total}, {"offset", list.offset}, {"limit", list.limit}};
+}
+
+api::JobStatus record_status(const JobRecord& rec) {
+    api::JobStatus st;
+    st.id = rec.id;
+    st.state = rec.state;
+    st.settings = json::parse(rec.spec_json, nullptr, false);
+    st.priority = rec.priority;
+    st.created_at = rec.created_at;
+    st.started_at = rec.started_at;
+    st.finished_at = rec.finished_at;
+    st.attempts = rec.attempts;
+    st.error = rec.error;
+    if (!rec.report_json.empty()) st.summary = json::parse(rec.report_json, nullptr, false);
+    return st;
+}
+
+JobQueue::JobQueue(QueueConfig config)
+    : config_(std::move(config)),
+      catalog_(config_.project_scenes, config_.scene_dirs, (fs::path(writable_data_dir(config_.data_dir)) / "uploads").string()) {}
+
+JobQueue::~JobQueue() = default;
+
+QueueError JobQueue::shutting_down() const {
+    return QueueError(QueueErrorKind::unavailable, "shutting-down", "The server is shutting down", "no new jobs are accepted")
+        .with_retry_after(5);
+}
+
+std::string JobQueue::job_dir(const std::string& id) const { return job_results_dir(config_.data_dir, id).string(); }
+
+api::JobStatus JobQueue::submit(const json& body) {
+    if (!accepting_) throw shutting_down();
+    api::RenderJob job;
+    try {
+        job = api::parse_render_job(body, config_.job_limits);
+    } catch (const api::InvalidJob& e) {
+        throw QueueError(QueueErrorKind::invalid, "invalid-field", "Invalid job", e.what()).with_field(e.pointer());
+    }
+    check_render_job(job);
+    return accept(job);
+}
+
+api::JobStatus JobQueue::submit_comparison(const json& body) {
+    if (!accepting_) throw shutting_down();
+    api::ComparisonJob job;
+    try {
+        job = api::parse_comparison_job(body, config_.job_limits);
+    } catch (const api::InvalidJob& e) {
+        throw QueueError(QueueErrorKind::invalid, "invalid-field", "Invalid comparison", e.what()).with_field(e.pointer());
+    }
+    if (!catalog_.find(job.scene.substr(0, job.scene.find('?'))))
+        throw QueueError(QueueErrorKind::not_found, "unknown-scene", "Unknown scene", "no scene named '" + job.scene + "'")
+            .with_field("/scene");
+    return accept(job);
+}
+
+// What the job names must exist now, not when it runs: its scene (built-in names may carry
+// parameters, builtin:displaced_sphere?triangles=N), its environment map, its reference job.
+void JobQueue::check_render_job(const api::RenderJob& job) {
+    const std::string base = job.scene.substr(0, job.scene.find('?'));
+    if (!catalog_.find(base))
+        throw QueueError(QueueErrorKind::not_found, "unknown-scene", "Unknown scene",
+                         "no scene named '" + job.scene + "' (GET /v1/scenes lists them)").with_field("/scene");
+    if (base.rfind("builtin:", 0) == 0) {
+        try {
+            check_builtin_name(job.scene);
+        } catch (const SceneError& e) {
+            throw QueueError(QueueErrorKind::invalid, "invalid-field", "Invalid job", e.detail()).with_field("/scene");
+        }
+    } else if (base != job.scene) {
+        throw QueueError(QueueErrorKind::not_found, "unknown-scene", "Unknown scene", "only built-in scenes take parameters")
+            .with_field("/scene");
+    }
+    if (!job.environment.empty() && !catalog_.find_environment(job.environment))
+        throw QueueError(QueueErrorKind::not_found, "unknown-environment", "Unknown environment map",
+                         "no environment map named '" + job.environment + "' (an .exr or .hdr file in the scene folders)")
+            .with_field("/environment");
+    if (job.reference.empty()) return;
+    std::optional<JobRecord> ref;
+    try {
+        ref = store_->get(job.reference);
+    } catch (const StoreError& e) {
+        throw store_refusal(e);
+    }
+    if (!ref)
+        throw QueueError(QueueErrorKind::invalid, "invalid-field", "Invalid job", "no job " + job.reference + " to use as reference")
+            .with_field("/reference");
+    if (ref->state != JobState::succeeded)
+        throw QueueError(QueueErrorKind::conflict, "not-finished", "The reference job has not succeeded",
+                         "job " + job.reference + " is " + to_string(ref->state)).with_field("/reference");
+    // The reference's size from its typed job, as stored.
+    const api::Job stored = api::job_from_json(json::parse(ref->spec_json));
+    const auto* r = std::get_if<api::RenderJob>(&stored);
+    if (!r || r->render.width != job.render.width || r->render.height != job.render.height)
+        throw QueueError(QueueErrorKind::invalid, "invalid-field", "Invalid job",
+                         r ? "the reference is " + std::to_string(r->render.width) + "×" + std::to_string(r->render.height) +
+                                 ", the job " + std::to_string(job.render.width) + "×" + std::to_string(job.render.height)
+                           : "job " + job.reference + " is a comparison, not an image")
+            .with_field("/reference");
+}
+
+api::JobStatus JobQueue::accept(const api::Job& job) {
+    JobRecord rec;
+    rec.id = new_id();
+    rec.state = JobState::queued;
+    rec.spec_json = json_text(api::to_json(job));  // the typed job, serialized once
+    rec.priority = api::priority_of(job);
+    rec.created_at = unix_time_s();
+    return enqueue(job, std::move(rec));
+}
+
+QueueError JobQueue::refused_submission(const StoreError& e) {
+    ++metrics_.store_errors;
+    store_refused(e.what());
+    spdlog::error("job refused: {}", e.what());
+    return store_refusal(e);
+}
+
+void JobQueue::queued(const std::string& id, const api::Job& job, int priority) {
+    ++metrics_.jobs_submitted;
+    spdlog::info("job {} queued (scene {}, priority {})", id, api::scene_of(job), priority);
+}
+
+api::JobStatus JobQueue::status(const std::string& id) {
+    if (!valid_id(id)) throw no_such_job(id);
+    std::optional<JobRecord> rec;
+    try {
+        rec = store_->get(id);
+    } catch (const StoreError& e) {
+        throw store_refusal(e);
+    }
+    if (!rec) throw no_such_job(id);
+    return status_of(*rec);
+}
+
+api::JobStatus JobQueue::status_of(const JobRecord& rec, bool locked) {
+    api::JobStatus st = record_status(rec);
+    add_live(st, rec, locked);
+    return st;
+}
+
+JobList JobQueue::list(const std::string& state, size_t offset, size_t limit) {
+    std::optional<JobState> filter;
+    if (!state.empty()) {
+        JobState s;
+        if (!parse_job_state(state, s))
+            throw QueueError(QueueErrorKind::invalid, "invalid-parameter", "Invalid query parameter",
+                             "state must be queued, running, succeeded, failed or canceled").with_field("state");
+        filter = s;
+    }
+    JobList out;
+    out.offset = offset;
+    out.limit = limit;
+    try {
+        for (const JobRecord& r : store_->list(filter, offset, limit)) out.jobs.push_back(status_of(r));
+        out.total = store_->count(filter);
+    } catch (const StoreError& e) {
+        throw store_refusal(e);
+    }
+    return out;
+}
+
+void JobQueue::delete_results(const std::string& id) {
+    if (!is_final(status(id).state))
+        throw QueueError(QueueErrorKind::conflict, "not-finished", "The job is not finished", "cancel it first or wait");
+    std::error_code ec;
+    fs::remove_all(job_dir(id), ec);
+    spdlog::info("job {} results deleted", id);
+}
+
+std::string JobQueue::result_path(const std::string& id, const std::string& file) {
+    const JobState state = status(id).state;
+    if (!is_final(state))
+        throw QueueError(QueueErrorKind::conflict, "not-finished", "The job is not finished",
+                         "job " + id + " is " + to_string(state) + "; poll /v1/jobs/" + id);
+    const fs::path p = fs::path(job_dir(id)) / file;
+    if (!fs::exists(p))
+        throw QueueError(QueueErrorKind::gone, "gone", "No such result",
+                         state == JobState::succeeded ? "the results of job " + id + " were deleted"
+                                                      : "job " + id + " " + to_string(state) + " without results");
+    return p.string();
+}
+
+std::map<std::string, size_t> JobQueue::counts_by_state() {
+    std::map<std::string, size_t> m;
+    for (JobState s : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed, JobState::canceled})
+        m[to_string(s)] = store_->count(s);
+    return m;
+}
+
+void JobQueue::release_memory() { release_free_memory(); }
+
+void JobQueue::store_refused(const std::string& why) {
+    std::lock_guard<std::mutex> lock(store_health_mutex_);
+    store_refused_at_ = std::chrono::steady_clock::now();
+    store_refusal_ = why;
+}
+
+void JobQueue::store_wrote() {
+    std::lock_guard<std::mutex> lock(store_health_mutex_);
+    store_refusal_.clear();
+}
+
+std::string JobQueue::unready_reason() {
+    if (!accepting_) return "the server is shutting down";
+    if (std::string why = store_unreachable(); !why.empty()) return why;
+    std::lock_guard<std::mutex> lock(store_health_mutex_);
+    // A refused write counts for a while; then the next job tries the store again (a full disk
+    // may have been freed meanwhile), and a refusal starts the wait anew.
+    if (!store_refusal_.empty() && std::chrono::steady_clock::now() - store_refused_at_ < std::chrono::seconds(10))
+        return "the job store refused its last write (" + store_refusal_ + ")";
+    return "";
+}
+
+void JobQueue::publish(const char* type, const api::JobStatus& status, const api::PassSummary* pass) {
+    try {
+        json data = {{"job", api::to_json(status)}};
+        if (pass) data["pass"] = api::to_json(*pass);
+        events_.publish(type, status.id, json_text(data));
+    } catch (const std::exception& e) {
+        spdlog::warn("events: no {} event: {}", type, e.what());
+    }
+}
+
+void JobQueue::publish_state(const std::string& id) {
+    try {
+        publish("state", status(id));
+    } catch (const std::exception& e) {
+        spdlog::warn("job {}: no state event: {}", id, e.what());
+    }
+}
+
+}  // namespace tessera::server

@@ -1,0 +1,319 @@
+#include "server/queue/local_queue.h"
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+
+#include <spdlog/spdlog.h>
+
+#include "api/job_runner.h"
+#include "api/json_text.h"
+#include "engine/core/scene_error.h"
+#include "server/loggable.h"
+#include "server/memory_return.h"
+#include "server/store/job_results.h"
+#include "server/store/sqlite_job_store.h"
+
+namespace tessera::server {
+using api::json_text;
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+LocalQueue::LocalQueue(QueueConfig config)
+    : JobQueue(std::move(config)),
+      scenes_("", config_.scene_cache_mb << 20, config_.load_limits, config_.scene_cache_idle_s) {
+    store_ = std::make_unique<SqliteJobStore>(config_.data_dir + "/tessera.db", config_.max_store_bytes);
+    const int requeued = store_->requeue_all_running();
+    if (requeued) spdlog::warn("{} job(s) were running when the server stopped; queued again", requeued);
+    for (const JobRecord& r : store_->queued_in_order()) queue_.insert({r.priority, r.seq, r.id});
+    if (!queue_.empty()) spdlog::info("{} queued job(s) restored", queue_.size());
+    for (int i = 0; i < std::max(1, config_.concurrent_jobs); ++i) workers_.emplace_back([this] { worker(); });
+}
+
+LocalQueue::~LocalQueue() { shutdown(); }
+
+void LocalQueue::shutdown() {
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        accepting_ = false;
+        if (stopping_ && workers_.empty()) return;
+        stopping_ = true;
+        for (auto& [id, r] : running_) { r->shutdown = true; r->stop = true; }
+    }
+    cv_.notify_all();
+    pause_cv_.notify_all();
+    for (auto& w : workers_) if (w.joinable()) w.join();
+    workers_.clear();
+    events_.close();
+}
+
+api::JobStatus LocalQueue::enqueue(const api::Job& job, JobRecord rec) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (queue_.size() >= config_.max_queued)
+        throw QueueError(QueueErrorKind::queue_full, "queue-full", "The queue is full",
+                         "the queue holds " + std::to_string(queue_.size()) + " jobs, its limit").with_retry_after(10);
+    try {
+        store_->insert(rec);  // durable before it is acknowledged
+        store_wrote();
+    } catch (const StoreError& e) {
+        throw refused_submission(e);
+    }
+    queue_.insert({rec.priority, rec.seq, rec.id});
+    // Before a worker can take it: "created" comes before its "running".
+    api::JobStatus st = status_of(rec, true);
+    publish("created", st);
+    cv_.notify_one();
+    queued(rec.id, job, rec.priority);
+    return st;
+}
+
+api::JobStatus LocalQueue::running_status(Running& r) {
+    api::JobStatus st = record_status(r.rec);
+    if (r.job) st.live_progress = api::job_progress(*r.job, r.samples.load(), r.tiles_done.load(), r.tiles_total.load());
+    std::lock_guard<std::mutex> pass_lock(r.pass_mutex);
+    st.latest_pass = r.pass;
+    return st;
+}
+
+void LocalQueue::add_live(api::JobStatus& st, const JobRecord& rec, bool locked) {
+    std::unique_lock<std::mutex> lock(mutex_, std::defer_lock);
+    if (!locked) lock.lock();
+    if (rec.state == JobState::queued) {
+        // The record was read before the lock: a job not in the queue any more was taken
+        // from its head meanwhile (it is starting), so its position is 0, never null.
+        st.queue_position = 0;
+        size_t pos = 0;
+        for (const auto& k : queue_) {
+            if (k.id == rec.id) { st.queue_position = pos; break; }
+            ++pos;
+        }
+    }
+    auto it = running_.find(rec.id);
+    if (it == running_.end()) return;
+    Running& r = *it->second;
+    if (r.job) st.live_progress = api::job_progress(*r.job, r.samples.load(), r.tiles_done.load(), r.tiles_total.load());
+    if (rec.state == JobState::running) {
+        std::lock_guard<std::mutex> pass_lock(r.pass_mutex);
+        st.latest_pass = r.pass;
+    }
+}
+
+api::JobStatus LocalQueue::cancel(const std::string& id) {
+    status(id);  // not_found for unknown ids
+    bool canceled_queued = false;
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        for (auto it = queue_.begin(); it != queue_.end(); ++it)
+            if (it->id == id) {
+                // The store first: if it refuses, the job stays queued in both.
+                try {
+                    if (store_->finish(id, JobState::canceled, unix_time_s(), "", "")) spdlog::info("job {} canceled while queued", id);
+                } catch (const StoreError& e) {
+                    throw store_refusal(e);
+                }
+                queue_.erase(it);
+                canceled_queued = true;
+                break;
+            }
+        auto r = running_.find(id);
+        if (r != running_.end()) { r->second->cancel = true; r->second->stop = true; }
+    }
+    api::JobStatus st = status(id);
+    if (canceled_queued) publish("state", st);  // a running job's ends when its worker stops it
+    return st;
+}
+
+size_t LocalQueue::queue_depth() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return queue_.size();
+}
+
+bool LocalQueue::take_next(JobRecord& rec, std::shared_ptr<Running>& running) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    for (;;) {
+        cv_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+        if (stopping_) return false;
+        const QueueKey key = *queue_.begin();
+        queue_.erase(queue_.begin());
+        try {
+            // Read, then mark: if the store refuses either, the job is still queued in it,
+            // and queued again here below. (Marked first, a failed read would leave it
+            // "running" with no worker until the next start.)
+            std::optional<JobRecord> r = store_->get(key.id);
+            if (!r) continue;
+            const double started = unix_time_s();
+            if (!store_->mark_running(key.id, started)) continue;  // canceled meanwhile
+            rec = std::move(*r);
+            rec.state = JobState::running;
+            rec.started_at = started;
+            ++rec.attempts;
+        } catch (const std::exception& e) {
+            // The store refused: the job is still queued there. Keep it queued here too and
+            // try again after a pause, rather than spin on a full or read-only store.
+            ++metrics_.store_errors;
+            spdlog::error("job {} cannot start: {}", key.id, e.what());
+            queue_.insert(key);
+            pause_cv_.wait_for(lock, std::chrono::seconds(1), [&] { return stopping_; });
+            continue;
+        }
+        running = std::make_shared<Running>();
+        running->rec = rec;
+        try {
+            running->job = api::job_from_json(json::parse(rec.spec_json));
+        } catch (const std::exception&) {
+            // run() fails the job with the reason; until then it shows no progress.
+        }
+        running_[key.id] = running;
+        return true;
+    }
+}
+
+void LocalQueue::worker() {
+    JobRecord rec;
+    std::shared_ptr<Running> running;
+    while (take_next(rec, running)) {
+        spdlog::info("job {} running (attempt {})", rec.id, rec.attempts);
+        publish("state", running_status(*running));
+        try {
+            run(rec, *running);
+        } catch (const std::exception& e) {
+            spdlog::error("job {}: {}", rec.id, loggable(e.what(), 2000));  // run() records every outcome; this only keeps the worker alive
+        } catch (...) {
+            spdlog::error("job {}: unknown exception", rec.id);
+        }
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            running_.erase(rec.id);
+        }
+        publish_state(rec.id);  // finished, failed, canceled, or queued again by a shutdown
+        running.reset();
+        release_free_memory();  // the job's film, images and a scene the cache did not keep
+    }
+}
+
+void LocalQueue::release_memory() {
+    scenes_.drop_idle();
+    JobQueue::release_memory();
+}
+
+bool LocalQueue::until_stored(const std::string& id, const char* what, const std::function<void()>& change) {
+    for (int attempt = 0;; ++attempt) {
+        try {
+            change();
+            if (attempt) spdlog::info("job {}: the store took '{}' after {} retries", id, what, attempt);
+            store_wrote();
+            return true;
+        } catch (const std::exception& e) {
+            ++metrics_.store_errors;
+            // Readiness follows the store's own refusals, not any error of the change.
+            if (dynamic_cast<const StoreError*>(&e)) store_refused(e.what());
+            if (attempt == 0) spdlog::error("job {}: cannot record '{}': {}; retrying", id, what, e.what());
+        }
+        std::unique_lock<std::mutex> lock(mutex_);
+        const auto pause = std::chrono::milliseconds(std::min(5000, 100 << std::min(attempt, 6)));
+        if (pause_cv_.wait_for(lock, pause, [&] { return stopping_; })) {
+            spdlog::warn("job {}: '{}' not recorded before shutdown; the job runs again after a restart", id, what);
+            return false;
+        }
+    }
+}
+
+std::string LocalQueue::scene_source(const std::string& scene) {
+    auto entry = catalog_.find(scene.substr(0, scene.find('?')));
+    if (!entry) throw std::runtime_error("scene '" + scene + "' is no longer in the catalog");
+    return entry->source == "builtin" ? scene : entry->path;
+}
+
+void LocalQueue::run(const JobRecord& rec, Running& running) {
+    std::string error;
+    api::JobOutcome outcome;
+    try {
+        const api::Job job = api::job_from_json(json::parse(rec.spec_json));
+        api::RunOptions opt;
+        opt.scene_source = scene_source(api::scene_of(job));
+        opt.load_limits = config_.load_limits;
+        opt.threads = config_.render_threads;
+        opt.job_id = rec.id;
+        opt.prepare = [this](const std::string& source, const RenderSceneOptions& options) { return scenes_.get_local(source, options); };
+        if (const auto* r = std::get_if<api::RenderJob>(&job)) {
+            running.max_spp = r->render.spp;
+            if (!r->reference.empty()) opt.reference_image = job_image_exr(config_.data_dir, r->reference).string();
+            if (!r->environment.empty()) {
+                const auto env = catalog_.find_environment(r->environment);
+                if (!env) throw std::runtime_error("environment map '" + r->environment + "' is no longer in the scene folders");
+                opt.environment_file = env->path;
+            }
+        }
+        const std::string dir = job_dir(rec.id);
+        fs::create_directories(dir);
+        api::RunCallbacks cb;
+        cb.stop = &running.stop;
+        cb.progress = [&](const RenderProgress& p) {
+            running.tiles_done = p.tiles_done;
+            running.tiles_total = p.tiles_total;
+            running.samples = p.samples_done;
+            // At most four progress events a second: one render thread claims each slot.
+            const int64_t now = std::chrono::steady_clock::now().time_since_epoch().count();
+            int64_t last = running.progress_event_ns.load();
+            if (now - last >= 250'000'000 && running.progress_event_ns.compare_exchange_strong(last, now))
+                publish("progress", running_status(running));
+        };
+        cb.pass = [&](const api::PassSnapshot& snap) {
+            api::PassSummary ps{snap.index, snap.spp, snap.point.spp_mean, snap.point.seconds, snap.point.est_rel_mse,
+                                snap.point.rel_mse};
+            {
+                std::lock_guard<std::mutex> lock(running.pass_mutex);
+                running.pass = ps;
+                running.pass_image = snap.image;
+            }
+            publish("pass", running_status(running), &ps);
+        };
+        outcome = api::run_job(job, opt, api::RunOutputs::in_directory(dir), cb);
+    } catch (const SceneError& e) {
+        error = std::string("scene: ") + e.what();
+    } catch (const std::exception& e) {
+        error = e.what();
+    }
+    {
+        // From here the job's state becomes final: its images are its results, not a pass.
+        std::lock_guard<std::mutex> lock(running.pass_mutex);
+        running.pass.reset();
+        running.pass_image.reset();
+    }
+    if (error.empty() && outcome.stopped) {
+        if (running.shutdown) {
+            if (until_stored(rec.id, "queued again", [&] { store_->requeue(rec.id); }))
+                spdlog::warn("job {} interrupted by shutdown; queued again", rec.id);
+        } else if (until_stored(rec.id, "canceled", [&] { store_->finish(rec.id, JobState::canceled, unix_time_s(), "", ""); })) {
+            spdlog::info("job {} canceled while running", rec.id);
+        }
+        return;
+    }
+    if (!error.empty()) {
+        if (until_stored(rec.id, "failed", [&] { store_->finish(rec.id, JobState::failed, unix_time_s(), error, ""); }))
+            spdlog::error("job {} failed: {}", rec.id, loggable(error, 2000));
+        return;
+    }
+    if (outcome.render) {
+        metrics_.rays += outcome.render->stats.rays();
+        metrics_.render_micros += uint64_t(outcome.render->stats.render_seconds * 1e6);
+    }
+    const std::string summary = json_text(outcome.summary);
+    if (until_stored(rec.id, "succeeded", [&] { store_->finish(rec.id, JobState::succeeded, unix_time_s(), "", summary); }))
+        spdlog::info("job {} succeeded in {:.3f} s", rec.id, outcome.render ? outcome.render->timings.total_s : 0.0);
+}
+
+std::optional<LivePass> LocalQueue::live_pass(const std::string& id) {
+    std::shared_ptr<Running> r;
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        auto it = running_.find(id);
+        if (it == running_.end()) return std::nullopt;
+        r = it->second;
+    }
+    std::lock_guard<std::mutex> lock(r->pass_mutex);
+    if (!r->pass || !r->pass_image) return std::nullopt;
+    return LivePass{*r->pass, r->pass_image, r->max_spp};
+}
+
+}  // namespace tessera::server

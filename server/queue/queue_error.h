@@ -1,0 +1,49 @@
+#pragma once
+// Why the queue refused a request, as a typed value: what went wrong (the kind), a stable code
+// and a sentence for people. The HTTP layer alone turns it into a status and a problem+json body
+// (server/http/problem.h); the queue knows no status codes.
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "server/store/job_store.h"
+
+namespace tessera::server {
+
+enum class QueueErrorKind {
+    invalid,      // the request itself is wrong (a field, a parameter, an upload's name)
+    not_found,    // no such job, scene or environment map
+    conflict,     // the job is not in a state that allows it (not finished yet)
+    gone,         // its results were there and are not any more
+    broken_file,  // an uploaded scene file that does not load
+    queue_full,   // too many queued jobs: retry later
+    store_full,   // the store or the disk is full: retry when space is freed
+    unavailable,  // shutting down, or a store or file that cannot be read now: retry later
+};
+
+struct QueueError : std::runtime_error {
+    QueueErrorKind kind;
+    std::string code;   // stable, for programs: "unknown-scene", "queue-full", ...
+    std::string title;  // the kind of problem in a few words, for people
+    std::optional<std::string> field;  // JSON pointer (or query parameter) at fault, if any
+    std::string location;              // a scene file's position, if any
+    int retry_after_s = 0;             // when a retry may succeed (queue_full, store_full, unavailable)
+
+    QueueError(QueueErrorKind kind_, std::string code_, std::string title_, const std::string& detail)
+        : std::runtime_error(detail), kind(kind_), code(std::move(code_)), title(std::move(title_)) {}
+    QueueError& with_field(std::string f) { field = std::move(f); return *this; }
+    QueueError& with_location(std::string l) { location = std::move(l); return *this; }
+    QueueError& with_retry_after(int s) { retry_after_s = s; return *this; }
+};
+
+// The store's refusal as the queue reports it: full (a disk, or the size bound) or unavailable.
+inline QueueError store_refusal(const StoreError& e) {
+    if (e.full)
+        return QueueError(QueueErrorKind::store_full, "insufficient-storage", "The job store is full",
+                          std::string("no space left (") + e.what() + "); retry when space is freed")
+            .with_retry_after(30);
+    return QueueError(QueueErrorKind::unavailable, "store-unavailable", "The job store is unavailable", e.what())
+        .with_retry_after(10);
+}
+
+}  // namespace tessera::server
