@@ -8,6 +8,9 @@ shift || true
 targets=()
 [ $# -gt 0 ] && targets=(--target "$@")
 jobs="${TESSERA_BUILD_JOBS:-$(nproc)}"
+# ccache (where installed) names paths relative to the clone, so a clone elsewhere (CI's) finds
+# what this one compiled; the sanitizer build's debug info then names the first clone's folder.
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$PWD}" CCACHE_NOHASHDIR="${CCACHE_NOHASHDIR:-1}"
 # TESSERA_NATIVE=OFF builds for any x86-64 (the container image); the default tunes for this CPU.
 # The asan preset builds with clang (its objects serve the fuzzers too): a build/asan made with
 # GCC before is configured afresh.

@@ -8,8 +8,9 @@ build_only=0
 [ "${1:-}" = "--build" ] && build_only=1
 
 packages=(
-  # toolchain
-  build-essential cmake git pkg-config ninja-build
+  # toolchain; ccache: a clean clone or the image's build stage compiles only the sources that
+  # changed since a build of this machine (CMakeLists.txt uses it where it is installed)
+  build-essential cmake git pkg-config ninja-build ccache
   # the design card; libstb-dev: the stb_image that tinygltf is written for, which decodes glTF's
   # PNG and JPEG textures in memory (engine/io/texture_decode.cpp)
   libcpp-httplib-dev nlohmann-json3-dev libglm-dev libtinygltf-dev libstb-dev

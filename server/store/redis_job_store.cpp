@@ -6,6 +6,7 @@
 
 #include "server/store/cluster_keys.h"
 #include "server/store/cluster_lua.h"
+#include "server/store/job_hash.h"
 
 namespace tessera::server {
 
@@ -13,21 +14,24 @@ namespace {
 
 constexpr size_t kMaxListLimit = 1000;
 
-const RedisScript kInsert{R"lua(
+// Fields by name from job_hash.h; the record's own checks and its queueing here.
+const RedisScript kInsert{job_hash_lua_prologue() + R"lua(
 -- KEYS: job, seq, all jobs, prefix of per-state sets, queue, priorities, task stream
--- ARGV: id, spec, priority, created_at, state, started_at, finished_at, error, report, attempts
-if redis.call('EXISTS', KEYS[1]) == 1 then return redis.error_reply('UNIQUE constraint: job id ' .. ARGV[1] .. ' exists') end
+if redis.call('EXISTS', KEYS[1]) == 1 then return redis.error_reply('UNIQUE constraint: job id ' .. job.id .. ' exists') end
 local seq = redis.call('INCR', KEYS[2])
-redis.call('HSET', KEYS[1], 'id', ARGV[1], 'state', ARGV[5], 'spec', ARGV[2], 'priority', ARGV[3], 'seq', seq,
-           'created_at', ARGV[4], 'started_at', ARGV[6], 'finished_at', ARGV[7], 'error', ARGV[8], 'report', ARGV[9],
-           'attempts', ARGV[10])
-redis.call('ZADD', KEYS[3], seq, ARGV[1])
-redis.call('ZADD', KEYS[4] .. ARGV[5], seq, ARGV[1])
-if ARGV[5] == 'queued' then
-  redis.call('ZADD', KEYS[5], string.format('%.0f', (1000 - tonumber(ARGV[3])) * 1e12 + seq), ARGV[1])
-  redis.call('ZADD', KEYS[6], ARGV[3], ARGV[3])
+local hash = {'seq', seq}
+for _, name in ipairs(job_fields) do
+  hash[#hash + 1] = name
+  hash[#hash + 1] = job[name]
+end
+redis.call('HSET', KEYS[1], unpack(hash))
+redis.call('ZADD', KEYS[3], seq, job.id)
+redis.call('ZADD', KEYS[4] .. job.state, seq, job.id)
+if job.state == 'queued' then
+  redis.call('ZADD', KEYS[5], string.format('%.0f', (1000 - tonumber(job.priority)) * 1e12 + seq), job.id)
+  redis.call('ZADD', KEYS[6], job.priority, job.priority)
   redis.pcall('XGROUP', 'CREATE', KEYS[7], 'nodes', '0', 'MKSTREAM')
-  redis.call('XADD', KEYS[7], '*', 'job', ARGV[1], 'kind', 'start', 'pass', '0', 'tile', '0')
+  redis.call('XADD', KEYS[7], '*', 'job', job.id, 'kind', 'start', 'pass', '0', 'tile', '0')
 end
 return seq
 )lua"};
@@ -50,24 +54,6 @@ std::string num(double v) {
     char buf[40];
     std::snprintf(buf, sizeof buf, "%.17g", v);
     return buf;
-}
-
-JobRecord from_hash(const RedisValue& v) {
-    std::map<std::string, std::string> f;
-    for (size_t i = 0; i + 1 < v.items.size(); i += 2) f[v.items[i].text] = v.items[i + 1].text;
-    JobRecord r;
-    r.id = f["id"];
-    if (!parse_job_state(f["state"], r.state)) throw StoreError("job store: job " + r.id + " has a bad state '" + f["state"] + "'", false);
-    r.spec_json = f["spec"];
-    r.priority = std::atoi(f["priority"].c_str());
-    r.seq = std::atoll(f["seq"].c_str());
-    r.created_at = std::atof(f["created_at"].c_str());
-    r.started_at = std::atof(f["started_at"].c_str());
-    r.finished_at = std::atof(f["finished_at"].c_str());
-    r.error = f["error"];
-    r.report_json = f["report"];
-    r.attempts = std::atoi(f["attempts"].c_str());
-    return r;
 }
 
 }  // namespace
@@ -103,13 +89,10 @@ void RedisJobStore::insert(JobRecord& rec) {
                 throw StoreError("job store: insert: Redis holds " + std::to_string(used) + " bytes, the bound is " +
                                      std::to_string(max_bytes_), true);
         }
-        const std::string priority = std::to_string(rec.priority);
         const RedisValue seq = redis_.eval(kInsert,
                                            {keys::job(rec.id), keys::seq, keys::all_jobs, keys::jobs_in(""), keys::queue,
                                             keys::priorities, keys::tasks(rec.priority)},
-                                           {rec.id, rec.spec_json, priority, num(rec.created_at), to_string(rec.state),
-                                            num(rec.started_at), num(rec.finished_at), rec.error, rec.report_json,
-                                            std::to_string(rec.attempts)});
+                                           job_hash_arguments(rec));
         rec.seq = seq.as_int();
         return 0;
     });
@@ -119,7 +102,7 @@ std::optional<JobRecord> RedisJobStore::get(const std::string& id) const {
     return locked("get", [&]() -> std::optional<JobRecord> {
         const RedisValue v = redis_.command({"HGETALL", keys::job(id)});
         if (v.items.empty()) return std::nullopt;
-        return from_hash(v);
+        return job_from_hash(v);
     });
 }
 
@@ -129,7 +112,7 @@ std::vector<JobRecord> RedisJobStore::records(const std::vector<std::string>& id
     std::vector<JobRecord> out;
     if (cmds.empty()) return out;
     for (const RedisValue& v : redis_.pipeline(cmds))
-        if (!v.items.empty()) out.push_back(from_hash(v));  // removed meanwhile: skipped
+        if (!v.items.empty()) out.push_back(job_from_hash(v));  // removed meanwhile: skipped
     return out;
 }
 
