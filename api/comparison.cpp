@@ -33,17 +33,20 @@ std::vector<ComparisonConfig> standard_configs(const RenderSettings& base) {
     }
     for (int l : {1, 16, 64}) {
         ComparisonConfig c{"importance, " + std::to_string(l) + " light ray" + (l > 1 ? "s" : ""), base, {}};
+        c.settings.direct = DirectLighting::importance;
         c.settings.light_rays = l;
         configs.push_back(c);
     }
     {
         ComparisonConfig c{"importance, adaptive (batch 16, tol 0.05)", base, {}};
+        c.settings.direct = DirectLighting::importance;
         c.settings.light_rays = 4;
         c.settings.adaptive = AdaptiveSettings{16, 0.05f};
         configs.push_back(c);
     }
     for (BvhType t : {BvhType::midpoint, BvhType::median}) {
         ComparisonConfig c{std::string("importance, BVH ") + to_string(t), base, {}};
+        c.settings.direct = DirectLighting::importance;
         c.settings.light_rays = 4;
         c.scene.bvh.type = t;
         configs.push_back(c);
@@ -81,6 +84,7 @@ ComparisonResult run_comparison(const SceneDescription& desc, const std::vector<
             RenderSettings st = c.settings;
             st.width = base.width;
             st.height = base.height;
+            st.max_depth = base.max_depth;  // the reference's depth: a config measured against a deeper reference is biased
             st.spp = 1 << 20;  // the time budget ends each run
             st.seed = uint64_t(1000 + r);
             st.time_limit_s = seconds;
@@ -114,9 +118,13 @@ std::string comparison_markdown(const ComparisonResult& r, double seconds, doubl
         char tt[64];
         if (row.time_to_target > 0) std::snprintf(tt, sizeof tt, "%.3f", row.time_to_target);
         else std::snprintf(tt, sizeof tt, "not reached (%d runs did)", row.reached);
-        std::snprintf(line, sizeof line, "| %s | %.4g ± %.2g | %.0f | %s | %.3g |\n", row.label.c_str(), row.rel_mse_mean,
-                      row.rel_mse_sd, row.spp, tt, row.efficiency);
-        s += line;
+        // The label (a client's text, any length) whole and apart from the numbers: a '|' or a line
+        // break in it would start a cell or a row of its own.
+        std::string label;
+        for (char c : row.label) label += c == '|' ? std::string("\\|") : c == '\n' || c == '\r' ? std::string(" ") : std::string(1, c);
+        std::snprintf(line, sizeof line, " | %.4g ± %.2g | %.0f | %s | %.3g |\n", row.rel_mse_mean, row.rel_mse_sd, row.spp, tt,
+                      row.efficiency);
+        s += "| " + label + line;
     }
     return s;
 }

@@ -109,7 +109,10 @@ void parse_fields(const json& body, std::span<const Field<Job>> table, Job& out,
         throw InvalidJob(prefix, (prefix.empty() ? std::string("the job") : prefix) + " must be a JSON object, not " +
                                      describe_type(body));
     for (const auto& [key, v] : body.items()) {
-        const std::string ptr = prefix + "/" + key;
+        // A JSON pointer (RFC 6901): '~' and '/' in a client's key are escaped, so the pointer names it.
+        std::string escaped;
+        for (char c : key) escaped += c == '~' ? std::string("~0") : c == '/' ? std::string("~1") : std::string(1, c);
+        const std::string ptr = prefix + "/" + escaped;
         const Field<Job>* field = nullptr;
         for (const Field<Job>& f : table)
             if (f.name == key) field = &f;

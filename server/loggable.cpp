@@ -6,7 +6,8 @@ namespace tessera::server {
 
 std::string loggable(std::string_view s, size_t max) {
     std::string out;
-    for (size_t i = 0; i < s.size() && out.size() < max; ++i) {
+    size_t i = 0;
+    for (; i < s.size() && out.size() < max; ++i) {
         const unsigned char c = static_cast<unsigned char>(s[i]);
         if (c >= 0x20 && c < 0x7f && c != '\\') {
             out += char(c);
@@ -16,7 +17,7 @@ std::string loggable(std::string_view s, size_t max) {
             out += buf;
         }
     }
-    if (out.size() >= max) out += "...";
+    if (i < s.size()) out += "...";  // only when something was left out
     return out;
 }
 

@@ -8,8 +8,9 @@
 namespace tessera::server {
 
 // Control characters, bytes that are not printable ASCII and backslashes written as \xNN (so
-// a path cannot forge a line, a NUL or a terminal escape, and the line stays valid UTF-8); at
-// most `max` characters, then "...".
+// a path cannot forge a line, a NUL or a terminal escape, and the line stays valid UTF-8); cut
+// after the first whole escape that reaches `max` characters (so at most max + 3), then "..." when
+// anything was left out.
 std::string loggable(std::string_view s, size_t max);
 
 }  // namespace tessera::server

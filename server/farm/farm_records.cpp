@@ -20,12 +20,6 @@ namespace tessera::server {
 
 namespace {
 
-std::string num(double v) {
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return buf;
-}
-
 // The run's own fields; the counters follow them.
 const char* const kRunFields[] = {"state", "pass", "target", "tiles_total", "tiles_done", "started_ms", "timed_out", "max_sample"};
 constexpr size_t kRunFieldCount = sizeof kRunFields / sizeof kRunFields[0];
@@ -75,8 +69,8 @@ std::vector<std::string> farm_run_start(long long target, size_t tiles, long lon
 std::vector<std::pair<std::string, std::string>> TileCommit::fields() const {
     std::vector<std::pair<std::string, std::string>> f = {
         {"job", job}, {"task", task_id}, {"group", keys::group}, {"node", node}, {"tile", std::to_string(tile)},
-        {"pass", std::to_string(pass)}, {"film", payload}, {"seconds", num(seconds)}, {"timed_out", timed_out ? "1" : "0"},
-        {"max_sample", num(stats.max_sample)}, {"sums", sums}};
+        {"pass", std::to_string(pass)}, {"film", payload}, {"seconds", redis_number(seconds)}, {"timed_out", timed_out ? "1" : "0"},
+        {"max_sample", redis_number(stats.max_sample)}, {"sums", sums}};
     for_each_counter([&](const char* name, uint64_t c) { f.emplace_back(std::string("n:") + name, std::to_string(c)); }, stats);
     return f;
 }

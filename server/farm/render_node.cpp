@@ -44,12 +44,6 @@ long long now_ms() {
     return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
-std::string num(double v) {
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return buf;
-}
-
 struct Task {
     std::string stream, id, job, kind;
     int pass = 0, tile = 0;
@@ -192,7 +186,7 @@ struct RenderNode::Impl {
     }
 
     void fail_job(Redis& r, const std::string& id, const std::string& why) {
-        if (r.eval(kTransition, {}, {keys::prefix, id, "failed", "queued,running", num(now_s()), why, ""}).as_int() == 1)
+        if (r.eval(kTransition, {}, {keys::prefix, id, "failed", "queued,running", redis_number(now_s()), why, ""}).as_int() == 1)
             spdlog::error("node {}: job {} failed: {}", name, id, why);
     }
 
@@ -362,7 +356,7 @@ struct RenderNode::Impl {
         const auto& rj = std::get<api::RenderJob>(info->job);
         cache.get(r, info->ref, rj.scene_options);  // a scene that does not load fails the job here, once
         const PassPlan& plan = info->plan;
-        std::vector<std::string> args = {keys::prefix, t.job, num(now_s())};
+        std::vector<std::string> args = {keys::prefix, t.job, redis_number(now_s())};
         for (std::string& a : farm_run_start(plan.whole_tiles ? plan.targets.back() : pass_target(info->settings, plan, 0),
                                              plan.tiles.size(), now_ms()))
             args.push_back(std::move(a));
@@ -375,7 +369,7 @@ struct RenderNode::Impl {
     void compare(Redis& r, const Task& t, const api::ComparisonJob& job, std::atomic<bool>& cancel) {
         const std::string state = r.command({"HGET", keys::job(t.job), "state"}).text;
         if (state != "running" &&
-            r.eval(kTransition, {}, {keys::prefix, t.job, "running", "queued", num(now_s()), "", ""}).as_int() != 1)
+            r.eval(kTransition, {}, {keys::prefix, t.job, "running", "queued", redis_number(now_s()), "", ""}).as_int() != 1)
             return;  // canceled meanwhile
         api::RunOptions opt;
         const auto info = job_info(r, t.job);
@@ -391,7 +385,7 @@ struct RenderNode::Impl {
         cb.stop = &cancel;
         const api::JobOutcome out = api::run_job(job, opt, api::RunOutputs::in_directory(dir.string()), cb);
         if (out.stopped) return;
-        r.eval(kTransition, {}, {keys::prefix, t.job, "succeeded", "running", num(now_s()), "", json_text(out.summary)});
+        r.eval(kTransition, {}, {keys::prefix, t.job, "succeeded", "running", redis_number(now_s()), "", json_text(out.summary)});
     }
 
     // The state of a job's run as a tile needs it (see SeenRun).
@@ -567,7 +561,7 @@ struct RenderNode::Impl {
         for (const auto& e : fs::directory_iterator(part)) fs::rename(e.path(), dir / e.path().filename());
         fs::remove_all(part);
         if (r.eval(kComplete, {keys::job(t.job), keys::curve(t.job)},
-                   {keys::prefix, t.job, std::to_string(t.pass), json_text(api::to_json(pt)), num(now_s()), json_text(out.summary)}).as_int() == 1)
+                   {keys::prefix, t.job, std::to_string(t.pass), json_text(api::to_json(pt)), redis_number(now_s()), json_text(out.summary)}).as_int() == 1)
             spdlog::info("node {}: job {} succeeded ({} passes, {:.3f} s)", name, t.job, result.curve.points.size(), seconds);
     }
 

@@ -9,12 +9,6 @@ namespace tessera::server {
 
 namespace {
 
-std::string num(double v) {
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return buf;
-}
-
 // Numbers as Redis holds them; a field that is not one is a record this build cannot read.
 template <class T>
 T number(const char* field, const std::string& s) {
@@ -38,11 +32,11 @@ const std::vector<JobHashField>& job_hash_fields() {
         {"spec", [](const JobRecord& r) { return r.spec_json; }, [](JobRecord& r, const std::string& v) { r.spec_json = v; }},
         {"priority", [](const JobRecord& r) { return std::to_string(r.priority); },
          [](JobRecord& r, const std::string& v) { r.priority = number<int>("priority", v); }},
-        {"created_at", [](const JobRecord& r) { return num(r.created_at); },
+        {"created_at", [](const JobRecord& r) { return redis_number(r.created_at); },
          [](JobRecord& r, const std::string& v) { r.created_at = number<double>("created_at", v); }},
-        {"started_at", [](const JobRecord& r) { return num(r.started_at); },
+        {"started_at", [](const JobRecord& r) { return redis_number(r.started_at); },
          [](JobRecord& r, const std::string& v) { r.started_at = number<double>("started_at", v); }},
-        {"finished_at", [](const JobRecord& r) { return num(r.finished_at); },
+        {"finished_at", [](const JobRecord& r) { return redis_number(r.finished_at); },
          [](JobRecord& r, const std::string& v) { r.finished_at = number<double>("finished_at", v); }},
         {"error", [](const JobRecord& r) { return r.error; }, [](JobRecord& r, const std::string& v) { r.error = v; }},
         {"report", [](const JobRecord& r) { return r.report_json; }, [](JobRecord& r, const std::string& v) { r.report_json = v; }},

@@ -3,12 +3,18 @@
 
 #include <hiredis/hiredis.h>
 
-
 #include <cmath>
+#include <cstdio>
 #include <mutex>
 #include <cstdlib>
 
 namespace tessera::server {
+
+std::string redis_number(double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
 
 namespace {
 
@@ -193,17 +199,19 @@ RedisValue Redis::eval(const RedisScript& script, const std::vector<std::string>
         cmd.insert(cmd.end(), args.begin(), args.end());
         return command(cmd);
     };
-    auto known = shas_.find(&script);
+    // By source, not by address: a script destroyed and another made at its address is another script.
+    auto known = shas_.find(script.source);
     if (known != shas_.end()) {
         try {
             return call("EVALSHA", known->second);
         } catch (const RedisError& e) {
             // A restarted Redis has forgotten its scripts: send the source again.
-            if (e.connection || std::string(e.what()).find("NOSCRIPT") == std::string::npos) throw;
+            // (Only Redis's own NOSCRIPT reply: a script's error that mentions it must not run it twice.)
+            if (e.connection || std::string(e.what()).rfind("redis: NOSCRIPT", 0) != 0) throw;
         }
     }
     const std::string sha = command({"SCRIPT", "LOAD", script.source}).text;
-    shas_[&script] = sha;
+    shas_[script.source] = sha;
     return call("EVALSHA", sha);
 }
 

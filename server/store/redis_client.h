@@ -46,6 +46,10 @@ struct RedisValue {
     long long as_int() const;
 };
 
+// A double as the farm's records hold it in Redis: every bit kept (%.17g), so a time or a sum read
+// back equals the one written.
+std::string redis_number(double v);
+
 // A Lua script, sent once per connection by its source and afterwards by its SHA-1.
 struct RedisScript {
     explicit RedisScript(std::string src) : source(std::move(src)) {}
@@ -72,7 +76,7 @@ private:
     RedisUrl url_;
     double timeout_s_;
     redisContext* ctx_ = nullptr;
-    std::unordered_map<const RedisScript*, std::string> shas_;  // scripts this connection has loaded
+    std::unordered_map<std::string, std::string> shas_;  // source → SHA-1 of the scripts this connection has loaded
 };
 
 }  // namespace tessera::server

@@ -50,12 +50,6 @@ for i = 1, #KEYS do redis.call('DEL', KEYS[i]) end
 return 1
 )lua"};
 
-std::string num(double v) {
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return buf;
-}
-
 }  // namespace
 
 template <class Fn>
@@ -146,7 +140,7 @@ size_t RedisJobStore::count(std::optional<JobState> state) const {
 
 bool RedisJobStore::mark_running(const std::string& id, double started_at) {
     return locked("mark running", [&] {
-        return redis_.eval(kTransition, {}, {keys::prefix, id, "running", "queued", num(started_at), "", ""}).as_int() == 1;
+        return redis_.eval(kTransition, {}, {keys::prefix, id, "running", "queued", redis_number(started_at), "", ""}).as_int() == 1;
     });
 }
 
@@ -154,7 +148,7 @@ bool RedisJobStore::finish(const std::string& id, JobState state, double finishe
                            const std::string& report_json) {
     if (!is_final(state)) throw std::invalid_argument("job store: finish: " + std::string(to_string(state)) + " is not a final state");
     return locked("finish", [&] {
-        return redis_.eval(kTransition, {}, {keys::prefix, id, to_string(state), "queued,running", num(finished_at), error, report_json})
+        return redis_.eval(kTransition, {}, {keys::prefix, id, to_string(state), "queued,running", redis_number(finished_at), error, report_json})
                    .as_int() == 1;
     });
 }
