@@ -43,9 +43,15 @@ struct PrimRef {
     glm::vec3 hi;
     uint32_t pad;
     Aabb bounds() const { return Aabb{lo, hi}; }
-    glm::vec3 centroid() const { return 0.5f * (lo + hi); }  // as Aabb::centroid
+    // Halves first: lo + hi overflows near the float range (bit for bit Aabb::centroid elsewhere,
+    // halving being exact).
+    glm::vec3 centroid() const { return 0.5f * lo + 0.5f * hi; }
 };
 static_assert(sizeof(PrimRef) == 32);
+
+// The SAH bin of a centroid's scaled offset: its whole part below nbins; 0 for NaN (a skipped
+// axis), never a float-to-int conversion out of range.
+inline int bin_of(float x, int nbins) { return x >= 1.f ? (x < float(nbins) ? int(x) : nbins - 1) : 0; }
 
 // A bin's bounds: SSE rows where available (one min and one max per primitive and axis).
 #if defined(__SSE2__)
@@ -130,7 +136,12 @@ struct Builder {
         bins.assign(size_t(nbins) * 3, Bin{});
         glm::vec3 scale;
         const glm::vec3 ext = cb.extent();
-        for (int a = 0; a < 3; ++a) scale[a] = ext[a] > 0.f ? float(nbins) * (1.f - 1e-6f) / ext[a] : 0.f;
+        // An extent too small for a finite scale (centroids within ~1e-37) or too large for a
+        // non-zero one (coordinates near the float range) is not binned: that axis is skipped.
+        for (int a = 0; a < 3; ++a) {
+            const float sa = ext[a] > 0.f ? float(nbins) * (1.f - 1e-6f) / ext[a] : 0.f;
+            scale[a] = std::isfinite(sa) && sa > 0.f && std::isfinite(ext[a]) ? sa : 0.f;
+        }
 #if defined(__SSE2__)
         // The same arithmetic as the scalar centroid and bin index, four lanes at once (the
         // fourth, id and padding, is never read).
@@ -146,17 +157,18 @@ struct Builder {
             const __m128 lo = _mm_and_ps(_mm_loadu_ps(&refs[i].lo.x), xyz), hi = _mm_and_ps(_mm_loadu_ps(&refs[i].hi.x), xyz);
             alignas(16) int k[4];
             _mm_store_si128(reinterpret_cast<__m128i*>(k),
-                            _mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(_mm_mul_ps(half, _mm_add_ps(lo, hi)), base), mul)));
-            bx[std::min(nbins - 1, k[0])].add(lo, hi);
-            by[std::min(nbins - 1, k[1])].add(lo, hi);
-            bz[std::min(nbins - 1, k[2])].add(lo, hi);
+                            _mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(_mm_add_ps(_mm_mul_ps(half, lo), _mm_mul_ps(half, hi)), base), mul)));
+            // A skipped axis (scale 0) can give 0·∞ = NaN, which converts to INT_MIN: bin 0.
+            bx[std::clamp(k[0], 0, nbins - 1)].add(lo, hi);
+            by[std::clamp(k[1], 0, nbins - 1)].add(lo, hi);
+            bz[std::clamp(k[2], 0, nbins - 1)].add(lo, hi);
         }
 #else
         for (size_t i = begin; i < end; ++i) {
             const PrimRef& r = refs[i];
             const glm::vec3 c = r.centroid();
             for (int a = 0; a < 3; ++a) {
-                Bin& bin = bins[size_t(a) * nbins + std::min(nbins - 1, int((c[a] - cb.lo[a]) * scale[a]))];
+                Bin& bin = bins[size_t(a) * nbins + bin_of((c[a] - cb.lo[a]) * scale[a], nbins)];
                 bin.b.expand(r.bounds());
                 ++bin.n;
             }
@@ -170,7 +182,7 @@ struct Builder {
         right_area.assign(nbins, 0.f);
         right_count.assign(nbins, 0);
         for (int a = 0; a < 3; ++a) {
-            if (ext[a] <= 0.f) continue;
+            if (scale[a] == 0.f) continue;
             const Bin* ab = &bins[size_t(a) * nbins];
             Aabb acc; uint32_t cnt = 0;
             for (int k = nbins - 1; k > 0; --k) {
@@ -194,7 +206,7 @@ struct Builder {
         Split split;
         split.axis = axis;
         split.mid = partition_with_bounds(begin, end, [&](const PrimRef& r) {
-            return std::min(nbins - 1, int((r.centroid()[axis] - lo) * sc)) <= best_bin;
+            return bin_of((r.centroid()[axis] - lo) * sc, nbins) <= best_bin;
         }, split);
         if (split.mid == begin || split.mid == end) {
             split.mid = median_split(begin, end, axis);

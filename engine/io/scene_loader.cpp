@@ -10,7 +10,10 @@
 namespace tessera {
 
 SceneDescription load_scene(const std::string& path, const LoadLimits& limits) {
-    if (path.rfind("builtin:", 0) == 0) return builtin_scene(path);
+    if (path.rfind("builtin:", 0) == 0) {
+        check_builtin_name(path, limits.max_triangles);  // before a triangle is made
+        return builtin_scene(path);
+    }
     std::string ext = std::filesystem::path(path).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
     const SourceLocation where{path, 0, ""};

@@ -1,5 +1,7 @@
 #include "engine/material/material.h"
 
+#include "engine/material/ggx_albedo.h"
+
 #include <algorithm>
 
 namespace tessera {
@@ -35,6 +37,9 @@ Material make_material(const MaterialDesc& d) {
             b.alpha = d.roughness * d.roughness;  // below kSmoothAlpha: a delta lobe
             b.ior = d.ior;
             b.specular = std::max(0.f, d.specular);
+            // The albedo tables are integrated here, with the scene, not in the first pixel a
+            // render shades (once per process, under a second).
+            ggx_albedo_average(1.f);
             break;
     }
     return m;

@@ -331,9 +331,17 @@ const char* const kBuiltins[] = {"builtin:cornell_box", "builtin:cornell_spheres
 
 }  // namespace
 
-void check_builtin_name(const std::string& name) {
+void check_builtin_name(const std::string& name, uint64_t max_triangles) {
     for (const char* b : kBuiltins) if (name == b) return;
-    if (displaced_sphere_triangles(name)) return;
+    if (const uint64_t asked = displaced_sphere_triangles(name)) {
+        // What it will build (8k² triangles, k = ⌈√(N/8)⌉), held to the server's bound before a
+        // triangle is made.
+        const uint64_t k = uint64_t(std::max(1, int(std::ceil(std::sqrt(double(asked) / 8.0)))));
+        if (8 * k * k > max_triangles)
+            throw SceneError(SourceLocation{name, 0, ""}, std::to_string(8 * k * k) + " triangles, over the limit of " +
+                                                              std::to_string(max_triangles));
+        return;
+    }
     throw SceneError(SourceLocation{name, 0, ""}, "unknown built-in scene (builtin:cornell_box, builtin:cornell_spheres, builtin:cornell_glossy, builtin:lamp_room, "
                                                   "builtin:furnace, builtin:many_lights, builtin:scattered_lights, builtin:lamp_field, "
                                                   "builtin:displaced_sphere?triangles=N)");

@@ -46,7 +46,8 @@ SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed = 1);
 // "builtin:displaced_sphere?triangles=N" (N ≤ 20 million). Throws SceneError for other names.
 SceneDescription builtin_scene(const std::string& name);
 // Checks a built-in name and its parameters without building the scene; throws SceneError.
-void check_builtin_name(const std::string& name);
+// Also refuses a displaced sphere of more than `max_triangles` triangles (a loader's bound).
+void check_builtin_name(const std::string& name, uint64_t max_triangles = UINT64_MAX);
 
 // A lat-long sky for the environment light (engine/scene/environment.h): a blue gradient over
 // a grey ground and a sun of angular radius 2° at 35° elevation whose radiance is 10,000 times

@@ -131,7 +131,7 @@ void JobQueue::check_render_job(const api::RenderJob& job) {
                          "no scene named '" + job.scene + "' (GET /v1/scenes lists them)").with_field("/scene");
     if (base.rfind("builtin:", 0) == 0) {
         try {
-            check_builtin_name(job.scene);
+            check_builtin_name(job.scene, config_.load_limits.max_triangles);
         } catch (const SceneError& e) {
             throw QueueError(QueueErrorKind::invalid, "invalid-field", "Invalid job", e.detail()).with_field("/scene");
         }

@@ -115,7 +115,7 @@ TEST(GltfPbr, EveryModelRendersTheSameUnderEveryStrategy) {
         SCOPED_TRACE(name);
         const RenderScene s = build_render_scene(load_scene(*dir_opt + "/" + name + ".gltf"), {});
         RenderSettings st;
-        st.width = test::kWorkScale > 1 ? 20 : 40;  // sanitizer builds: a quarter of the pixels  // sanitizer builds: a quarter of the pixels
+        st.width = test::kWorkScale > 1 ? 20 : 40;  // sanitizer builds: a quarter of the pixels
         st.height = test::kWorkScale > 1 ? 15 : 30;
         st.spp = 4;
         st.max_depth = 3;

@@ -93,5 +93,16 @@ TEST_F(JobQueueTest, ReadsOfRecordsAndResultsHaveTheirKinds) {
     EXPECT_NE(std::string(deleted.what()).find("deleted"), std::string::npos) << deleted.what();
 }
 
+// A built-in's parameters are held to the loader's bounds at submission, before a triangle is
+// made: a server started with --max-triangles is not bloated through a built-in scene.
+TEST_F(JobQueueTest, ABuiltInSceneIsHeldToTheTriangleBound) {
+    open(1000, /*max_triangles=*/100'000);
+    const QueueError e = refusal([&] { queue_->submit({{"scene", "builtin:displaced_sphere?triangles=200000"}}); });
+    EXPECT_EQ(e.kind, QueueErrorKind::invalid);
+    EXPECT_EQ(e.field.value_or(""), "/scene");
+    EXPECT_NE(std::string(e.what()).find("over the limit of 100000"), std::string::npos) << e.what();
+    EXPECT_NO_THROW(queue_->submit({{"scene", "builtin:displaced_sphere?triangles=50000"}, {"width", 8}, {"height", 8}}));
+}
+
 }  // namespace
 }  // namespace tessera::server

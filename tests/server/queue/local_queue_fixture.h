@@ -30,12 +30,13 @@ protected:
                                             ::testing::UnitTest::GetInstance()->current_test_info()->name());
         fs::remove_all(dir_);
     }
-    void open(size_t max_queued = 1000) {
+    void open(size_t max_queued = 1000, uint64_t max_triangles = LoadLimits{}.max_triangles) {
         QueueConfig cfg;
         cfg.data_dir = dir_.string();
         cfg.project_scenes = TESSERA_PROJECT_SCENES;
         cfg.render_threads = 1;
         cfg.max_queued = max_queued;
+        cfg.load_limits.max_triangles = max_triangles;
         queue_ = std::make_unique<LocalQueue>(cfg);
     }
     void TearDown() override {
