@@ -172,7 +172,7 @@ TEST(FieldParsing, TextIsAStringOfBoundedLength) {
 
 TEST(FieldParsing, JobIdsAreSixteenLowercaseHexDigitsOrNull) {
     const std::string refused = "/reference must be the id of a finished job (16 hex digits) or null";
-    for (const json bad : {json("0123456789ABCDEF"), json("0123456789abcde"), json("0123456789abcdef0"),
+    for (const json& bad : {json("0123456789ABCDEF"), json("0123456789abcde"), json("0123456789abcdef0"),
                            json("0123456789abcdeg"), json(123), json::array()}) {
         const Refusal r = render_refusal(with_scene({{"reference", bad}}));
         EXPECT_EQ(r.pointer, "/reference") << bad;
@@ -223,7 +223,7 @@ TEST(FieldParsing, AComparisonSetsSomeFieldsForAllItsConfigurations) {
 }
 
 TEST(FieldParsing, TheBodyMustBeAnObject) {
-    for (const json body : {json::array(), json("scene"), json(3), json(nullptr)}) {
+    for (const json& body : {json::array(), json("scene"), json(3), json(nullptr)}) {
         const Refusal r = render_refusal(body);
         EXPECT_EQ(r.pointer, "") << body;
         EXPECT_EQ(r.message, std::string("the job must be a JSON object, not ") + body.type_name());

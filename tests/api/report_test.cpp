@@ -273,9 +273,11 @@ void expect_documented(const json& object, const YAML::Node& schema, const std::
         const std::string type = kv.second["type"] ? kv.second["type"].as<std::string>() : "";
         EXPECT_TRUE(has_type(object[name], type)) << where << "." << name << " = " << object[name] << ", documented as " << type;
     }
-    if (only_documented)
-        for (const auto& [k, v] : object.items())
+    if (only_documented) {
+        for (const auto& [k, v] : object.items()) {
             EXPECT_TRUE(documented.count(k)) << where << "." << k << " is written but not documented";
+        }
+    }
 }
 
 // GET /v1/jobs/{id} shows the summary's parts as api/openapi.yaml describes them.
@@ -360,7 +362,7 @@ TEST(ConvergencePointJson, TimeAndSamplesAreRequired) {
             EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
         }
     }
-    for (const json bad : {json("1.5"), json(nullptr), json::array({1.5}), json(true)}) {
+    for (const json& bad : {json("1.5"), json(nullptr), json::array({1.5}), json(true)}) {
         json j = to_json(point(1, 4, 0.5, -1, -1, -1));
         j["seconds"] = bad;
         EXPECT_THROW(convergence_point_from_json(j), json::exception) << "seconds = " << bad;

@@ -189,9 +189,9 @@ TEST(SceneSummary, MatchesTheOpenApiScene) {
             continue;
         }
         const std::string type = p["type"] ? p["type"].as<std::string>() : "";
-        if (type == "integer") EXPECT_TRUE(v.is_number_integer()) << k << " = " << v;
-        if (type == "array") EXPECT_TRUE(v.is_array()) << k << " = " << v;
-        if (type == "object") EXPECT_TRUE(v.is_object() || (v.is_null() && p["nullable"] && p["nullable"].as<bool>())) << k;
+        if (type == "integer") { EXPECT_TRUE(v.is_number_integer()) << k << " = " << v; }
+        if (type == "array") { EXPECT_TRUE(v.is_array()) << k << " = " << v; }
+        if (type == "object") { EXPECT_TRUE(v.is_object() || (v.is_null() && p["nullable"] && p["nullable"].as<bool>())) << k; }
     }
     const YAML::Node bounds = props["bounds"]["required"];
     ASSERT_TRUE(bounds);

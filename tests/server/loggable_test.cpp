@@ -60,10 +60,6 @@ bool unescape(std::string_view s, std::string& out) {
     return true;
 }
 
-bool ends_with(std::string_view s, std::string_view tail) {
-    return s.size() >= tail.size() && s.substr(s.size() - tail.size()) == tail;
-}
-
 // Inputs weighted towards the bytes that matter: line breaks, NUL, ESC, backslash, DEL and
 // the pieces of multi-byte characters, among plain text.
 std::string random_input(std::mt19937& rng) {

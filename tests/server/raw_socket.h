@@ -7,8 +7,12 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdint>
+#include <functional>
 #include <string>
+#include <thread>
+#include <utility>
 
 namespace tessera::server {
 
@@ -65,5 +69,58 @@ inline int status_of(const std::string& answer) {
     if (answer.rfind("HTTP/1.1 ", 0) != 0 || answer.size() < 12) return 0;
     return std::stoi(answer.substr(9, 3));
 }
+
+// Polls `done` until it holds or `timeout_ms` pass (long enough for a loaded 2-core machine).
+inline bool eventually(const std::function<bool()>& done, int timeout_ms = 10000) {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+    while (!done()) {
+        if (std::chrono::steady_clock::now() >= until) return done();
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return true;
+}
+
+// A descriptor closed when it goes.
+struct Fd {
+    explicit Fd(int f = -1) : fd(f) {}
+    ~Fd() { reset(); }
+    Fd(Fd&& o) noexcept : fd(std::exchange(o.fd, -1)) {}
+    Fd(const Fd&) = delete;
+    Fd& operator=(const Fd&) = delete;
+    Fd& operator=(Fd&&) = delete;
+    void reset() {
+        if (fd >= 0) ::close(fd);
+        fd = -1;
+    }
+    int fd;
+};
+
+// A loopback port with a socket bound to it but not listening: a connection there is refused at
+// once, and nothing else can take the port while the socket holds it (a port merely believed
+// free could be given to another test's server meanwhile).
+class RefusingPort {
+public:
+    RefusingPort() {
+        fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
+        sockaddr_in a{};
+        a.sin_family = AF_INET;
+        a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+        a.sin_port = 0;
+        if (fd_ >= 0 && ::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0) {
+            socklen_t len = sizeof a;
+            if (::getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &len) == 0) port_ = ntohs(a.sin_port);
+        }
+    }
+    ~RefusingPort() {
+        if (fd_ >= 0) ::close(fd_);
+    }
+    RefusingPort(const RefusingPort&) = delete;
+    RefusingPort& operator=(const RefusingPort&) = delete;
+    int port() const { return port_; }
+
+private:
+    int fd_ = -1;
+    int port_ = 0;
+};
 
 }  // namespace tessera::server

@@ -42,8 +42,9 @@ TEST(Parallel, RangesTileTheItemsWhateverTheThreadCount) {
                 for (size_t i = begin; i < end; ++i) ++seen[i];
             });
             for (size_t i = 0; i < n; ++i) ASSERT_EQ(seen[i], 1) << "n " << n << " threads " << threads;
-            if (threads > 1 && n >= 2)
+            if (threads > 1 && n >= 2) {
                 for (int t = 1; t < threads; ++t) EXPECT_EQ(ranges[size_t(t - 1)].second, ranges[size_t(t)].first);
+            }
         }
     }
     EXPECT_EQ(pass_threads(10, 8), 1);

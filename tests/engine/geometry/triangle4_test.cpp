@@ -102,7 +102,7 @@ TEST(Triangle4, LanesHoldingTheOriginTriangleNeverHit) {
                 continue;
             }
             ASSERT_EQ(hit, bool(skipping.mask & (1 << l))) << "case " << i << " lane " << l;
-            if (hit) EXPECT_EQ(std::bit_cast<uint32_t>(all.t[l]), std::bit_cast<uint32_t>(skipping.t[l]));
+            if (hit) { EXPECT_EQ(std::bit_cast<uint32_t>(all.t[l]), std::bit_cast<uint32_t>(skipping.t[l])); }
         }
     }
     EXPECT_GT(skipped_hits, n / 20) << "the skipped lanes must often be hit, or the test shows nothing";

@@ -65,7 +65,7 @@ TEST(GltfPbr, EveryModelLoadsWithItsTexturesAndRenders) {
         ASSERT_TRUE(std::filesystem::exists(path));
         const SceneDescription d = load_scene(path);
         EXPECT_EQ(d.images.size(), want.images);
-        if (want.warning) EXPECT_TRUE(mentions(d.warnings, want.warning)) << "no warning '" << want.warning << "'";
+        if (want.warning) { EXPECT_TRUE(mentions(d.warnings, want.warning)) << "no warning '" << want.warning << "'"; }
         EXPECT_FALSE(mentions(d.warnings, "textures are not supported"));
         if (name == "MetalRoughSpheresNoTextures") {
             EXPECT_GT(d.triangle_count(), 1'000'000u);
@@ -164,7 +164,7 @@ TEST(GltfPbr, EveryModelRendersTheSameUnderEveryStrategy) {
                              : d == DirectLighting::hemisphere ? "hemisphere against MIS" : "MIS against MIS";
             if (null_check) std::printf("%s %s: %zu of %zu pixels past |z| 4\n", name.c_str(), what, strays, tested);
             EXPECT_LE(double(strays), 0.01 * double(tested) + 2) << what << ": " << strays << " of " << tested << " pixels past |z| 4";
-            if (tested > 0) EXPECT_LT(std::abs(diff_sum) / std::sqrt(var_sum), 5.0) << what << ": the whole image's z";
+            if (tested > 0) { EXPECT_LT(std::abs(diff_sum) / std::sqrt(var_sum), 5.0) << what << ": the whole image's z"; }
         }
     }
 }

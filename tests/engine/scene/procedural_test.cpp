@@ -313,7 +313,7 @@ TEST(ManyLights, CountsReplaceTheBigLampAndFaceDown) {
         }
         EXPECT_GE(lo, 1.f);
         EXPECT_LE(hi, 100.f);
-        if (n >= 16) EXPECT_GT(hi / lo, 10.f) << "radiance should span orders of magnitude";
+        if (n >= 16) { EXPECT_GT(hi / lo, 10.f) << "radiance should span orders of magnitude"; }
     }
 }
 

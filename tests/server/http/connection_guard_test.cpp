@@ -41,30 +41,6 @@ constexpr int kServeSafetyMs = 20000;
 const std::string kRequest = "GET /a HTTP/1.1\r\nHost: x\r\n\r\n";
 const std::string kServedBody = "served";
 
-// Polls `done` until it holds or `timeout_ms` pass.
-bool eventually(const std::function<bool()>& done, int timeout_ms = kWaitMs) {
-    const auto until = Clock::now() + std::chrono::milliseconds(timeout_ms);
-    while (!done()) {
-        if (Clock::now() >= until) return done();
-        std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return true;
-}
-
-struct Fd {
-    explicit Fd(int f = -1) : fd(f) {}
-    ~Fd() { reset(); }
-    Fd(Fd&& o) noexcept : fd(std::exchange(o.fd, -1)) {}
-    Fd(const Fd&) = delete;
-    Fd& operator=(const Fd&) = delete;
-    Fd& operator=(Fd&&) = delete;
-    void reset() {
-        if (fd >= 0) ::close(fd);
-        fd = -1;
-    }
-    int fd;
-};
-
 class Listener {
 public:
     Listener() {

@@ -45,27 +45,6 @@ constexpr double kLongTimeoutS = 10.0;
 
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-bool eventually(const std::function<bool()>& done, int timeout_ms = kWaitMs) {
-    const auto until = Clock::now() + std::chrono::milliseconds(timeout_ms);
-    while (!done()) {
-        if (Clock::now() >= until) return done();
-        std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return true;
-}
-
-struct Fd {
-    explicit Fd(int f = -1) : fd(f) {}
-    ~Fd() { reset(); }
-    Fd(const Fd&) = delete;
-    Fd& operator=(const Fd&) = delete;
-    void reset() {
-        if (fd >= 0) ::close(fd);
-        fd = -1;
-    }
-    int fd;
-};
-
 // A listening socket on 127.0.0.1 (or ::1) at a port of the kernel's choosing.
 class Listener {
 public:

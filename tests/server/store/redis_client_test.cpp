@@ -21,40 +21,13 @@
 #include <utility>
 #include <vector>
 
+#include "tests/server/raw_socket.h"
 #include "tests/server/redis_suite.h"
 
 namespace tessera::server {
 namespace {
 
 using namespace std::string_literals;
-
-// A loopback port with a socket bound to it but not listening: a connection there is refused at
-// once, and nothing else can take the port while the socket holds it (a port merely believed
-// free could be given to another test's server meanwhile).
-class RefusingPort {
-public:
-    RefusingPort() {
-        fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
-        sockaddr_in a{};
-        a.sin_family = AF_INET;
-        a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-        a.sin_port = 0;
-        if (fd_ >= 0 && ::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0) {
-            socklen_t len = sizeof a;
-            if (::getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &len) == 0) port_ = ntohs(a.sin_port);
-        }
-    }
-    ~RefusingPort() {
-        if (fd_ >= 0) ::close(fd_);
-    }
-    RefusingPort(const RefusingPort&) = delete;
-    RefusingPort& operator=(const RefusingPort&) = delete;
-    int port() const { return port_; }
-
-private:
-    int fd_ = -1;
-    int port_ = 0;
-};
 
 class RedisClientTest : public test::WithSuiteRedis<> {
 protected:
@@ -97,7 +70,7 @@ protected:
     static long long script_loads(Redis& r) {
         const std::string info = r.command({"INFO", "commandstats"}).text;
         // Redis 7 counts subcommands apart ("script|load"); older ones count SCRIPT as a whole.
-        for (const std::string name : {"cmdstat_script|load:calls="s, "cmdstat_script:calls="s}) {
+        for (const std::string& name : {"cmdstat_script|load:calls="s, "cmdstat_script:calls="s}) {
             const size_t at = info.find(name);
             if (at != std::string::npos) return std::atoll(info.c_str() + at + name.size());
         }

@@ -24,6 +24,7 @@
 #include "server/store/cluster_keys.h"
 #include "server/store/scene_ref.h"
 #include "tests/server/job_records.h"
+#include "tests/server/raw_socket.h"
 #include "tests/server/redis_suite.h"
 
 namespace tessera::server {
@@ -32,33 +33,6 @@ namespace {
 using namespace std::string_literals;
 using test::hex_id;
 using test::make_job;
-
-// A loopback port with a socket bound to it but not listening: a connection there is refused at
-// once, and nothing else can take the port while the socket holds it.
-class RefusingPort {
-public:
-    RefusingPort() {
-        fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
-        sockaddr_in a{};
-        a.sin_family = AF_INET;
-        a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-        a.sin_port = 0;
-        if (fd_ >= 0 && ::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0) {
-            socklen_t len = sizeof a;
-            if (::getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &len) == 0) port_ = ntohs(a.sin_port);
-        }
-    }
-    ~RefusingPort() {
-        if (fd_ >= 0) ::close(fd_);
-    }
-    RefusingPort(const RefusingPort&) = delete;
-    RefusingPort& operator=(const RefusingPort&) = delete;
-    int port() const { return port_; }
-
-private:
-    int fd_ = -1;
-    int port_ = 0;
-};
 
 class RedisJobStoreFarmSide : public test::WithSuiteRedis<> {
 protected:
