@@ -10,6 +10,7 @@
 //      (same image, checked bit for bit; wall time; efficiency).
 // Farm nodes here are RenderNode objects in this process, each with its own Redis connections
 // and threads, so the bench needs no orchestration; the fault tests run them as processes.
+#include "build_paths.h"
 #include <unistd.h>
 
 #include <algorithm>

@@ -1,5 +1,6 @@
 #pragma once
 // Shared by the bench subcommands.
+#include "build_paths.h"
 #include <cstdlib>
 #include <string>
 #include <vector>

@@ -1,6 +1,7 @@
 // The live updates' costs, for `tessera bench server`: how long a job's changes take to reach a
 // client of GET /v1/events, what keeping each pass's image costs a render (the same job run
 // with and without it, paired), and what a running job's image costs per request.
+#include "build_paths.h"
 #include <algorithm>
 #include <atomic>
 #include <chrono>

@@ -1,5 +1,6 @@
 // `tessera bench materials`: the energy each BSDF keeps (directional albedo of white materials,
 // against glTF's sample formula), and the CS184 material scenes rendered with their time.
+#include "build_paths.h"
 #include <algorithm>
 #include <chrono>
 #include <cmath>

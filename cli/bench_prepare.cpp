@@ -4,6 +4,7 @@
 // the same run, with the peak memory each needs; then a cache miss and hits through a real
 // in-process server. Each measurement runs in a child process of its own, so that it pays
 // for its memory as a first job does and its peak is its own.
+#include "build_paths.h"
 #include <sys/wait.h>
 #include <unistd.h>
 

@@ -2,6 +2,7 @@
 // loopback: status-poll and submit latency (p50/p99) and throughput, health-check latency under
 // slow and many clients, and the server's overhead on a small job against rendering the same
 // job directly.
+#include "build_paths.h"
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>

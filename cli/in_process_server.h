@@ -2,6 +2,7 @@
 // A fresh server in this process on a free loopback port, with its own temporary data
 // directory and the project's scenes: what the server benches drive. Stopped and removed when
 // it goes out of scope.
+#include "build_paths.h"
 #include <unistd.h>
 
 #include <filesystem>

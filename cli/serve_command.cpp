@@ -1,5 +1,6 @@
 // `tessera serve`: the HTTP render server. Every flag also reads TESSERA_<FLAG> from the
 // environment (TESSERA_PORT, TESSERA_DATA_DIR, ...); a flag given on the command line wins.
+#include "build_paths.h"
 #include <sys/resource.h>
 
 #include <cctype>

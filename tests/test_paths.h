@@ -2,6 +2,7 @@
 // Where tests find the shared scene folders: the CMake cache path, overridable by environment
 // (TESSERA_CS184_DIR, TESSERA_GLTF_SAMPLES_DIR, TESSERA_GLTF_PBR_DIR). A test that needs them skips, saying why,
 // when the folder is absent (a user's fresh clone); .ci/run insists that they are present.
+#include "build_paths.h"
 #include <cstdlib>
 #include <filesystem>
 #include <optional>

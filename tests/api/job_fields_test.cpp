@@ -1,6 +1,7 @@
 // The field tables are the one declaration of every job field; api/openapi.yaml must describe
 // the same fields with the same types, defaults, bounds and choices. This test fails on any
 // disagreement, in either direction.
+#include "build_paths.h"
 #include "api/job_fields.h"
 
 #include <gtest/gtest.h>

@@ -2,6 +2,7 @@
 // its documented place and reads back (the settings as the job, the curve's points as points),
 // the status summary is exactly the report's status part, and a convergence point survives the
 // text form a render farm keeps in Redis. job_status_test.cpp has the plain point round trip.
+#include "build_paths.h"
 #include "api/report.h"
 
 #include <gtest/gtest.h>

@@ -2,6 +2,7 @@
 // the description as loaded, on built-in scenes whose contents are known and on small scenes
 // made here for the cases they lack (textures, scenes without geometry), in the shape
 // api/openapi.yaml's Scene gives them.
+#include "build_paths.h"
 #include "api/scene_summary.h"
 
 #include <gtest/gtest.h>

@@ -2,6 +2,7 @@
 // connection loop and budgets, the router and every handler, in process. Whatever the bytes,
 // the process must go on (no crash, no exception out of a thread, no sanitizer report) and the
 // connection must end. Seeds: tests/corpus/http (whole requests, some pipelined).
+#include "build_paths.h"
 #include <netinet/in.h>
 #include <poll.h>
 #include <pthread.h>

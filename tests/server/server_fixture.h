@@ -1,6 +1,7 @@
 #pragma once
 // A real server started in-process on an ephemeral loopback port, with a temporary data
 // directory, and a client for it: the fixture of the HTTP tests.
+#include "build_paths.h"
 #include <gtest/gtest.h>
 #include <httplib.h>
 

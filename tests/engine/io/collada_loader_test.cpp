@@ -1,3 +1,4 @@
+#include "build_paths.h"
 #include "engine/io/collada_loader.h"
 
 #include <algorithm>

@@ -1,5 +1,6 @@
 // glTF loader: the Khronos samples, small inline files built here (buffers as base64 data URIs),
 // and the broken/hostile corpus in tests/corpus/gltf, each of which must raise SceneError.
+#include "build_paths.h"
 #include "engine/io/gltf_loader.h"
 
 #include <gtest/gtest.h>

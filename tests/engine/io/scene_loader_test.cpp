@@ -2,6 +2,7 @@
 // file system, a missing file or an unknown extension refused with a SceneError that names the
 // path and says why, the file-size bound of LoadLimits taken exactly at the limit and refused one
 // byte over, and the caller's limits handed on to the loader it picks.
+#include "build_paths.h"
 #include "engine/io/scene_loader.h"
 
 #include <cstdint>

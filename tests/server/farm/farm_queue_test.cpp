@@ -2,6 +2,7 @@
 // node: what a submission publishes for the nodes (the scene's and environment map's bytes under
 // their content hash, a built-in by name), the farm's own queue bound, cancel, and readiness
 // when Redis goes away. The checks it shares with one process are LocalQueue's test's.
+#include "build_paths.h"
 #include "server/farm/farm_queue.h"
 
 #include <gtest/gtest.h>

@@ -4,6 +4,7 @@
 // bit, the one the same job gives in one process (api::run_job, as `tessera render` and the
 // server's workers run it), and the counters summed over the farm's tiles must equal one
 // process's.
+#include "build_paths.h"
 #include "server/farm/render_node.h"
 
 #include <gtest/gtest.h>

@@ -1,4 +1,5 @@
 // The HTTP API against a real server started in-process on an ephemeral port.
+#include "build_paths.h"
 #include "server/http/http_api.h"
 #include "server/store/sqlite_job_store.h"
 #include "tests/server/raw_socket.h"

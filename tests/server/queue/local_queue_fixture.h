@@ -1,6 +1,7 @@
 #pragma once
 // A LocalQueue of the test's own in a temporary data directory, with the helpers the queue tests
 // share: the refusal a call throws, and waiting for a job's final state.
+#include "build_paths.h"
 #include <gtest/gtest.h>
 #include <unistd.h>
 

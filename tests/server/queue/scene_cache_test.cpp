@@ -2,6 +2,7 @@
 // (the same scene, not built again); other options, an edited file or a replaced one are
 // scenes of their own; the least recently used go when the memory bound is passed, and idle
 // ones go after their idle time, while a job still holding one keeps it alive.
+#include "build_paths.h"
 #include "server/queue/scene_cache.h"
 
 #include <gtest/gtest.h>

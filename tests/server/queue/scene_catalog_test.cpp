@@ -2,6 +2,7 @@
 // the project's folder wins a name over --scenes folders; environment maps are apart from
 // scenes; a file added later is found; uploads keep only clean names and whole, loadable
 // scenes; a scene's description is cached until its file changes.
+#include "build_paths.h"
 #include "server/queue/scene_catalog.h"
 
 #include <gtest/gtest.h>
