@@ -1,6 +1,6 @@
 #pragma once
 // Where tests find the shared scene folders: the CMake cache path, overridable by environment
-// (TESSERA_CS184_DIR, TESSERA_GLTF_SAMPLES_DIR, TESSERA_GLTF_PBR_DIR). A test that needs them skips, saying why,
+// (TESSERA_CS184_DIR, TESSERA_GLTF_SAMPLES_DIR, TESSERA_GLTF_PBR_DIR, TESSERA_GLTF_ANIM_DIR). A test that needs them skips, saying why,
 // when the folder is absent (a user's fresh clone); .ci/run insists that they are present.
 #include "build_paths.h"
 #include <cstdlib>
@@ -25,6 +25,9 @@ inline std::optional<std::string> gltf_samples_dir() {
 }
 inline std::optional<std::string> gltf_pbr_dir() {
     return shared_dir("TESSERA_GLTF_PBR_DIR", TESSERA_GLTF_PBR_DIR);
+}
+inline std::optional<std::string> gltf_anim_dir() {
+    return shared_dir("TESSERA_GLTF_ANIM_DIR", TESSERA_GLTF_ANIM_DIR);
 }
 
 // CI sets TESSERA_REQUIRE_SHARED=1: there a missing folder fails the test instead of skipping it.

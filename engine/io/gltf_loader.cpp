@@ -268,12 +268,23 @@ tinygltf::Model read_model(std::string_view bytes, bool binary, const std::strin
 
 // --- conversion -----------------------------------------------------------------------------
 
+// A node's animated values at the pose being flattened; unset ones keep the node's own.
+struct NodeState {
+    bool has_t = false, has_r = false, has_s = false, has_weights = false;
+    glm::dvec3 t{0.0}, s{1.0};
+    glm::dvec4 r{0, 0, 0, 1};  // x y z w
+    std::vector<double> weights;
+};
+
 struct Ctx {
     const tinygltf::Model& m;
     const std::string& file;
     const LoadLimits& limits;
     SceneDescription& out;
     const DecodedImages& decoded;
+    std::vector<NodeState> state{};     // per node; empty: at rest
+    std::vector<glm::dmat4> world{};    // per node, once visited
+    std::vector<size_t> skinned{};      // nodes whose meshes wait for every joint's world matrix
     std::vector<int> texture_index{};  // glTF texture -> SceneDescription::textures, -1 before use
     std::vector<int> image_index{};    // glTF image -> SceneDescription::images
     int uv_sets_above_1 = 0, missing_uv = 0;
@@ -384,6 +395,12 @@ float read_component(const AccessorView& v, size_t k, int j) {
     const unsigned char* p = v.data + k * v.stride;
     switch (v.component_type) {
         case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return p[j] / 255.f;
+        case TINYGLTF_COMPONENT_TYPE_BYTE: return std::max(static_cast<signed char>(p[j]) / 127.f, -1.f);
+        case TINYGLTF_COMPONENT_TYPE_SHORT: {
+            int16_t i;
+            std::memcpy(&i, p + 2 * j, 2);
+            return std::max(i / 32767.f, -1.f);
+        }
         case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
             uint16_t u;
             std::memcpy(&u, p + 2 * j, 2);
@@ -432,7 +449,77 @@ std::vector<Vec> read_attribute(Ctx& c, const tinygltf::Primitive& prim, const c
 
 uint64_t left(uint64_t limit, uint64_t used) { return used >= limit ? 0 : limit - used; }
 
-void emit_primitive(Ctx& c, size_t mi, size_t pi, const glm::dmat4& world) {
+// How a primitive's vertices leave their bind shape: morph weights (one per target) and a skin's
+// joint matrices (the joint's world transform times its inverse bind matrix).
+struct Deform {
+    const std::vector<double>* weights = nullptr;
+    const std::vector<glm::dmat4>* joints = nullptr;
+};
+
+// Adds each morph target's POSITION or NORMAL displacement, times its weight, to `v`.
+void apply_morph(Ctx& c, const tinygltf::Primitive& prim, const std::string& pp, const std::vector<double>& weights,
+                 const char* attribute, std::vector<glm::dvec3>& v) {
+    for (size_t k = 0; k < prim.targets.size() && k < weights.size(); ++k) {
+        if (weights[k] == 0.0) continue;
+        const auto it = prim.targets[k].find(attribute);
+        if (it == prim.targets[k].end()) continue;
+        const std::string ref = pp + "/targets/" + str(k) + "/" + attribute;
+        const AccessorView d = view_accessor(c, it->second, ref, attribute, TINYGLTF_TYPE_VEC3,
+                                             {TINYGLTF_COMPONENT_TYPE_FLOAT}, v.size(), "vertices of the primitive");
+        if (d.count != v.size())
+            fail(c, ref, std::string("morph target has ") + str(d.count) + " elements but POSITION has " + str(v.size()));
+        for (size_t i = 0; i < v.size(); ++i) {
+            const glm::dvec3 delta = read_vec3(d, i);
+            if (!finite(delta)) fail(c, "/accessors/" + std::to_string(it->second), "morph target element " + str(i) + " is not finite");
+            v[i] += weights[k] * delta;
+        }
+    }
+}
+
+// Each vertex's skinning matrix: the weighted sum of its joints' matrices over every
+// JOINTS_n/WEIGHTS_n pair; a vertex with no weight keeps the mesh node's own transform.
+std::vector<glm::dmat4> skin_matrices(Ctx& c, const tinygltf::Primitive& prim, const std::string& pp, size_t vertices,
+                                      const std::vector<glm::dmat4>& joints, const glm::dmat4& node_world) {
+    std::vector<glm::dmat4> m(vertices, glm::dmat4(0.0));
+    std::vector<double> total(vertices, 0.0);
+    constexpr auto kFloat = TINYGLTF_COMPONENT_TYPE_FLOAT, kU8 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                   kU16 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    for (int set = 0;; ++set) {
+        const std::string jn = "JOINTS_" + std::to_string(set), wn = "WEIGHTS_" + std::to_string(set);
+        const auto ji = prim.attributes.find(jn), wi = prim.attributes.find(wn);
+        if (ji == prim.attributes.end() && wi == prim.attributes.end()) break;
+        if (ji == prim.attributes.end() || wi == prim.attributes.end())
+            fail(c, pp + "/attributes", jn + " and " + wn + " must come together");
+        const AccessorView jv = view_accessor(c, ji->second, pp + "/attributes/" + jn, jn.c_str(), TINYGLTF_TYPE_VEC4,
+                                              {kU8, kU16}, vertices, "vertices of the primitive");
+        const std::vector<glm::vec4> w =
+            read_attribute<glm::vec4>(c, prim, wn.c_str(), pp, vertices, {TINYGLTF_TYPE_VEC4}, {kFloat, kU8, kU16});
+        if (jv.count != vertices) fail(c, pp + "/attributes/" + jn, jn + " has " + str(jv.count) + " elements but POSITION has " + str(vertices));
+        for (size_t v = 0; v < vertices; ++v) {
+            for (int j = 0; j < 4; ++j) {
+                const double wj = w[v][j];
+                if (wj == 0.0) continue;
+                if (wj < 0.0) fail(c, pp + "/attributes/" + wn, wn + " element " + str(v) + " is negative");
+                const unsigned char* p = jv.data + v * jv.stride;
+                uint32_t joint = p[j];
+                if (jv.component_type == kU16) {
+                    uint16_t u;
+                    std::memcpy(&u, p + 2 * j, 2);
+                    joint = u;
+                }
+                if (joint >= joints.size())
+                    fail(c, pp + "/attributes/" + jn, jn + " element " + str(v) + " names joint " + str(joint) + ", but the skin has " +
+                                                          str(joints.size()));
+                m[v] += wj * joints[joint];
+                total[v] += wj;
+            }
+        }
+    }
+    for (size_t v = 0; v < vertices; ++v) m[v] = total[v] > 0 ? m[v] * (1.0 / total[v]) : node_world;
+    return m;
+}
+
+void emit_primitive(Ctx& c, size_t mi, size_t pi, const glm::dmat4& world, const Deform& deform = {}) {
     const tinygltf::Mesh& mesh = c.m.meshes[mi];
     const tinygltf::Primitive& prim = mesh.primitives[pi];
     const std::string pp = "/meshes/" + str(mi) + "/primitives/" + str(pi);
@@ -490,23 +577,34 @@ void emit_primitive(Ctx& c, size_t mi, size_t pi, const glm::dmat4& world) {
     out.flat_normals = true;  // glTF: without NORMAL, shade with face normals
     out.origin = at(c.file, pp);
 
-    out.positions.resize(pos.count);
+    std::vector<glm::dvec3> bind(pos.count), bind_normals(nrm.count);
     for (size_t k = 0; k < pos.count; ++k) {
-        const glm::dvec3 p = read_vec3(pos, k);
-        if (!finite(p))
+        bind[k] = read_vec3(pos, k);
+        if (!finite(bind[k]))
             fail(c, "/accessors/" + std::to_string(pos_it->second),
                  "POSITION element " + str(k) + " is not finite (used by " + pp + ")");
-        out.positions[k] = glm::vec3(world * glm::dvec4(p, 1.0));
     }
+    for (size_t k = 0; k < nrm.count; ++k) {
+        bind_normals[k] = read_vec3(nrm, k);
+        if (!finite(bind_normals[k]))
+            fail(c, "/accessors/" + std::to_string(nrm_it->second),
+                 "NORMAL element " + str(k) + " is not finite (used by " + pp + ")");
+    }
+    if (deform.weights) {
+        apply_morph(c, prim, pp, *deform.weights, "POSITION", bind);
+        apply_morph(c, prim, pp, *deform.weights, "NORMAL", bind_normals);
+    }
+    // One matrix for a rigid primitive, one per vertex for a skinned one.
+    const std::vector<glm::dmat4> skin =
+        deform.joints ? skin_matrices(c, prim, pp, pos.count, *deform.joints, world) : std::vector<glm::dmat4>{};
+    auto matrix_of = [&](size_t k) -> const glm::dmat4& { return skin.empty() ? world : skin[k]; };
+    out.positions.resize(pos.count);
+    for (size_t k = 0; k < pos.count; ++k) out.positions[k] = glm::vec3(matrix_of(k) * glm::dvec4(bind[k], 1.0));
     if (nrm.count > 0) {
-        const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(world)));
+        const glm::dmat3 rigid_normal_matrix = glm::transpose(glm::inverse(glm::dmat3(world)));
         out.normals.resize(nrm.count);
         for (size_t k = 0; k < nrm.count && !out.normals.empty(); ++k) {
-            const glm::dvec3 n = read_vec3(nrm, k);
-            if (!finite(n))
-                fail(c, "/accessors/" + std::to_string(nrm_it->second),
-                     "NORMAL element " + str(k) + " is not finite (used by " + pp + ")");
-            const glm::dvec3 w = normal_matrix * n;
+            const glm::dvec3 w = (skin.empty() ? rigid_normal_matrix : glm::transpose(glm::inverse(glm::dmat3(skin[k])))) * bind_normals[k];
             const double len = glm::length(w);
             if (!(len > 1e-30) || !std::isfinite(len)) {
                 out.normals.clear();  // the renderer falls back to geometric normals
@@ -533,8 +631,9 @@ void emit_primitive(Ctx& c, size_t mi, size_t pi, const glm::dmat4& world) {
         }
         if (md->normal_tex.used()) {
             out.tangents = read_attribute<glm::vec4>(c, prim, "TANGENT", pp, pos.count, {TINYGLTF_TYPE_VEC4}, {kFloat});
-            const glm::dmat3 m3(world);
-            for (glm::vec4& t : out.tangents) {
+            for (size_t k = 0; k < out.tangents.size(); ++k) {
+                glm::vec4& t = out.tangents[k];
+                const glm::dmat3 m3(matrix_of(k));
                 const glm::dvec3 w = m3 * glm::dvec3(t.x, t.y, t.z);
                 const double len = glm::length(w);
                 // Mirroring flips the bitangent's side (the faces were re-wound above).
@@ -554,7 +653,7 @@ void emit_primitive(Ctx& c, size_t mi, size_t pi, const glm::dmat4& world) {
                                          " vertices)");
     }
     // A mirroring transform turns counter-clockwise (front) faces clockwise; swap to keep them front.
-    const bool mirrored = glm::determinant(glm::dmat3(world)) < 0;
+    const bool mirrored = glm::determinant(glm::dmat3(matrix_of(0))) < 0;
     out.indices.reserve(3 * tris);
     for (size_t t = 0; t < tris; ++t) {
         uint32_t a, b, d;
@@ -581,14 +680,23 @@ glm::dmat4 local_matrix(const Ctx& c, size_t ni) {
     check(n.rotation, 4, "rotation");
     check(n.scale, 3, "scale");
     glm::dmat4 m(1.0);
-    if (!n.matrix.empty()) {  // column-major, like glm
+    if (!n.matrix.empty()) {  // column-major, like glm; never animated (checked with the animations)
         for (int col = 0; col < 4; ++col)
             for (int row = 0; row < 4; ++row) m[col][row] = n.matrix[static_cast<size_t>(4 * col + row)];
         return m;
     }
-    if (!n.scale.empty()) m = glm::dmat4(glm::dmat3(n.scale[0], 0, 0, 0, n.scale[1], 0, 0, 0, n.scale[2]));
-    if (!n.rotation.empty()) {
-        double x = n.rotation[0], y = n.rotation[1], z = n.rotation[2], w = n.rotation[3];
+    const NodeState* st = ni < c.state.size() ? &c.state[ni] : nullptr;
+    std::optional<glm::dvec3> scale, translation;
+    std::optional<glm::dvec4> rotation;
+    if (st && st->has_s) scale = st->s;
+    else if (!n.scale.empty()) scale = glm::dvec3(n.scale[0], n.scale[1], n.scale[2]);
+    if (st && st->has_r) rotation = st->r;
+    else if (!n.rotation.empty()) rotation = glm::dvec4(n.rotation[0], n.rotation[1], n.rotation[2], n.rotation[3]);
+    if (st && st->has_t) translation = st->t;
+    else if (!n.translation.empty()) translation = glm::dvec3(n.translation[0], n.translation[1], n.translation[2]);
+    if (scale) m = glm::dmat4(glm::dmat3((*scale)[0], 0, 0, 0, (*scale)[1], 0, 0, 0, (*scale)[2]));
+    if (rotation) {
+        double x = (*rotation)[0], y = (*rotation)[1], z = (*rotation)[2], w = (*rotation)[3];
         const double len = std::sqrt(x * x + y * y + z * z + w * w);
         if (!(len > 1e-12)) fail(c, np + "/rotation", "rotation quaternion has zero length");
         x /= len, y /= len, z /= len, w /= len;
@@ -597,7 +705,7 @@ glm::dmat4 local_matrix(const Ctx& c, size_t ni) {
                            2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y));  // column 2
         m = glm::dmat4(r) * m;
     }
-    if (!n.translation.empty()) m[3] = glm::dvec4(n.translation[0], n.translation[1], n.translation[2], 1.0);
+    if (translation) m[3] = glm::dvec4(*translation, 1.0);
     return m;  // T * R * S: the translation column is untouched by R * S
 }
 
@@ -682,6 +790,69 @@ void add_light(Ctx& c, size_t ni, const glm::dmat4& world) {
     c.out.lights.push_back(d);
 }
 
+// The node's morph weights: animated, else the node's, else the mesh's defaults, else zero.
+// Empty when its mesh has no morph targets.
+std::vector<double> morph_weights(const Ctx& c, size_t ni) {
+    const tinygltf::Node& n = c.m.nodes[ni];
+    const tinygltf::Mesh& mesh = c.m.meshes[static_cast<size_t>(n.mesh)];
+    size_t targets = 0;
+    for (const auto& prim : mesh.primitives) targets = std::max(targets, prim.targets.size());
+    if (targets == 0) return {};
+    const std::string np = "/nodes/" + str(ni);
+    if (ni < c.state.size() && c.state[ni].has_weights) return c.state[ni].weights;
+    const std::vector<double>& given = !n.weights.empty() ? n.weights : mesh.weights;
+    if (given.empty()) return std::vector<double>(targets, 0.0);
+    if (given.size() != targets)
+        fail(c, !n.weights.empty() ? np + "/weights" : "/meshes/" + std::to_string(n.mesh) + "/weights",
+             "holds " + str(given.size()) + " weights for " + str(targets) + " morph targets");
+    for (double w : given)
+        if (!std::isfinite(w)) fail(c, np, "morph weights must be finite");
+    return given;
+}
+
+void emit_mesh(Ctx& c, size_t ni, const glm::dmat4& world, const std::vector<glm::dmat4>* joints) {
+    const size_t mi = static_cast<size_t>(c.m.nodes[ni].mesh);
+    const std::vector<double> weights = morph_weights(c, ni);
+    const Deform deform{weights.empty() ? nullptr : &weights, joints};
+    for (size_t pi = 0; pi < c.m.meshes[mi].primitives.size(); ++pi) emit_primitive(c, mi, pi, world, deform);
+}
+
+// A skinned mesh, once every node's world matrix is known: each joint's matrix is its world
+// transform times its inverse bind matrix (the mesh node's own transform does not apply).
+void emit_skinned(Ctx& c, size_t ni) {
+    const tinygltf::Node& n = c.m.nodes[ni];
+    const std::string np = "/nodes/" + str(ni);
+    if (n.skin < 0 || static_cast<size_t>(n.skin) >= c.m.skins.size())
+        fail(c, np + "/skin", "refers to skin " + std::to_string(n.skin) + ", but the file has " + str(c.m.skins.size()));
+    const tinygltf::Skin& skin = c.m.skins[static_cast<size_t>(n.skin)];
+    const std::string sp = "/skins/" + std::to_string(n.skin);
+    if (skin.joints.empty()) fail(c, sp + "/joints", "a skin needs at least one joint");
+    AccessorView ibm;
+    if (skin.inverseBindMatrices >= 0) {
+        ibm = view_accessor(c, skin.inverseBindMatrices, sp + "/inverseBindMatrices", "inverseBindMatrices", TINYGLTF_TYPE_MAT4,
+                            {TINYGLTF_COMPONENT_TYPE_FLOAT}, skin.joints.size(), "joints of the skin");
+        if (ibm.count != skin.joints.size())
+            fail(c, sp + "/inverseBindMatrices", "holds " + str(ibm.count) + " matrices for " + str(skin.joints.size()) + " joints");
+    }
+    std::vector<glm::dmat4> joints(skin.joints.size());
+    for (size_t j = 0; j < skin.joints.size(); ++j) {
+        const int node = skin.joints[j];
+        if (node < 0 || static_cast<size_t>(node) >= c.m.nodes.size() || !c.visited[static_cast<size_t>(node)])
+            fail(c, sp + "/joints/" + str(j), "joint node " + std::to_string(node) + " is not a node of the scene");
+        glm::dmat4 inverse_bind(1.0);
+        if (ibm.count) {
+            float f[16];
+            std::memcpy(f, ibm.data + j * ibm.stride, sizeof f);
+            for (int k = 0; k < 16; ++k) {
+                if (!std::isfinite(f[k])) fail(c, sp + "/inverseBindMatrices", "matrix " + str(j) + " is not finite");
+                inverse_bind[k / 4][k % 4] = f[k];
+            }
+        }
+        joints[j] = c.world[static_cast<size_t>(node)] * inverse_bind;
+    }
+    emit_mesh(c, ni, c.world[ni], &joints);
+}
+
 void visit(Ctx& c, int node, const glm::dmat4& parent, int depth, const std::string& ref) {
     if (node < 0 || static_cast<size_t>(node) >= c.m.nodes.size())
         fail(c, ref, "refers to node " + std::to_string(node) + ", but the file has " + str(c.m.nodes.size()));
@@ -695,11 +866,12 @@ void visit(Ctx& c, int node, const glm::dmat4& parent, int depth, const std::str
     c.on_path[ni] = c.visited[ni] = 1;
     const tinygltf::Node& n = c.m.nodes[ni];
     const glm::dmat4 world = parent * local_matrix(c, ni);
+    c.world[ni] = world;
     if (n.mesh != -1) {
         if (n.mesh < 0 || static_cast<size_t>(n.mesh) >= c.m.meshes.size())
             fail(c, np + "/mesh", "refers to mesh " + std::to_string(n.mesh) + ", but the file has " + str(c.m.meshes.size()));
-        for (size_t pi = 0; pi < c.m.meshes[static_cast<size_t>(n.mesh)].primitives.size(); ++pi)
-            emit_primitive(c, static_cast<size_t>(n.mesh), pi, world);
+        if (n.skin >= 0) c.skinned.push_back(ni);  // its joints may lie anywhere in the tree
+        else emit_mesh(c, ni, world, nullptr);
     }
     if (n.camera != -1) add_camera(c, ni, world);
     add_light(c, ni, world);
@@ -900,8 +1072,163 @@ void traverse_scene(Ctx& c) {
     }
     c.on_path.assign(c.m.nodes.size(), 0);
     c.visited.assign(c.m.nodes.size(), 0);
+    c.world.assign(c.m.nodes.size(), glm::dmat4(1.0));
     for (size_t k = 0; k < roots.size(); ++k)
         visit(c, roots[k], glm::dmat4(1.0), 1, roots_ptr + (s >= 0 ? str(k) : str(static_cast<size_t>(roots[k]))));
+    for (size_t ni : c.skinned) emit_skinned(c, ni);
+}
+
+// --- animation ------------------------------------------------------------------------------
+
+struct ReadAnimations {
+    std::vector<Animation> list;
+    std::vector<std::string> refusal;  // per animation: why it cannot be played ("" if it can)
+};
+
+size_t morph_target_count(const tinygltf::Mesh& mesh) {
+    size_t n = 0;
+    for (const auto& prim : mesh.primitives) n = std::max(n, prim.targets.size());
+    return n;
+}
+
+// Every animation's channels as plain keys, checked: a malformed channel fails the file; one
+// that animates what Tessera cannot render (KHR_animation_pointer's paths, say) makes only its
+// animation unplayable, so a still of the file still renders.
+ReadAnimations read_animations(Ctx& c) {
+    ReadAnimations r;
+    constexpr auto kFloat = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    uint64_t keys_left = c.limits.max_vertices;  // keys and values cost like vertices
+    for (size_t ai = 0; ai < c.m.animations.size(); ++ai) {
+        const tinygltf::Animation& a = c.m.animations[ai];
+        const std::string ap = "/animations/" + str(ai);
+        Animation out;
+        out.name = clip(a.name, 200);
+        std::string refusal;
+        double start = std::numeric_limits<double>::infinity(), end = -start;
+        for (size_t ci = 0; ci < a.channels.size(); ++ci) {
+            const tinygltf::AnimationChannel& ch = a.channels[ci];
+            const std::string cp = ap + "/channels/" + str(ci);
+            AnimationChannel o;
+            if (ch.target_path == "translation") o.property = AnimatedProperty::translation, o.width = 3;
+            else if (ch.target_path == "rotation") o.property = AnimatedProperty::rotation, o.width = 4;
+            else if (ch.target_path == "scale") o.property = AnimatedProperty::scale, o.width = 3;
+            else if (ch.target_path == "weights") o.property = AnimatedProperty::weights;
+            else {
+                if (refusal.empty())
+                    refusal = cp + "/target/path animates '" + clip(ch.target_path, 80) +
+                              "'; Tessera plays node translation, rotation and scale and morph weights only";
+                continue;
+            }
+            if (ch.target_node < 0 || static_cast<size_t>(ch.target_node) >= c.m.nodes.size())
+                fail(c, cp + "/target/node", "refers to node " + std::to_string(ch.target_node) + ", but the file has " + str(c.m.nodes.size()));
+            o.node = ch.target_node;
+            const tinygltf::Node& node = c.m.nodes[static_cast<size_t>(o.node)];
+            if (o.property != AnimatedProperty::weights && !node.matrix.empty())
+                fail(c, cp + "/target", "animates node " + std::to_string(o.node) + ", which has a matrix (glTF allows only TRS nodes to be animated)");
+            if (o.property == AnimatedProperty::weights) {
+                const size_t targets = node.mesh >= 0 && static_cast<size_t>(node.mesh) < c.m.meshes.size()
+                                           ? morph_target_count(c.m.meshes[static_cast<size_t>(node.mesh)])
+                                           : 0;
+                if (targets == 0) fail(c, cp + "/target", "animates the morph weights of node " + std::to_string(o.node) + ", which has no morph targets");
+                o.width = static_cast<int>(targets);
+            }
+            if (ch.sampler < 0 || static_cast<size_t>(ch.sampler) >= a.samplers.size())
+                fail(c, cp + "/sampler", "refers to sampler " + std::to_string(ch.sampler) + ", but the animation has " + str(a.samplers.size()));
+            const tinygltf::AnimationSampler& sm = a.samplers[static_cast<size_t>(ch.sampler)];
+            const std::string sp = ap + "/samplers/" + std::to_string(ch.sampler);
+            if (sm.interpolation.empty() || sm.interpolation == "LINEAR") o.interpolation = Interpolation::linear;
+            else if (sm.interpolation == "STEP") o.interpolation = Interpolation::step;
+            else if (sm.interpolation == "CUBICSPLINE") o.interpolation = Interpolation::cubic_spline;
+            else fail(c, sp + "/interpolation", "unknown interpolation '" + clip(sm.interpolation, 80) + "'");
+            const AccessorView in = view_accessor(c, sm.input, sp + "/input", "animation input", TINYGLTF_TYPE_SCALAR, {kFloat},
+                                                  keys_left, "keys left under LoadLimits::max_vertices");
+            if (in.count == 0) fail(c, sp + "/input", "an animation sampler needs at least one key");
+            o.times.resize(in.count);
+            for (size_t k = 0; k < in.count; ++k) {
+                o.times[k] = read_component(in, k, 0);
+                if (!std::isfinite(o.times[k])) fail(c, "/accessors/" + std::to_string(sm.input), "key time " + str(k) + " is not finite");
+                if (k > 0 && !(o.times[k] > o.times[k - 1]))
+                    fail(c, "/accessors/" + std::to_string(sm.input), "key times must increase strictly (key " + str(k) + ")");
+            }
+            const size_t per_key = (o.interpolation == Interpolation::cubic_spline ? 3 : 1);
+            const bool scalar = o.property == AnimatedProperty::weights;
+            const int type = scalar ? TINYGLTF_TYPE_SCALAR : o.width == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4;
+            const uint64_t elements = uint64_t(in.count) * per_key * (scalar ? uint64_t(o.width) : 1);
+            const uint64_t budget = left(keys_left, in.count);
+            const char* budget_name = "keys left under LoadLimits::max_vertices";
+            // Rotations and weights may be normalized integers; translations and scales are floats.
+            const AccessorView outv =
+                o.property == AnimatedProperty::translation || o.property == AnimatedProperty::scale
+                    ? view_accessor(c, sm.output, sp + "/output", "animation output", type, {kFloat}, budget, budget_name)
+                    : view_accessor(c, sm.output, sp + "/output", "animation output", type,
+                                    {kFloat, TINYGLTF_COMPONENT_TYPE_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                                     TINYGLTF_COMPONENT_TYPE_SHORT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
+                                    budget, budget_name);
+            if (outv.count != elements)
+                fail(c, sp + "/output", "holds " + str(outv.count) + " values; " + str(in.count) + " keys of " +
+                                            (o.interpolation == Interpolation::cubic_spline ? "CUBICSPLINE " : "") + "'" + ch.target_path +
+                                            "' need " + str(elements));
+            const int per_element = scalar ? 1 : o.width;
+            o.values.resize(outv.count * size_t(per_element));
+            for (size_t k = 0; k < outv.count; ++k)
+                for (int j = 0; j < per_element; ++j) {
+                    const float v = read_component(outv, k, j);
+                    if (!std::isfinite(v)) fail(c, "/accessors/" + std::to_string(sm.output), "value " + str(k) + " is not finite");
+                    o.values[k * size_t(per_element) + size_t(j)] = v;
+                }
+            keys_left = left(keys_left, in.count + outv.count);
+            start = std::min(start, double(o.times.front()));
+            end = std::max(end, double(o.times.back()));
+            out.channels.push_back(std::move(o));
+        }
+        out.start_s = out.channels.empty() ? 0.0 : start;
+        out.end_s = out.channels.empty() ? 0.0 : end;
+        r.list.push_back(std::move(out));
+        r.refusal.push_back(refusal);
+    }
+    return r;
+}
+
+// Which animations `name` chooses: "" every one; else the one of that name, or of that index.
+std::vector<size_t> choose_animations(const Ctx& c, const std::vector<Animation>& list, const std::string& name) {
+    std::vector<size_t> chosen;
+    if (name.empty()) {
+        for (size_t i = 0; i < list.size(); ++i) chosen.push_back(i);
+        return chosen;
+    }
+    for (size_t i = 0; i < list.size(); ++i)
+        if (list[i].name == name) return {i};
+    if (!name.empty() && name.size() < 10 && std::all_of(name.begin(), name.end(), [](char ch) { return ch >= '0' && ch <= '9'; })) {
+        const size_t i = std::stoul(name);
+        if (i < list.size()) return {i};
+    }
+    std::string names;
+    for (size_t i = 0; i < list.size() && i < 20; ++i) names += (i ? ", " : "") + (list[i].name.empty() ? "#" + str(i) : "'" + list[i].name + "'");
+    fail(c, "/animations", "no animation '" + clip(name, 80) + "': the file has " +
+                               (list.empty() ? std::string("none") : str(list.size()) + " (" + names + ")"));
+}
+
+// The node values that `pose` gives: each chosen animation's channels sampled at its time; where
+// two animate the same property, the later one in the file wins.
+std::vector<NodeState> pose_nodes(const Ctx& c, const ReadAnimations& anims, const ScenePose& pose) {
+    std::vector<NodeState> state(c.m.nodes.size());
+    if (!std::isfinite(pose.time_s)) fail(c, "", "the pose's time is not finite");
+    std::vector<float> v;
+    for (size_t ai : choose_animations(c, anims.list, pose.animation)) {
+        if (!anims.refusal[ai].empty()) fail(c, "/animations/" + str(ai), "cannot be played: " + anims.refusal[ai]);
+        for (const AnimationChannel& ch : anims.list[ai].channels) {
+            v.assign(size_t(ch.width), 0.f);
+            sample(ch, pose.time_s, v.data());
+            NodeState& s = state[size_t(ch.node)];
+            switch (ch.property) {
+                case AnimatedProperty::translation: s.has_t = true, s.t = {v[0], v[1], v[2]}; break;
+                case AnimatedProperty::scale: s.has_s = true, s.s = {v[0], v[1], v[2]}; break;
+                case AnimatedProperty::rotation: s.has_r = true, s.r = {v[0], v[1], v[2], v[3]}; break;
+                case AnimatedProperty::weights: s.has_weights = true, s.weights.assign(v.begin(), v.end()); break;
+            }
+        }
+    }
+    return state;
 }
 
 void summarise(Ctx& c) {
@@ -921,19 +1248,8 @@ void summarise(Ctx& c) {
     if (c.spots) w.push_back("spot lights are rendered as point lights for now (cone angles are ignored)");
     if (c.extra_cameras)
         w.push_back("the scene has " + str(static_cast<size_t>(c.extra_cameras) + 1) + " perspective cameras; the first is used");
-    if (!c.m.skins.empty()) w.push_back("skins are not supported: skinned geometry is rendered in its bind pose");
-    std::vector<std::string> morphed;
-    for (size_t i = 0; i < c.m.meshes.size(); ++i)
-        for (const auto& prim : c.m.meshes[i].primitives)
-            if (!prim.targets.empty()) {
-                morphed.push_back(c.m.meshes[i].name.empty() ? "mesh " + str(i) : clip(c.m.meshes[i].name, 200));
-                break;
-            }
-    if (!morphed.empty())
-        w.push_back("morph targets are not supported: '" + morphed.front() + "'" +
-                    (morphed.size() > 1 ? " and " + str(morphed.size() - 1) + " more mesh(es)" : "") +
-                    " rendered with the base shape");
-    if (!c.m.animations.empty()) w.push_back("animations are ignored: the scene is rendered at rest");
+    if (!c.m.animations.empty() && c.state.empty())
+        w.push_back("the file has " + str(c.m.animations.size()) + " animation(s); a still renders it at rest (a job's frames play them)");
     if (c.out.meshes.empty()) w.push_back("the scene has no triangle geometry");
     const bool emitter = std::any_of(c.out.meshes.begin(), c.out.meshes.end(), [&](const MeshDesc& m) {
         return m.material >= 0 && c.out.materials[static_cast<size_t>(m.material)].emits();
@@ -944,22 +1260,48 @@ void summarise(Ctx& c) {
 
 }  // namespace
 
-SceneDescription parse_gltf(std::string_view bytes, bool binary, const std::string& base_dir,
-                            const std::string& source_name, const LoadLimits& limits) {
-    SceneDescription scene;
-    scene.source = source_name;
+struct GltfDocument::Impl {
+    std::string source;
+    LoadLimits limits;
+    std::vector<std::string> read_warnings;  // tinygltf's, once
+    tinygltf::Model model;
     DecodedImages images;
-    const tinygltf::Model model = read_model(bytes, binary, base_dir, source_name, limits, scene.warnings, images);
-    Ctx c{model, source_name, limits, scene, images};
-    check_extensions(c);
-    convert_materials(c);
-    traverse_scene(c);
-    summarise(c);
-    validate(scene);
-    return scene;
+    ReadAnimations animations;
+
+    SceneDescription flatten(const ScenePose* pose) const {
+        SceneDescription scene;
+        scene.source = source;
+        scene.warnings = read_warnings;
+        Ctx c{model, source, limits, scene, images};
+        if (pose) c.state = pose_nodes(c, animations, *pose);
+        check_extensions(c);
+        convert_materials(c);
+        traverse_scene(c);
+        summarise(c);
+        for (const Animation& a : animations.list)
+            scene.animations.push_back({a.name, a.start_s, a.end_s, static_cast<int>(a.channels.size())});
+        validate(scene);
+        return scene;
+    }
+};
+
+GltfDocument::GltfDocument(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+GltfDocument::~GltfDocument() = default;
+
+std::shared_ptr<const GltfDocument> GltfDocument::parse(std::string_view bytes, bool binary, const std::string& base_dir,
+                                                        const std::string& source_name, const LoadLimits& limits) {
+    auto impl = std::make_unique<Impl>();
+    impl->source = source_name;
+    impl->limits = limits;
+    impl->model = read_model(bytes, binary, base_dir, source_name, impl->limits, impl->read_warnings, impl->images);
+    impl->images.limits = nullptr;  // only decoding read them
+    SceneDescription unused;
+    Ctx c{impl->model, impl->source, impl->limits, unused, impl->images};
+    impl->animations = read_animations(c);
+    return std::shared_ptr<const GltfDocument>(new GltfDocument(std::move(impl)));
 }
 
-SceneDescription load_gltf(const std::string& path, const LoadLimits& limits) {
+std::shared_ptr<const GltfDocument> GltfDocument::load(const std::string& path, const LoadLimits& limits) {
     std::error_code ec;
     if (!fs::is_regular_file(path, ec)) fail(path, "", "not a readable file");
     const uint64_t size = fs::file_size(path, ec);
@@ -974,7 +1316,18 @@ SceneDescription load_gltf(const std::string& path, const LoadLimits& limits) {
     const bool binary = ext == ".glb" || std::string_view(bytes).starts_with("glTF");
     fs::path dir = fs::path(path).parent_path();
     if (dir.empty()) dir = ".";
-    return parse_gltf(bytes, binary, dir.string(), path, limits);
+    return parse(bytes, binary, dir.string(), path, limits);
+}
+
+SceneDescription GltfDocument::rest() const { return impl_->flatten(nullptr); }
+SceneDescription GltfDocument::pose(const ScenePose& pose) const { return impl_->flatten(&pose); }
+const std::vector<Animation>& GltfDocument::animations() const { return impl_->animations.list; }
+
+SceneDescription load_gltf(const std::string& path, const LoadLimits& limits) { return GltfDocument::load(path, limits)->rest(); }
+
+SceneDescription parse_gltf(std::string_view bytes, bool binary, const std::string& base_dir,
+                            const std::string& source_name, const LoadLimits& limits) {
+    return GltfDocument::parse(bytes, binary, base_dir, source_name, limits)->rest();
 }
 
 }  // namespace tessera

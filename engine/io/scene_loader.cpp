@@ -9,6 +9,34 @@
 
 namespace tessera {
 
+namespace {
+
+bool is_gltf(const std::string& path) {
+    if (path.rfind("builtin:", 0) == 0) return false;
+    std::string ext = std::filesystem::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    return ext == ".gltf" || ext == ".glb";
+}
+
+}  // namespace
+
+SceneFile::SceneFile(const std::string& path, const LoadLimits& limits) {
+    if (!is_gltf(path)) {
+        still_ = load_scene(path, limits);
+        return;
+    }
+    gltf_ = GltfDocument::load(path, limits);
+    for (const Animation& a : gltf_->animations())
+        animations_.push_back({a.name, a.start_s, a.end_s, static_cast<int>(a.channels.size())});
+}
+
+SceneFile::~SceneFile() = default;
+
+SceneDescription SceneFile::at(const std::optional<ScenePose>& pose) const {
+    if (!gltf_) return *still_;
+    return pose ? gltf_->pose(*pose) : gltf_->rest();
+}
+
 SceneDescription load_scene(const std::string& path, const LoadLimits& limits) {
     if (path.rfind("builtin:", 0) == 0) {
         check_builtin_name(path, limits.max_triangles);  // before a triangle is made

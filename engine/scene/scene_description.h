@@ -102,6 +102,20 @@ struct CameraDesc {
     SourceLocation origin;
 };
 
+// A moment of an animated scene: the time, and which animations play ("" every one at once, as
+// glTF viewers play them; otherwise one animation's name, or its index in decimal).
+struct ScenePose {
+    double time_s = 0;
+    std::string animation;
+};
+
+// What a file animates, as a job's frames and the scene summary need to know it.
+struct AnimationSummary {
+    std::string name;
+    double start_s = 0, end_s = 0;  // the first and last key
+    int channels = 0;
+};
+
 struct SceneDescription {
     std::string source;                  // path or name it was loaded from
     std::vector<MaterialDesc> materials;
@@ -111,6 +125,7 @@ struct SceneDescription {
     std::vector<SphereDesc> spheres;
     std::vector<LightDesc> lights;
     std::optional<CameraDesc> camera;    // absent: a default camera frames the scene
+    std::vector<AnimationSummary> animations;  // what the file animates (posed or not)
     std::vector<std::string> warnings;   // things that were read but are not (yet) rendered as written
 
     size_t triangle_count() const {

@@ -15,83 +15,14 @@
 
 #include <unistd.h>
 
+#include "tests/engine/io/gltf_test_files.h"
 #include "tests/test_paths.h"
 
 namespace tessera {
 namespace {
 
 namespace fs = std::filesystem;
-
-// --- building inline files -------------------------------------------------------------------
-
-std::string base64(std::string_view in) {
-    static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    std::string out;
-    for (size_t i = 0; i < in.size(); i += 3) {
-        uint32_t n = static_cast<uint8_t>(in[i]) << 16;
-        if (i + 1 < in.size()) n |= static_cast<uint8_t>(in[i + 1]) << 8;
-        if (i + 2 < in.size()) n |= static_cast<uint8_t>(in[i + 2]);
-        out += k[(n >> 18) & 63];
-        out += k[(n >> 12) & 63];
-        out += i + 1 < in.size() ? k[(n >> 6) & 63] : '=';
-        out += i + 2 < in.size() ? k[n & 63] : '=';
-    }
-    return out;
-}
-
-// A binary buffer assembled piece by piece; each piece starts 4-aligned, as glTF requires.
-struct Blob {
-    std::string bytes;
-    template <class T>
-    size_t add(std::initializer_list<T> values) {
-        bytes.resize((bytes.size() + 3) / 4 * 4, '\0');
-        const size_t at = bytes.size();
-        bytes.append(reinterpret_cast<const char*>(std::data(values)), values.size() * sizeof(T));
-        return at;
-    }
-    std::string uri() const { return "data:application/octet-stream;base64," + base64(bytes); }
-};
-
-std::string replace_all(std::string s, std::initializer_list<std::pair<std::string, std::string>> subs) {
-    for (const auto& [from, to] : subs)
-        for (size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size())) s.replace(at, from.size(), to);
-    return s;
-}
-
-SceneDescription parse(const std::string& json, const LoadLimits& limits = {}) {
-    return parse_gltf(json, false, "", "inline.gltf", limits);
-}
-
-std::string glb(std::string json, const std::string& bin) {
-    json.resize((json.size() + 3) / 4 * 4, ' ');
-    std::string bin_padded = bin;
-    bin_padded.resize((bin.size() + 3) / 4 * 4, '\0');
-    auto u32 = [](uint32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
-    const uint32_t total = static_cast<uint32_t>(12 + 8 + json.size() + (bin.empty() ? 0 : 8 + bin_padded.size()));
-    std::string out = "glTF" + u32(2) + u32(total) + u32(static_cast<uint32_t>(json.size())) + u32(0x4E4F534A) + json;
-    if (!bin.empty()) out += u32(static_cast<uint32_t>(bin_padded.size())) + u32(0x004E4942) + bin_padded;
-    return out;
-}
-
-const Blob& triangle_blob() {
-    static const Blob b = [] {
-        Blob blob;
-        blob.add<float>({0, 0, 0, 1, 0, 0, 0, 1, 0});
-        return blob;
-    }();
-    return b;
-}
-
-// One triangle (0,0,0) (1,0,0) (0,1,0) in mesh 0; the caller supplies nodes, scenes and extras.
-std::string triangle_file(const std::string& nodes, const std::string& more = "",
-                          const std::string& scenes = R"([{"nodes":[0]}])", const std::string& primitive_extra = "") {
-    return replace_all(R"({"asset":{"version":"2.0"},"scenes":$SCENES,"nodes":$NODES,
-        "meshes":[{"primitives":[{"attributes":{"POSITION":0}$PRIM}]}],
-        "buffers":[{"byteLength":36,"uri":"$URI"}],"bufferViews":[{"buffer":0,"byteLength":36}],
-        "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}]$MORE})",
-                       {{"$SCENES", scenes}, {"$NODES", nodes}, {"$PRIM", primitive_extra}, {"$URI", triangle_blob().uri()},
-                        {"$MORE", more.empty() ? "" : "," + more}});
-}
+using namespace test::gltf;
 
 void expect_near(const glm::vec3& a, const glm::vec3& b, float eps = 1e-5f) {
     EXPECT_NEAR(a.x, b.x, eps);
@@ -481,12 +412,16 @@ TEST(GltfScenes, ExtensionsRequiredAndUsed) {
     EXPECT_TRUE(has_warning(s, "ignored: KHR_materials_clearcoat"));
 }
 
-TEST(GltfScenes, SkinsMorphTargetsAndAnimationsWarn) {
-    const SceneDescription s = parse(triangle_file(R"([{"mesh":0,"skin":0},{}])",
-                                                   R"("skins":[{"joints":[1]}],"animations":[])",
+// At rest a skin whose joints sit at the origin and a morph target at its default weight (0)
+// leave the bind shape as it is (the animated cases are in gltf_animation_test.cpp).
+TEST(GltfScenes, SkinsAndMorphTargetsAtRestKeepTheBindShape) {
+    const SceneDescription s = parse(triangle_file(R"([{"mesh":0,"skin":0},{}])", R"("skins":[{"joints":[1]}],"animations":[])",
                                                    R"([{"nodes":[0,1]}])", R"(,"targets":[{"POSITION":0}])"));
-    EXPECT_TRUE(has_warning(s, "skins are not supported"));
-    EXPECT_TRUE(has_warning(s, "morph targets are not supported: 'mesh 0'"));
+    ASSERT_EQ(s.meshes.size(), 1u);
+    expect_near(s.meshes[0].positions[1], {1, 0, 0});
+    expect_near(s.meshes[0].positions[2], {0, 1, 0});
+    EXPECT_FALSE(has_warning(s, "not supported"));
+    EXPECT_TRUE(s.animations.empty());
 }
 
 TEST(GltfBinary, GlbFromMemory) {
