@@ -16,7 +16,31 @@ JobLimits JobLimits::none() {
     l.max_depth = std::numeric_limits<int>::max();
     l.max_light_rays = std::numeric_limits<int>::max();
     l.max_time_limit_s = std::numeric_limits<double>::max();
+    l.max_frames = std::numeric_limits<int>::max();
     return l;
+}
+
+std::vector<int> FrameSet::frames() const {
+    if (!list.empty()) return list;
+    std::vector<int> out;
+    for (int64_t f = start; f <= end; f += step) out.push_back(int(f));
+    return out;
+}
+
+size_t FrameSet::count() const { return list.empty() ? size_t((int64_t(end) - start) / step + 1) : list.size(); }
+
+uint64_t frame_seed(uint64_t seed, int frame) {
+    // splitmix64's finaliser over the seed and the frame: neighbouring frames get unrelated seeds.
+    uint64_t z = seed + 0x9E3779B97F4A7C15ull * (uint64_t(uint32_t(frame)) + 1);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return (z ^ (z >> 31)) & 0x7FFFFFFFFFFFFFFFull;  // a job's seed field is a non-negative int64
+}
+
+RenderSettings RenderJob::frame_settings(int frame) const {
+    RenderSettings s = render;
+    s.seed = frame_seed(render.seed, frame);
+    return s;
 }
 
 RenderJob default_render_job() {
@@ -32,6 +56,11 @@ RenderJob parse_render_job(const json& body, const JobLimits& limits) {
     if (pixels > limits.max_pixels)
         throw InvalidJob("/width", "width × height = " + std::to_string(pixels) + " pixels is over the limit of " +
                                        std::to_string(limits.max_pixels));
+    if (job.frames && !job.reference.empty())
+        throw InvalidJob("/reference", "a shot cannot be measured against a reference image (a still's); leave out reference or frames");
+    if (job.frames && job.frames->count() > size_t(limits.max_frames))
+        throw InvalidJob("/frames", "a shot of " + std::to_string(job.frames->count()) + " frames is over the limit of " +
+                                        std::to_string(limits.max_frames));
     return job;
 }
 

@@ -4,6 +4,7 @@
 // command-line names); parsing, serialization, the CLI's flags and the check against
 // api/openapi.yaml all read those tables.
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <variant>
@@ -35,11 +36,25 @@ struct JobLimits {
     int max_depth = 1000;
     int max_light_rays = 1024;
     double max_time_limit_s = 7 * 24 * 3600.0;
+    int max_frames = 100'000;          // frames in one shot
     // No limits: how a stored job, already checked when it was accepted, is read back.
     static JobLimits none();
 };
 
-// One image: the scene, how to render it, and its place in the queue.
+// The frames of the scene's animation a shot renders: a range (start to end, every step-th) or
+// a list. Frame n shows the scene at time n / fps seconds, as Blender's exporter times keys.
+struct FrameSet {
+    int start = 1, end = 1, step = 1;  // used when `list` is empty
+    std::vector<int> list;
+    std::vector<int> frames() const;
+    size_t count() const;
+};
+
+// The seed frame `frame` renders with: the job's seed mixed with the frame number, so that a
+// frame's noise is not the next frame's and a frame renders the same wherever it is rendered.
+uint64_t frame_seed(uint64_t seed, int frame);
+
+// One image, or a shot: the scene, how to render it, and its place in the queue.
 struct RenderJob {
     std::string scene;
     RenderSettings render;             // engine settings; `threads` is the runner's, not the job's
@@ -49,6 +64,13 @@ struct RenderJob {
     // An environment map (lat-long EXR or HDR) lighting the scene from infinity: a file path
     // (CLI) or a name from the server's catalog folders; empty: none.
     std::string environment;
+    // A shot: the frames to render (absent: a still of the scene at rest), at `fps` frames a
+    // second, playing `animation` (a name or an index; empty: every animation at once).
+    std::optional<FrameSet> frames;
+    double fps = 24;
+    std::string animation;
+    // A shot's frame as the engine renders it: the job with that frame's seed.
+    RenderSettings frame_settings(int frame) const;
 };
 
 // One configuration of a comparison: a label and the render fields it sets (the rest are the

@@ -1,5 +1,6 @@
 #include "api/job_fields.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -183,6 +184,70 @@ json get_adaptive(const RenderJob& j) {
     return j.render.adaptive ? fields_to_json(adaptive_fields(), *j.render.adaptive) : json(nullptr);
 }
 
+// "frames": null (a still), {"start", "end", "step"} or a list of distinct frame numbers.
+void set_frames(RenderJob& j, const json& v, const ParseContext& ctx) {
+    constexpr int64_t kMaxFrame = 10'000'000;
+    const std::string& p = ctx.pointer;
+    if (v.is_null()) {
+        j.frames.reset();
+        return;
+    }
+    auto frame_number = [&](const json& x, const std::string& at) {
+        if (!x.is_number_integer() && !(x.is_number_float() && std::trunc(x.get<double>()) == x.get<double>()))
+            throw InvalidJob(at, at + " must be an integer frame number");
+        const double d = x.get<double>();
+        if (!(d >= -double(kMaxFrame) && d <= double(kMaxFrame)))
+            throw InvalidJob(at, at + " must lie within ±" + std::to_string(kMaxFrame));
+        return int(d);
+    };
+    const int64_t max_frames = ctx.limits.max_frames;
+    FrameSet f;
+    if (v.is_array()) {
+        if (v.empty()) throw InvalidJob(p, p + " must list at least one frame");
+        if (int64_t(v.size()) > max_frames)
+            throw InvalidJob(p, p + " lists " + std::to_string(v.size()) + " frames, over the limit of " + std::to_string(max_frames));
+        for (size_t i = 0; i < v.size(); ++i) f.list.push_back(frame_number(v[i], p + "/" + std::to_string(i)));
+        std::vector<int> sorted = f.list;
+        std::sort(sorted.begin(), sorted.end());
+        if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end())
+            throw InvalidJob(p, p + " lists a frame twice");
+    } else if (v.is_object()) {
+        for (const auto& [key, value] : v.items())
+            if (key != "start" && key != "end" && key != "step")
+                throw InvalidJob(p + "/" + key, "unknown field '" + key + "' in " + p + " (expected start, end, step)");
+        if (!v.contains("start") || !v.contains("end")) throw InvalidJob(p, p + " needs \"start\" and \"end\"");
+        f.start = frame_number(v["start"], p + "/start");
+        f.end = frame_number(v["end"], p + "/end");
+        if (v.contains("step")) {
+            const int step = frame_number(v["step"], p + "/step");
+            if (step < 1) throw InvalidJob(p + "/step", p + "/step must be at least 1");
+            f.step = step;
+        }
+        if (f.end < f.start) throw InvalidJob(p + "/end", p + "/end must not come before start");
+        if (int64_t(f.count()) > max_frames)
+            throw InvalidJob(p, p + " spans " + std::to_string(f.count()) + " frames, over the limit of " + std::to_string(max_frames));
+    } else {
+        throw InvalidJob(p, p + " must be {\"start\", \"end\", \"step\"}, a list of frame numbers, or null (a still)");
+    }
+    j.frames = std::move(f);
+}
+
+json get_frames(const RenderJob& j) {
+    if (!j.frames) return nullptr;
+    if (!j.frames->list.empty()) return j.frames->list;
+    return {{"start", j.frames->start}, {"end", j.frames->end}, {"step", j.frames->step}};
+}
+
+// "animation": a name, an index (a number or its digits), or null for every animation at once.
+void set_animation(RenderJob& j, const json& v, const ParseContext& ctx) {
+    if (v.is_null()) j.animation.clear();
+    else if (v.is_number_integer() && v.get<int64_t>() >= 0 && v.get<int64_t>() < 1'000'000) j.animation = std::to_string(v.get<int64_t>());
+    else if (v.is_string() && !v.get<std::string>().empty() && v.get<std::string>().size() <= 256) j.animation = v.get<std::string>();
+    else throw InvalidJob(ctx.pointer, ctx.pointer + " must be an animation's name (1 to 256 characters), its index, or null (every animation)");
+}
+
+json get_animation(const RenderJob& j) { return j.animation.empty() ? json(nullptr) : json(j.animation); }
+
 const Field<AdaptiveSettings> kAdaptiveFields[] = {
     integer<AdaptiveSettings, &AdaptiveSettings::batch>("batch", 1, 1 << 16, "32", "Samples between convergence checks.",
                                                         {}, Limit::spp),
@@ -270,6 +335,33 @@ const Field<RenderJob> kRenderFields[] = {
         f.nullable = true;
         f.set = &set_text<RenderJob, &RenderJob::reference>;
         f.get = &get_nullable_text<RenderJob, &RenderJob::reference>;
+        f.per_config = false;
+        return f;
+    }(),
+    [] {
+        Field<RenderJob> f = field<RenderJob>(
+            "frames", FieldKind::object,
+            "A shot: the frames of the scene's animation to render, {start, end, step} or a list; frame n is the scene at "
+            "n / fps seconds. null: a still at rest.",
+            "null");
+        f.cli = "--frames";
+        f.nullable = true;
+        f.set = &set_frames;
+        f.get = &get_frames;
+        f.per_config = false;
+        return f;
+    }(),
+    not_per_config(number<RenderJob, &RenderJob::fps>("fps", 0, 1000, "24", "A shot's frames per second (glTF files carry none).",
+                                                      "--fps", Limit::none, true)),
+    [] {
+        Field<RenderJob> f = field<RenderJob>(
+            "animation", FieldKind::object,
+            "Which of the file's animations a shot plays: a name or an index; null: every animation at once, as viewers play them.",
+            "null");
+        f.cli = "--animation";
+        f.nullable = true;
+        f.set = &set_animation;
+        f.get = &get_animation;
         f.per_config = false;
         return f;
     }(),

@@ -11,6 +11,7 @@
 #include <fstream>
 
 #include "api/comparison.h"
+#include "api/shot_runner.h"
 #include "engine/render/film.h"
 
 namespace tessera::api {
@@ -44,62 +45,11 @@ JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutp
     } else {
         prepared = prepare_scene(opt.scene_source, opt.load_limits, job.scene_options);
     }
-    const RenderScene& scene = prepared->scene;
     // This job's own time: a hit costs the look-up only.
     const double own_s = seconds_between(t0, Clock::now());
     const double load_s = cache_use.hit ? own_s : prepared->load_s;
     const double build_s = cache_use.hit ? 0.0 : prepared->build_s;
-
-    // The runner's settings: the job's, with how this runner runs it.
-    RenderSettings settings = job.render;
-    settings.threads = opt.threads;
-    settings.estimate_error = opt.record_convergence;
-    // The time limit counts from the job's start (loading included); the renderer stops at it
-    // and keeps the samples it has.
-    if (job.render.time_limit_s > 0)
-        settings.time_limit_s = std::max(1e-3, job.render.time_limit_s - seconds_between(t0, Clock::now()));
-    Image reference;
-    RenderCallbacks rcb;
-    rcb.cancel = cb.stop;
-    std::atomic<size_t> tiles_done{0}, tiles_total{0};  // written by the render threads
-    rcb.progress = [&](const RenderProgress& p) {
-        tiles_done = p.tiles_done;
-        tiles_total = p.tiles_total;
-        if (cb.progress) cb.progress(p);
-    };
-    // Two images take turns: the one handed out last is still shown; the other is reused once
-    // no one holds it any more (a request may still be encoding it: then a new one is made).
-    std::shared_ptr<Image> pass_images[2];
-    if (cb.pass)
-        rcb.on_pass = [&](const PassView& v) {
-            std::shared_ptr<Image>& img = pass_images[v.index % 2];
-            if (!img || img.use_count() > 1) img = std::make_shared<Image>();
-            v.film.resolve_into(*img);
-            cb.pass(PassSnapshot{v.index, v.spp, v.point, img});
-        };
-    if (!opt.environment_file.empty()) settings.environment = load_environment(opt.environment_file);
-    settings = lit_settings(std::move(settings), scene);
-    if (!opt.reference_image.empty()) {
-        if (!std::filesystem::exists(opt.reference_image)) throw std::runtime_error("the reference job's image was deleted");
-        reference = read_image(opt.reference_image);
-        rcb.reference = &reference;
-    }
-    const RenderResult result = render(scene, settings, rcb);
-    const auto t_rendered = Clock::now();
-    JobOutcome outcome;
-    if (stop_requested(cb)) {
-        outcome.stopped = true;
-        return outcome;
-    }
-
-    FinishedRender done{job, scene, settings, result};
-    done.load_s = load_s;
-    done.build_s = build_s;
-    done.scene_cache = cache_use;
-    done.before_write_s = seconds_between(t0, t_rendered);
-    done.tiles_done = tiles_done;
-    done.tiles_total = tiles_total;
-    return write_render(done, opt, out);
+    return render_prepared(job, job.render, ScenePrepared{prepared->scene, load_s, build_s, cache_use}, t0, opt, out, cb);
 }
 
 JobOutcome run_comparison_job(const ComparisonJob& job, const RunOptions& opt, const RunOutputs& out, const RunCallbacks& cb) {
@@ -245,7 +195,67 @@ JobOutcome write_render(const FinishedRender& done, const RunOptions& opt, const
     write_text(out.report_json, json_text(outcome.report, 2));
     outcome.summary = status_summary(rep);
     outcome.render = std::move(rep);
+    if (opt.keep_image) outcome.image = std::make_shared<const Image>(result.image);
     return outcome;
+}
+
+JobOutcome render_prepared(const RenderJob& job, const RenderSettings& render_settings, const ScenePrepared& prepared,
+                           std::chrono::steady_clock::time_point t0, const RunOptions& opt, const RunOutputs& out,
+                           const RunCallbacks& cb) {
+    const RenderScene& scene = prepared.scene;
+    const double load_s = prepared.load_s, build_s = prepared.build_s;
+    const SceneCacheUse cache_use = prepared.cache;
+
+    // The runner's settings: the job's, with how this runner runs it.
+    RenderSettings settings = render_settings;
+    settings.threads = opt.threads;
+    settings.estimate_error = opt.record_convergence;
+    // The time limit counts from the job's start (loading included); the renderer stops at it
+    // and keeps the samples it has.
+    if (job.render.time_limit_s > 0)
+        settings.time_limit_s = std::max(1e-3, job.render.time_limit_s - seconds_between(t0, Clock::now()));
+    Image reference;
+    RenderCallbacks rcb;
+    rcb.cancel = cb.stop;
+    std::atomic<size_t> tiles_done{0}, tiles_total{0};  // written by the render threads
+    rcb.progress = [&](const RenderProgress& p) {
+        tiles_done = p.tiles_done;
+        tiles_total = p.tiles_total;
+        if (cb.progress) cb.progress(p);
+    };
+    // Two images take turns: the one handed out last is still shown; the other is reused once
+    // no one holds it any more (a request may still be encoding it: then a new one is made).
+    std::shared_ptr<Image> pass_images[2];
+    if (cb.pass)
+        rcb.on_pass = [&](const PassView& v) {
+            std::shared_ptr<Image>& img = pass_images[v.index % 2];
+            if (!img || img.use_count() > 1) img = std::make_shared<Image>();
+            v.film.resolve_into(*img);
+            cb.pass(PassSnapshot{v.index, v.spp, v.point, img});
+        };
+    if (!opt.environment_file.empty()) settings.environment = load_environment(opt.environment_file);
+    settings = lit_settings(std::move(settings), scene);
+    if (!opt.reference_image.empty()) {
+        if (!std::filesystem::exists(opt.reference_image)) throw std::runtime_error("the reference job's image was deleted");
+        reference = read_image(opt.reference_image);
+        rcb.reference = &reference;
+    }
+    const RenderResult result = render(scene, settings, rcb);
+    const auto t_rendered = Clock::now();
+    JobOutcome outcome;
+    if (stop_requested(cb)) {
+        outcome.stopped = true;
+        return outcome;
+    }
+
+    FinishedRender done{job, scene, settings, result};
+    done.load_s = load_s;
+    done.build_s = build_s;
+    done.scene_cache = cache_use;
+    done.before_write_s = seconds_between(t0, t_rendered);
+    done.tiles_done = tiles_done;
+    done.tiles_total = tiles_total;
+    return write_render(done, opt, out);
 }
 
 RunOutputs RunOutputs::in_directory(const std::string& dir) {
@@ -258,11 +268,16 @@ RunOutputs RunOutputs::in_directory(const std::string& dir) {
     o.convergence_csv = (d / "convergence.csv").string();
     o.convergence_svg = (d / "convergence.svg").string();
     o.report_json = (d / "report.json").string();
+    o.contact_sheet_png = (d / "contact_sheet.png").string();
+    o.frame = [dir](int frame) { return in_directory((std::filesystem::path(dir) / "frames" / std::to_string(frame)).string()); };
     return o;
 }
 
 JobOutcome run_job(const Job& job, const RunOptions& options, const RunOutputs& outputs, const RunCallbacks& callbacks) {
-    if (const auto* r = std::get_if<RenderJob>(&job)) return run_render(*r, options, outputs, callbacks);
+    if (const auto* r = std::get_if<RenderJob>(&job)) {
+        if (r->frames) return run_shot(*r, options, outputs, callbacks);
+        return run_render(*r, options, outputs, callbacks);
+    }
     return run_comparison_job(std::get<ComparisonJob>(job), options, outputs, callbacks);
 }
 

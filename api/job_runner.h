@@ -4,6 +4,7 @@
 // server's workers and the coming render nodes all run jobs through here, so a job renders
 // the same image whoever runs it.
 #include <atomic>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -54,6 +55,7 @@ struct RunOptions {
     std::string environment_file;   // RenderJob::environment, resolved to a file; empty: none
     bool record_convergence = true; // keep the half buffers and report the estimated error
     ScenePreparer prepare;          // a server's cache of prepared scenes; unset: prepared for this job
+    bool keep_image = false;        // JobOutcome::image holds the rendered image (a shot's contact sheet)
 };
 
 // Where the results go; an empty path is not written.
@@ -61,6 +63,10 @@ struct RunOutputs {
     std::string png, exr, rate_png, convergence_csv, convergence_svg, report_json;
     ToneCurve tone = ToneCurve::srgb;
     std::string directory;          // in_directory's folder, made again before writing if it went away
+    // A shot's: frame n's outputs (in_directory: frames/<n>/ under the same names), and the
+    // contact sheet of every frame.
+    std::function<RunOutputs(int frame)> frame;
+    std::string contact_sheet_png;
     // Every result file in `dir` under the server's names (image.png, image.exr, ...).
     static RunOutputs in_directory(const std::string& dir);
 };
@@ -73,8 +79,17 @@ struct PassSnapshot {
     std::shared_ptr<const Image> image;  // linear RGB with per-pixel sample counts
 };
 
+// A shot's frame, finished and written.
+struct FrameDone {
+    size_t index = 0;      // its place in the shot (0 first)
+    int frame = 0;         // its number
+    double seconds = 0;    // posing, building, rendering and writing it
+    nlohmann::json entry;  // its line in the shot's report
+};
+
 struct RunCallbacks {
-    std::function<void(const RenderProgress&)> progress;  // from render threads: cheap, thread-safe
+    std::function<void(const RenderProgress&)> progress;  // from render threads: cheap, thread-safe; a shot's samples count over all its frames
+    std::function<void(const FrameDone&)> frame;          // after each frame of a shot
     std::function<void(const PassSnapshot&)> pass;        // after each pass of a render job (not set: none made)
     const std::atomic<bool>* stop = nullptr;             // set: end early, write nothing
 };
@@ -84,6 +99,7 @@ struct JobOutcome {
     nlohmann::json report;           // report.json's content
     nlohmann::json summary;          // what the job's status shows (status_summary)
     std::optional<RenderReport> render;  // a render job's typed report
+    std::shared_ptr<const Image> image;  // RunOptions::keep_image: the image as written
 };
 
 // What a finished render leaves: its result files and report, written from the render's result.
@@ -102,6 +118,18 @@ struct FinishedRender {
     SceneCacheUse scene_cache;
 };
 JobOutcome write_render(const FinishedRender& done, const RunOptions& options, const RunOutputs& outputs);
+
+// A scene ready to render, and what readying it cost this job.
+struct ScenePrepared {
+    const RenderScene& scene;
+    double load_s = 0, build_s = 0;
+    SceneCacheUse cache;
+};
+// One image of a prepared scene with `render` (the job's settings, or a shot frame's), timed
+// from `t0`: a still's whole path after loading, and each frame of a shot.
+JobOutcome render_prepared(const RenderJob& job, const RenderSettings& render, const ScenePrepared& scene,
+                           std::chrono::steady_clock::time_point t0, const RunOptions& options, const RunOutputs& outputs,
+                           const RunCallbacks& callbacks);
 
 // Throws SceneError for a scene that does not load, std::runtime_error (or a filesystem
 // error) for a result that cannot be written; the caller decides what the job's state becomes.

@@ -6,7 +6,9 @@ namespace tessera::api {
 
 JobProgress job_progress(const Job& job, uint64_t samples, uint64_t tiles_done, uint64_t tiles_total) {
     const auto* r = std::get_if<RenderJob>(&job);
-    const double budget = r ? double(r->render.spp) * r->render.width * r->render.height : 0.0;
+    // A shot's budget is every frame's.
+    const double frames = r && r->frames ? double(r->frames->count()) : 1.0;
+    const double budget = r ? double(r->render.spp) * r->render.width * r->render.height * frames : 0.0;
     return {budget > 0 ? std::min(1.0, double(samples) / budget) : 0.0, tiles_done, tiles_total, samples};
 }
 
@@ -51,6 +53,23 @@ json to_json(const PassSummary& p) {
             {"est_rel_mse", measured(p.est_rel_mse)}, {"rel_mse", measured(p.rel_mse)}};
 }
 
+json to_json(const ShotProgress& p) {
+    const size_t total = p.frames.size();
+    const double mean = p.frames_done ? p.frames_seconds / double(p.frames_done) : 0.0;
+    json j = {{"frames_total", total}, {"frames_done", p.frames_done},
+              {"current_frame", p.running && p.frames_done < total ? json(p.frames[p.frames_done]) : json(nullptr)},
+              {"mean_frame_s", p.frames_done ? json(mean) : json(nullptr)},
+              {"eta_s", p.frames_done ? json(mean * double(total - p.frames_done)) : json(nullptr)}};
+    if (total <= kStatusFrameList) {
+        json list = json::array();
+        for (size_t i = 0; i < total; ++i)
+            list.push_back({{"frame", p.frames[i]},
+                            {"state", i < p.frames_done ? "succeeded" : i == p.frames_done && p.running ? "running" : "queued"}});
+        j["frames"] = list;
+    }
+    return j;
+}
+
 json to_json(const JobStatus& s) {
     json j;
     j["id"] = s.id;
@@ -81,6 +100,21 @@ json to_json(const JobStatus& s) {
     const std::string self = "/v1/jobs/" + s.id;
     j["links"] = {{"self", self}, {"image_png", self + "/image.png"}, {"image_exr", self + "/image.exr"},
                   {"rate_png", self + "/rate.png"}, {"report", self + "/report.json"}};
+    // A shot: its frames' states, from the running job or, once finished, from its summary;
+    // a still's is null. Its results are per frame, and a contact sheet.
+    j["shot"] = nullptr;
+    const json* settings_frames = s.settings.is_object() && s.settings.contains("frames") ? &s.settings["frames"] : nullptr;
+    if (settings_frames && !settings_frames->is_null()) {
+        if (has_summary && s.summary.contains("shot")) {
+            j["shot"] = s.summary["shot"];
+            j["shot"]["current_frame"] = nullptr;
+            j["shot"]["eta_s"] = 0.0;
+        } else if (s.shot) {
+            j["shot"] = to_json(*s.shot);
+        }
+        j["links"]["frame_exr"] = self + "/frames/{n}/image.exr";
+        j["links"]["contact_sheet"] = self + "/contact_sheet.png";
+    }
     return j;
 }
 

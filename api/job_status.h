@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -22,8 +23,8 @@ struct JobProgress {
     uint64_t tiles_done = 0, tiles_total = 0, samples_done = 0;
 };
 // A running job's progress, one rule wherever it is shown (a worker's own job, a farm's from
-// Redis): the samples taken over the job's budget of spp × pixels (a comparison has none: 0),
-// with the tiles done of its current pass.
+// Redis): the samples taken over the job's budget of spp × pixels (× frames for a shot; a
+// comparison has none: 0), with the tiles done of its current pass.
 JobProgress job_progress(const Job& job, uint64_t samples, uint64_t tiles_done, uint64_t tiles_total);
 
 // A running render's latest finished pass (its image is served until the job ends).
@@ -34,6 +35,18 @@ struct PassSummary {
     double est_rel_mse = -1, rel_mse = -1;  // negative: not measured
 };
 nlohmann::json to_json(const PassSummary& p);
+
+// A shot's frames: how many are done, the one rendering, and an estimate of the time left from
+// the frames measured so far.
+struct ShotProgress {
+    std::vector<int> frames;       // every frame, in rendering order
+    size_t frames_done = 0;        // the first frames_done of `frames` are written
+    bool running = false;          // frames[frames_done] is rendering
+    double frames_seconds = 0;     // the frames done, together
+};
+// Frames listed one by one in a status up to this many (a longer shot gives counts only).
+constexpr size_t kStatusFrameList = 2000;
+nlohmann::json to_json(const ShotProgress& p);
 
 struct JobStatus {
     std::string id;
@@ -46,6 +59,7 @@ struct JobStatus {
     std::optional<size_t> queue_position;
     std::optional<JobProgress> live_progress;  // a running job's, from its renderer
     std::optional<PassSummary> latest_pass;    // a running job's, once a pass has finished
+    std::optional<ShotProgress> shot;          // a shot's frames (a finished one's come from its summary)
     nlohmann::json summary;    // the finished job's status_summary (timings, stats, progress), or null
 };
 

@@ -21,6 +21,10 @@ nlohmann::json describe_scene(const SceneDescription& s) {
     j["textured_materials"] = textured;
     j["images"] = s.images.size();
     j["texel_bytes"] = texel_bytes;
+    nlohmann::json animations = nlohmann::json::array();
+    for (const AnimationSummary& a : s.animations)
+        animations.push_back({{"name", a.name}, {"start_s", a.start_s}, {"end_s", a.end_s}, {"channels", a.channels}});
+    j["animations"] = animations;
     if (!b.empty()) j["bounds"] = {{"min", {b.lo.x, b.lo.y, b.lo.z}}, {"max", {b.hi.x, b.hi.y, b.hi.z}}};
     else j["bounds"] = nullptr;
     return j;

@@ -1,6 +1,7 @@
 #include "cli/job_flags.h"
 
 #include <cstring>
+#include <regex>
 #include <stdexcept>
 
 #include "api/job_fields.h"
@@ -10,6 +11,28 @@ namespace {
 
 // The first of an option's names, for messages ("-s" of "-s,--spp").
 std::string flag_name(std::string_view cli) { return std::string(cli.substr(0, cli.find(','))); }
+
+// --frames as render managers write it: "1-120", "1-120:2" (every second), "1,5,9" or "7".
+nlohmann::json frames_json(const std::string& text) {
+    static const std::regex range(R"(^(-?\d{1,9})-(-?\d{1,9})(?::(\d{1,9}))?$)"), list(R"(^-?\d{1,9}(,-?\d{1,9})*$)");
+    std::smatch m;
+    if (std::regex_match(text, m, range)) {
+        nlohmann::json f = {{"start", std::stoll(m[1])}, {"end", std::stoll(m[2])}};
+        if (m[3].matched) f["step"] = std::stoll(m[3]);
+        return f;
+    }
+    if (std::regex_match(text, list)) {
+        nlohmann::json l = nlohmann::json::array();
+        size_t at = 0;
+        while (at <= text.size()) {
+            const size_t comma = std::min(text.find(',', at), text.size());
+            l.push_back(std::stoll(text.substr(at, comma - at)));
+            at = comma + 1;
+        }
+        return l;
+    }
+    throw std::invalid_argument("--frames needs START-END, START-END:STEP or a list N,M,..., got '" + text + "'");
+}
 
 }  // namespace
 
@@ -59,9 +82,15 @@ nlohmann::json JobFlags::given() const {
                 const double d = std::stod(v, &used);
                 if (used != v.size()) throw std::invalid_argument("");
                 body[std::string(f.name)] = d;
+            } else if (f.name == "frames") {
+                body["frames"] = frames_json(v);
             } else {
                 body[std::string(f.name)] = v;
             }
+        } catch (const std::invalid_argument& e) {
+            if (f.name == "frames") throw;
+            throw std::invalid_argument(flag + (f.kind == api::FieldKind::integer ? " needs a whole number" : " needs a number") +
+                                        ", got '" + v + "'");
         } catch (const std::exception&) {
             throw std::invalid_argument(flag + (f.kind == api::FieldKind::integer ? " needs a whole number" : " needs a number") +
                                         ", got '" + v + "'");

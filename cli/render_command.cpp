@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "api/job_runner.h"
+#include "api/shot_runner.h"
 #include "cli/command_line.h"
 #include "cli/commands.h"
 #include "cli/job_flags.h"
@@ -69,6 +70,51 @@ void print_report(const api::RenderReport& r, const std::string& output) {
                 (unsigned long long)st.samples, double(st.samples) / npx, (unsigned long long)st.nonfinite_samples,
                 r.mean_radiance);
     std::printf("wrote %s\n", output.c_str());
+}
+
+// A shot: each frame to the -f pattern (out_####.exr: the frame number in place of the '#'s),
+// then a contact sheet beside them.
+int render_shot(const api::RenderJob& job, const api::RunOptions& options, const std::string& pattern, ToneCurve tone) {
+    const std::string ext = std::filesystem::path(pattern).extension().string();
+    api::RunOutputs outputs;
+    outputs.tone = tone;
+    outputs.frame = [&](int frame) {
+        api::RunOutputs o;
+        const std::string path = api::frame_path(pattern, frame);
+        (ext == ".png" ? o.png : o.exr) = path;
+        if (job.render.adaptive) {
+            const std::filesystem::path p(path);
+            o.rate_png = (p.parent_path() / (p.stem().string() + "_rate.png")).string();
+        }
+        return o;
+    };
+    std::string sheet = api::frame_path(pattern, 0);
+    {
+        const std::filesystem::path p(pattern);
+        std::string stem = p.stem().string();
+        const size_t hash = stem.find('#');
+        stem = hash == std::string::npos ? stem + "_contact" : stem.substr(0, hash) + "contact" + stem.substr(stem.find_last_of('#') + 1);
+        sheet = (p.parent_path() / (stem + ".png")).string();
+    }
+    outputs.contact_sheet_png = sheet;
+    api::RunCallbacks cb;
+    cb.frame = [&](const api::FrameDone& f) {
+        const auto& stats = f.entry["stats"];
+        std::printf("frame %d (%zu of %zu): %.3f s, %.1f samples per pixel -> %s\n", f.frame, f.index + 1, job.frames->count(),
+                    f.seconds, stats.value("spp_mean", 0.0), api::frame_path(pattern, f.frame).c_str());
+        std::fflush(stdout);
+    };
+    api::JobOutcome outcome;
+    try {
+        outcome = api::run_job(job, options, outputs, cb);
+    } catch (const std::exception& e) {
+        return fail(1, e.what());
+    }
+    const auto& shot = outcome.report["shot"];
+    for (const auto& w : shot.value("warnings", nlohmann::json::array())) std::fprintf(stderr, "warning: %s\n", w.get<std::string>().c_str());
+    std::printf("shot: %zu frames in %.3f s (mean %.3f s a frame); contact sheet %s\n", job.frames->count(),
+                shot["timings"]["total_s"].get<double>(), shot["timings"]["mean_frame_s"].get<double>(), sheet.c_str());
+    return 0;
 }
 
 }  // namespace
@@ -182,9 +228,11 @@ int render_command(int argc, char** argv) {
     options.environment_file = job.environment;  // the CLI's -e names a file
     options.threads = threads;
     options.record_convergence = false;  // one pass, as the CS184 app renders
+    const ToneCurve tone = tonemap == "cs184" ? ToneCurve::cs184 : ToneCurve::srgb;
+    if (job.frames) return render_shot(job, options, output, tone);
     api::RunOutputs outputs;
     (ext == ".png" ? outputs.png : outputs.exr) = output;
-    outputs.tone = tonemap == "cs184" ? ToneCurve::cs184 : ToneCurve::srgb;
+    outputs.tone = tone;
     if (job.render.adaptive) outputs.rate_png = (out_path.parent_path() / (out_path.stem().string() + "_rate.png")).string();
     api::JobOutcome outcome;
     try {

@@ -98,6 +98,7 @@ int serve_command(int argc, char** argv) {
     option("max-spp", lim.max_spp, "samples per pixel of a job")->check(CLI::Range(1, 1 << 24));
     option("max-depth", lim.max_depth, "bounce depth of a job")->check(CLI::Range(0, 100000));
     option("max-light-rays", lim.max_light_rays, "light rays per hit of a job")->check(CLI::Range(1, 1 << 20));
+    option("max-frames", lim.max_frames, "frames in one shot")->check(CLI::Range(1, 10'000'000));
     CLI::Option* max_triangles = option("max-triangles", o.service.load_limits.max_triangles, "triangles in a scene")
                                      ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 40));
     // What a client's request or scene may cost, checked before the memory is spent

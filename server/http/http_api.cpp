@@ -632,7 +632,16 @@ void HttpApi::routes() {
     s.Get("/v1/job-schema", [this](const httplib::Request&, httplib::Response& res) {
         res.set_content(json_text(api::job_schema(queue_.config().job_limits)), "application/json");
     });
-    s.Get(R"(/v1/jobs/([^/]+)/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg))", [this](const httplib::Request& req, httplib::Response& res) {
+    s.Get(R"(/v1/jobs/([^/]+)/frames/(-?[0-9]{1,8})/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg))",
+          [this](const httplib::Request& req, httplib::Response& res) {
+        const std::string id = req.matches[1];
+        const int frame = std::stoi(req.matches[2]);
+        const std::string file = req.matches[3];
+        const char* type = file == "image.exr" ? "image/x-exr" : file == "report.json" ? "application/json"
+                         : file == "convergence.csv" ? "text/csv" : file == "convergence.svg" ? "image/svg+xml" : "image/png";
+        res.set_content(read_file(queue_.frame_result_path(id, frame, file)), type);
+    });
+    s.Get(R"(/v1/jobs/([^/]+)/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg|contact_sheet\.png))", [this](const httplib::Request& req, httplib::Response& res) {
         const std::string id = req.matches[1];
         const std::string file = req.matches[2];
         const float exposure = exposure_param(req, file);

@@ -237,7 +237,14 @@ void JobQueue::delete_results(const std::string& id) {
 }
 
 std::string JobQueue::result_path(const std::string& id, const std::string& file) {
-    const JobState state = status(id).state;
+    const api::JobStatus st = status(id);
+    const JobState state = st.state;
+    const bool shot = st.settings.is_object() && st.settings.contains("frames") && !st.settings["frames"].is_null();
+    if (shot && (file == "image.png" || file == "image.exr" || file == "rate.png" || file.starts_with("convergence.")))
+        throw QueueError(QueueErrorKind::not_found, "per-frame-result", "A shot's images are per frame",
+                         "job " + id + " is a shot: fetch /v1/jobs/" + id + "/frames/{n}/" + file + ", or contact_sheet.png");
+    if (!shot && file == "contact_sheet.png")
+        throw QueueError(QueueErrorKind::not_found, "not-a-shot", "Not a shot", "job " + id + " is a still: it has no contact sheet");
     if (!is_final(state))
         throw QueueError(QueueErrorKind::conflict, "not-finished", "The job is not finished",
                          "job " + id + " is " + to_string(state) + "; poll /v1/jobs/" + id);
@@ -246,6 +253,32 @@ std::string JobQueue::result_path(const std::string& id, const std::string& file
         throw QueueError(QueueErrorKind::gone, "gone", "No such result",
                          state == JobState::succeeded ? "the results of job " + id + " were deleted"
                                                       : "job " + id + " " + to_string(state) + " without results");
+    return p.string();
+}
+
+std::string JobQueue::frame_result_path(const std::string& id, int frame, const std::string& file) {
+    const api::JobStatus st = status(id);
+    const api::Job job = api::job_from_json(st.settings);
+    const auto* r = std::get_if<api::RenderJob>(&job);
+    if (!r || !r->frames)
+        throw QueueError(QueueErrorKind::not_found, "not-a-shot", "Not a shot",
+                         "job " + id + " is a still: fetch /v1/jobs/" + id + "/" + file);
+    const std::vector<int> frames = r->frames->frames();
+    if (std::find(frames.begin(), frames.end(), frame) == frames.end())
+        throw QueueError(QueueErrorKind::not_found, "no-such-frame", "No such frame",
+                         "job " + id + " does not render frame " + std::to_string(frame));
+    const fs::path dir = fs::path(job_dir(id)) / "frames" / std::to_string(frame);
+    // report.json is a frame's last file: before it, the frame is not finished.
+    if (!fs::exists(dir / "report.json")) {
+        if (!is_final(st.state))
+            throw QueueError(QueueErrorKind::conflict, "not-finished", "The frame is not finished",
+                             "frame " + std::to_string(frame) + " of job " + id + " is not written yet; poll /v1/jobs/" + id);
+        throw QueueError(QueueErrorKind::gone, "gone", "No such result",
+                         "job " + id + " " + to_string(st.state) + " without frame " + std::to_string(frame));
+    }
+    const fs::path p = dir / file;
+    if (!fs::exists(p))
+        throw QueueError(QueueErrorKind::gone, "gone", "No such result", "frame " + std::to_string(frame) + " of job " + id + " has no " + file);
     return p.string();
 }
 

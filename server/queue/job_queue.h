@@ -90,6 +90,8 @@ public:
     // The path of a finished job's result file ("image.png", ...); throws QueueError
     // not_found / conflict / gone.
     std::string result_path(const std::string& id, const std::string& file);
+    // A shot's frame result, as soon as that frame is written (the job may still run).
+    std::string frame_result_path(const std::string& id, int frame, const std::string& file);
     // A running job's latest finished pass when this process renders it; nothing for other
     // jobs, before the first pass, and in a farm (no one process holds it).
     virtual std::optional<LivePass> live_pass(const std::string& id) { (void)id; return std::nullopt; }

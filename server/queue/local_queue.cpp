@@ -72,6 +72,7 @@ api::JobStatus LocalQueue::running_status(Running& r) {
     if (r.job) st.live_progress = api::job_progress(*r.job, r.samples.load(), r.tiles_done.load(), r.tiles_total.load());
     std::lock_guard<std::mutex> pass_lock(r.pass_mutex);
     st.latest_pass = r.pass;
+    st.shot = r.shot;
     return st;
 }
 
@@ -95,6 +96,7 @@ void LocalQueue::add_live(api::JobStatus& st, const JobRecord& rec, bool locked)
     if (rec.state == JobState::running) {
         std::lock_guard<std::mutex> pass_lock(r.pass_mutex);
         st.latest_pass = r.pass;
+        st.shot = r.shot;
     }
 }
 
@@ -237,6 +239,10 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         opt.prepare = [this](const std::string& source, const RenderSceneOptions& options) { return scenes_.get_local(source, options); };
         if (const auto* r = std::get_if<api::RenderJob>(&job)) {
             running.max_spp = r->render.spp;
+            if (r->frames) {
+                std::lock_guard<std::mutex> lock(running.pass_mutex);
+                running.shot = api::ShotProgress{r->frames->frames(), 0, true, 0.0};
+            }
             if (!r->reference.empty()) opt.reference_image = job_image_exr(config_.data_dir, r->reference).string();
             if (!r->environment.empty()) {
                 const auto env = catalog_.find_environment(r->environment);
@@ -267,6 +273,18 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
                 running.pass_image = snap.image;
             }
             publish("pass", running_status(running), &ps);
+        };
+        cb.frame = [&](const api::FrameDone& f) {
+            {
+                std::lock_guard<std::mutex> lock(running.pass_mutex);
+                if (running.shot) {
+                    running.shot->frames_done = f.index + 1;
+                    running.shot->frames_seconds += f.seconds;
+                }
+                running.pass.reset();  // the next frame's passes start afresh
+                running.pass_image.reset();
+            }
+            publish("frame", running_status(running));
         };
         outcome = api::run_job(job, opt, api::RunOutputs::in_directory(dir), cb);
     } catch (const SceneError& e) {

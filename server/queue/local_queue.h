@@ -48,6 +48,7 @@ private:
         std::optional<api::PassSummary> pass;   // the latest finished pass, and its image
         std::shared_ptr<const Image> pass_image;
         int max_spp = 0;
+        std::optional<api::ShotProgress> shot;  // a shot's frames (under pass_mutex)
     };
     struct QueueKey {
         int priority;

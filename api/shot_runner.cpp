@@ -1,0 +1,208 @@
+#include "api/shot_runner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "api/job_status.h"
+#include "api/json_text.h"
+#include "engine/camera/camera.h"
+#include "engine/geometry/aabb.h"
+#include "engine/io/image_io.h"
+#include "engine/io/scene_loader.h"
+#include "engine/render/image.h"
+
+namespace tessera::api {
+namespace {
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+double seconds_between(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
+
+// The contact sheet: every frame (or an even subset of at most kMaxTiles) box-filtered down to a
+// thumbnail, in rows, linear values (the PNG writer applies the tone curve).
+class ContactSheet {
+public:
+    static constexpr int kMaxTiles = 400, kThumbWidth = 192;
+
+    ContactSheet(size_t frames, int width, int height) {
+        stride_ = std::max<size_t>(1, (frames + kMaxTiles - 1) / kMaxTiles);
+        tiles_ = (frames + stride_ - 1) / stride_;
+        scale_ = std::max(1, (width + kThumbWidth - 1) / kThumbWidth);
+        tw_ = std::max(1, width / scale_);
+        th_ = std::max(1, height / scale_);
+        columns_ = std::max<size_t>(1, size_t(std::ceil(std::sqrt(double(tiles_)))));
+        const size_t rows = (tiles_ + columns_ - 1) / columns_;
+        sheet_ = Image(int(columns_) * tw_, int(rows) * th_);
+    }
+
+    void add(size_t index, const Image& img) {
+        if (index % stride_) return;
+        const size_t tile = index / stride_;
+        const int x0 = int(tile % columns_) * tw_, y0 = int(tile / columns_) * th_;
+        for (int y = 0; y < th_; ++y)
+            for (int x = 0; x < tw_; ++x) {
+                float sum[3] = {0, 0, 0};
+                int n = 0;
+                for (int dy = 0; dy < scale_; ++dy)
+                    for (int dx = 0; dx < scale_; ++dx) {
+                        const int sx = x * scale_ + dx, sy = y * scale_ + dy;
+                        if (sx >= img.width || sy >= img.height) continue;
+                        const float* p = img.pixel(sx, sy);
+                        for (int c = 0; c < 3; ++c) sum[c] += p[c];
+                        ++n;
+                    }
+                float* q = sheet_.pixel(x0 + x, y0 + y);
+                for (int c = 0; c < 3; ++c) q[c] = n ? sum[c] / float(n) : 0.f;
+                sheet_.sample_count[size_t(y0 + y) * size_t(sheet_.width) + size_t(x0 + x)] = 1.f;
+            }
+    }
+
+    const Image& image() const { return sheet_; }
+
+private:
+    size_t stride_ = 1, tiles_ = 0, columns_ = 1;
+    int scale_ = 1, tw_ = 1, th_ = 1;
+    Image sheet_;
+};
+
+void write_text(const std::string& path, const std::string& text) {
+    if (path.empty()) return;
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out) throw std::runtime_error("cannot write " + path);
+}
+
+}  // namespace
+
+std::string frame_path(const std::string& pattern, int frame) {
+    const size_t first = pattern.find('#');
+    const std::string number = std::to_string(std::abs(frame));
+    if (first == std::string::npos) {
+        const std::filesystem::path p(pattern);
+        return (p.parent_path() / (p.stem().string() + "_" + std::to_string(frame) + p.extension().string())).string();
+    }
+    size_t last = first;
+    while (last < pattern.size() && pattern[last] == '#') ++last;
+    const size_t width = last - first;
+    std::string padded = number.size() < width ? std::string(width - number.size(), '0') + number : number;
+    if (frame < 0) padded = "-" + padded;
+    return pattern.substr(0, first) + padded + pattern.substr(last);
+}
+
+JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutputs& out, const RunCallbacks& cb) {
+    const auto t_start = Clock::now();
+    const std::vector<int> frames = job.frames->frames();
+    const SceneFile file(opt.scene_source, opt.load_limits);
+    const double open_s = seconds_between(t_start, Clock::now());
+    if (!job.animation.empty() && file.animations().empty())
+        throw SceneError(SourceLocation{opt.scene_source, 0, ""}, "the job plays animation '" + job.animation + "', but the scene has none");
+
+    // A scene without a camera is framed once, at rest, and seen from there in every frame: a
+    // camera re-framed per frame would follow the bounds of a moving model and jump.
+    std::optional<CameraDesc> held_camera;
+    {
+        const SceneDescription rest = file.at(std::nullopt);
+        if (!rest.camera) {
+            Aabb bounds;
+            for (const MeshDesc& m : rest.meshes)
+                for (const glm::vec3& p : m.positions) bounds.expand(p);
+            for (const SphereDesc& s : rest.spheres) {
+                bounds.expand(s.center - glm::vec3(s.radius));
+                bounds.expand(s.center + glm::vec3(s.radius));
+            }
+            CameraDesc cam;
+            if (frame_camera(std::nullopt, bounds, cam)) held_camera = cam;
+        }
+    }
+
+    RunOptions frame_opt = opt;
+    frame_opt.prepare = nullptr;  // each frame is posed anew; the cache holds stills
+    frame_opt.keep_image = true;
+    ContactSheet sheet(frames.size(), job.render.width, job.render.height);
+    json entries = json::array();
+    uint64_t samples_before = 0;
+    double render_s = 0, frames_s = 0;
+    JobOutcome outcome;
+    for (size_t i = 0; i < frames.size(); ++i) {
+        if (cb.stop && cb.stop->load()) {
+            outcome.stopped = true;
+            return outcome;
+        }
+        const int n = frames[i];
+        const auto t0 = Clock::now();
+        const double time_s = double(n) / job.fps;
+        SceneDescription desc = file.at(ScenePose{time_s, job.animation});
+        if (!desc.camera && held_camera) desc.camera = held_camera;
+        const auto t_posed = Clock::now();
+        const RenderScene scene = build_render_scene(desc, job.scene_options);
+        const double pose_s = seconds_between(t0, t_posed) + (i == 0 ? open_s : 0.0);
+        const double build_s = seconds_between(t_posed, Clock::now());
+
+        RunCallbacks frame_cb = cb;
+        frame_cb.progress = [&](const RenderProgress& p) {
+            if (!cb.progress) return;
+            RenderProgress whole = p;
+            whole.samples_done += samples_before;
+            cb.progress(whole);
+        };
+        frame_cb.frame = nullptr;
+        RunOutputs frame_out = out.frame ? out.frame(n) : RunOutputs{};
+        frame_out.tone = out.tone;
+        RenderJob frame_job = job;
+        frame_job.render = job.frame_settings(n);
+        const JobOutcome done = render_prepared(frame_job, frame_job.render, ScenePrepared{scene, pose_s, build_s, {}}, t0,
+                                                frame_opt, frame_out, frame_cb);
+        if (done.stopped) {
+            outcome.stopped = true;
+            return outcome;
+        }
+        samples_before += done.render->stats.samples;
+        render_s += done.render->stats.render_seconds;
+        const double frame_s = seconds_between(t0, Clock::now());
+        frames_s += frame_s;
+        if (done.image) sheet.add(i, *done.image);
+        json entry = done.summary;
+        entry["frame"] = n;
+        entry["time_s"] = time_s;
+        entry["seed"] = frame_job.render.seed;
+        entry["seconds"] = frame_s;
+        entries.push_back(entry);
+        if (cb.frame) cb.frame(FrameDone{i, n, frame_s, entry});
+    }
+
+    if (!out.contact_sheet_png.empty()) {
+        if (!out.directory.empty()) std::filesystem::create_directories(out.directory);
+        write_png(out.contact_sheet_png, sheet.image(), out.tone);
+    }
+    json animations = json::array();
+    for (const AnimationSummary& a : file.animations())
+        animations.push_back({{"name", a.name}, {"start_s", a.start_s}, {"end_s", a.end_s}, {"channels", a.channels}});
+    const double total_s = seconds_between(t_start, Clock::now());
+    json shot = {{"frames", entries},
+                 {"frames_total", frames.size()},
+                 {"frames_done", frames.size()},
+                 {"fps", job.fps},
+                 {"animation", job.animation.empty() ? json(nullptr) : json(job.animation)},
+                 {"animations", animations},
+                 {"timings", {{"open_s", open_s}, {"render_s", render_s}, {"frames_s", frames_s}, {"total_s", total_s},
+                              {"mean_frame_s", frames.empty() ? 0.0 : frames_s / double(frames.size())}}}};
+    if (file.animations().empty()) shot["warnings"] = json::array({"the scene has no animation: every frame shows it at rest"});
+    outcome.report = {{"settings", to_json(job)}, {"shot", shot}};
+    write_text(out.report_json, json_text(outcome.report, 2));
+    outcome.summary = {{"shot", {{"frames_total", frames.size()}, {"frames_done", frames.size()},
+                                 {"mean_frame_s", shot["timings"]["mean_frame_s"]}, {"timings", shot["timings"]}}}};
+    if (frames.size() <= kStatusFrameList) {
+        json summary_frames = json::array();
+        for (const json& e : entries)
+            summary_frames.push_back({{"frame", e["frame"]}, {"seconds", e["seconds"]}, {"state", "succeeded"}});
+        outcome.summary["shot"]["frames"] = summary_frames;
+    }
+    return outcome;
+}
+
+}  // namespace tessera::api
