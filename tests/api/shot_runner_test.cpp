@@ -1,0 +1,166 @@
+// A shot through the runner: each frame is the same image bit for bit alone, in any range and
+// with any thread count; neighbouring frames differ (motion and decorrelated noise); results,
+// contact sheet and report land where the server and the CLI look; progress counts every frame.
+#include "api/shot_runner.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <unistd.h>
+
+#include "build_paths.h"
+#include "engine/io/image_io.h"
+#include "engine/render/image.h"
+
+namespace tessera::api {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::string shot_scene() { return (fs::path(TESSERA_DEFAULT_SCENES_DIR) / "cornell_shot.gltf").string(); }
+
+class Shot : public ::testing::Test {
+protected:
+    void SetUp() override {
+        dir_ = fs::temp_directory_path() / ("tessera_shot_" + std::to_string(::getpid()) + "_" +
+                                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+        fs::remove_all(dir_);
+        fs::create_directories(dir_);
+    }
+    void TearDown() override {
+        std::error_code ec;
+        fs::remove_all(dir_, ec);
+    }
+    static RenderJob job(const json& frames, const json& more = json::object()) {
+        json body = {{"scene", shot_scene()}, {"width", 24}, {"height", 18}, {"spp", 3}, {"max_depth", 2}, {"frames", frames}};
+        body.update(more);
+        return parse_render_job(body);
+    }
+    JobOutcome run(const RenderJob& j, const std::string& sub, int threads = 2, const RunCallbacks& cb = {}) {
+        RunOptions o;
+        o.scene_source = j.scene;
+        o.threads = threads;
+        return run_job(j, o, RunOutputs::in_directory((dir_ / sub).string()), cb);
+    }
+    Image frame_image(const std::string& sub, int frame) const {
+        return read_image((dir_ / sub / "frames" / std::to_string(frame) / "image.exr").string());
+    }
+    fs::path dir_;
+};
+
+TEST_F(Shot, AFrameIsTheSameAloneInARangeAndOnAnyThreadCount) {
+    run(job(json{{"start", 10}, {"end", 13}}), "range", 2);
+    run(job(json::array({12})), "alone", 1);
+    const Image in_range = frame_image("range", 12), alone = frame_image("alone", 12);
+    ASSERT_EQ(in_range.rgb.size(), size_t(24 * 18 * 3));
+    EXPECT_EQ(in_range.rgb, alone.rgb);
+    EXPECT_EQ(in_range.sample_count, alone.sample_count);
+}
+
+// Frame n and n + 1 of a scene where nothing moves differ (their seeds differ, so their noise
+// is not the same), yet show the same picture (equal means within the noise); the same frame
+// of another job with the same seed is identical.
+TEST_F(Shot, NeighbouringFramesAreDecorrelated) {
+    RenderJob j = job(json::array({0, 1}), {{"spp", 8}});
+    j.scene = "builtin:cornell_box";
+    run(j, "a");
+    run(j, "b");
+    const Image f0 = frame_image("a", 0), f1 = frame_image("a", 1);
+    EXPECT_NE(f0.rgb, f1.rgb);
+    EXPECT_EQ(frame_image("b", 1).rgb, f1.rgb);
+    double m0 = 0, m1 = 0;
+    size_t differ = 0;
+    for (size_t i = 0; i < f0.rgb.size(); ++i) {
+        m0 += f0.rgb[i];
+        m1 += f1.rgb[i];
+        differ += f0.rgb[i] != f1.rgb[i];
+    }
+    EXPECT_GT(differ, f0.rgb.size() / 2);  // decorrelated almost everywhere, not in a few pixels
+    EXPECT_NEAR(m0 / m1, 1.0, 0.05);
+    const json r1 = json::parse(std::ifstream(dir_ / "a" / "frames" / "1" / "report.json"));
+    EXPECT_EQ(r1["settings"]["seed"], frame_seed(0, 1));
+}
+
+TEST_F(Shot, ResultsContactSheetAndReport) {
+    std::mutex m;
+    std::vector<FrameDone> done;
+    uint64_t last_samples = 0;
+    RunCallbacks cb;
+    cb.frame = [&](const FrameDone& f) {
+        std::lock_guard<std::mutex> lock(m);
+        done.push_back(f);
+    };
+    cb.progress = [&](const RenderProgress& p) {
+        std::lock_guard<std::mutex> lock(m);
+        last_samples = std::max(last_samples, p.samples_done);
+    };
+    const JobOutcome out = run(job(json{{"start", 0}, {"end", 48}, {"step", 24}}, {{"animation", "Cube"}}), "s", 2, cb);
+    ASSERT_EQ(done.size(), 3u);
+    for (size_t i = 0; i < 3; ++i) {
+        EXPECT_EQ(done[i].index, i);
+        EXPECT_EQ(done[i].frame, int(24 * i));
+        for (const char* f : {"image.png", "image.exr", "report.json"})
+            EXPECT_TRUE(fs::exists(dir_ / "s" / "frames" / std::to_string(24 * i) / f)) << f;
+    }
+    // Progress counts the samples of every frame, not the current frame's alone.
+    EXPECT_EQ(last_samples, uint64_t(3) * 24 * 18 * 3);
+    const Image sheet = read_image((dir_ / "s" / "contact_sheet.png").string());
+    EXPECT_EQ(sheet.width, 2 * 24);  // ceil(sqrt(3)) columns of full-size thumbnails
+    EXPECT_EQ(sheet.height, 2 * 18);
+    const json report = json::parse(std::ifstream(dir_ / "s" / "report.json"));
+    EXPECT_EQ(report["shot"]["frames"].size(), 3u);
+    EXPECT_EQ(report["shot"]["frames"][1]["frame"], 24);
+    EXPECT_DOUBLE_EQ(report["shot"]["frames"][2]["time_s"].get<double>(), 2.0);
+    EXPECT_EQ(report["shot"]["animations"].size(), 2u);
+    EXPECT_EQ(out.summary["shot"]["frames_done"], 3);
+    EXPECT_FALSE(fs::exists(dir_ / "s" / "image.exr"));  // a shot's images are per frame
+}
+
+TEST_F(Shot, AnUnknownAnimationFailsNamingTheFilesAnimations) {
+    try {
+        run(job(json::array({0}), {{"animation", "Jump"}}), "x");
+        FAIL() << "no SceneError";
+    } catch (const SceneError& e) {
+        EXPECT_NE(std::string(e.what()).find("'Cube', 'Dolly'"), std::string::npos) << e.what();
+    }
+}
+
+// A shot of a scene with no animation renders (every frame at rest, each with its own noise)
+// and says so; naming an animation of such a scene is an error.
+TEST_F(Shot, AStillSceneRendersAtRestAndSaysSo) {
+    RenderJob j = job(json::array({1, 2}));
+    j.scene = "builtin:cornell_box";
+    run(j, "still");
+    const json report = json::parse(std::ifstream(dir_ / "still" / "report.json"));
+    ASSERT_TRUE(report["shot"].contains("warnings"));
+    EXPECT_NE(report["shot"]["warnings"][0].get<std::string>().find("no animation"), std::string::npos);
+    j.animation = "Walk";
+    EXPECT_THROW(run(j, "still2"), SceneError);
+}
+
+TEST_F(Shot, AStopEndsTheShotWritingNoReport) {
+    std::atomic<bool> stop{false};
+    RunCallbacks cb;
+    cb.stop = &stop;
+    cb.frame = [&](const FrameDone&) { stop = true; };  // after the first frame
+    const JobOutcome out = run(job(json{{"start", 0}, {"end", 5}}), "stopped", 2, cb);
+    EXPECT_TRUE(out.stopped);
+    EXPECT_TRUE(fs::exists(dir_ / "stopped" / "frames" / "0" / "image.exr"));
+    EXPECT_FALSE(fs::exists(dir_ / "stopped" / "frames" / "1"));
+    EXPECT_FALSE(fs::exists(dir_ / "stopped" / "report.json"));
+}
+
+TEST(FramePath, HashesBecomeThePaddedFrameNumber) {
+    EXPECT_EQ(frame_path("out_####.exr", 7), "out_0007.exr");
+    EXPECT_EQ(frame_path("out_##.png", 12345), "out_12345.png");
+    EXPECT_EQ(frame_path("dir/f#.exr", 3), "dir/f3.exr");
+    EXPECT_EQ(frame_path("out_####.exr", -7), "out_-0007.exr");
+    EXPECT_EQ(frame_path("shot.png", 9), "shot_9.png");
+    EXPECT_EQ(frame_path("a/b/shot.exr", 10), "a/b/shot_10.exr");
+}
+
+}  // namespace
+}  // namespace tessera::api
