@@ -1,4 +1,5 @@
-// Any byte string, read as .gltf text and as .glb, must either load or raise SceneError.
+// Any byte string, read as .gltf text and as .glb, must either load (and pose at any time) or
+// raise SceneError.
 #include <cstddef>
 #include <cstdint>
 #include <string_view>
@@ -12,7 +13,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const std::string_view bytes(reinterpret_cast<const char*>(data), size);
     for (bool binary : {false, true}) {
         try {
-            tessera::parse_gltf(bytes, binary, "", "fuzz.gltf", limits);
+            // At rest, and posed inside, between and outside the keys of every animation at once.
+            const auto doc = tessera::GltfDocument::parse(bytes, binary, "", "fuzz.gltf", limits);
+            doc->rest();
+            for (const auto& a : doc->animations())
+                for (double t : {a.start_s - 1, 0.5 * (a.start_s + a.end_s), a.end_s + 1}) doc->pose({t, ""});
         } catch (const tessera::SceneError&) {
         }
     }

@@ -566,6 +566,17 @@ TEST(GltfCorpus, PointersOfSelectedErrors) {
     EXPECT_EQ(pointer("node_cycle.gltf"), "/nodes/2/children/0");
     EXPECT_EQ(pointer("sparse_accessor.gltf"), "/accessors/0");
     EXPECT_EQ(pointer("image_buffer_view_huge_offset.gltf"), "/bufferViews/1");
+    EXPECT_EQ(pointer("animation_node_out_of_range.gltf"), "/animations/0/channels/0/target/node");
+    EXPECT_EQ(pointer("animation_sampler_out_of_range.gltf"), "/animations/0/channels/0/sampler");
+    EXPECT_EQ(pointer("animation_times_decrease.gltf"), "/accessors/1");
+    EXPECT_EQ(pointer("animation_output_too_short.gltf"), "/animations/0/samplers/0/output");
+    EXPECT_EQ(pointer("animation_matrix_node.gltf"), "/animations/0/channels/0/target");
+    EXPECT_EQ(pointer("animation_weights_without_targets.gltf"), "/animations/0/channels/0/target");
+    EXPECT_EQ(pointer("skin_joint_out_of_range.gltf"), "/meshes/0/primitives/0/attributes/JOINTS_0");
+    EXPECT_EQ(pointer("skin_joint_not_in_scene.gltf"), "/skins/0/joints/0");
+    EXPECT_EQ(pointer("skin_joints_without_weights.gltf"), "/meshes/0/primitives/0/attributes");
+    EXPECT_EQ(pointer("morph_weights_count_mismatch.gltf"), "/meshes/0/weights");
+    EXPECT_EQ(pointer("morph_target_nan.gltf"), "/accessors/1");
 }
 
 }  // namespace
