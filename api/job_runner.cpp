@@ -269,6 +269,7 @@ RunOutputs RunOutputs::in_directory(const std::string& dir) {
     o.convergence_svg = (d / "convergence.svg").string();
     o.report_json = (d / "report.json").string();
     o.contact_sheet_png = (d / "contact_sheet.png").string();
+    o.preview_mp4 = (d / "preview.mp4").string();
     o.frame = [dir](int frame) { return in_directory((std::filesystem::path(dir) / "frames" / std::to_string(frame)).string()); };
     return o;
 }

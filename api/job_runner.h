@@ -67,6 +67,7 @@ struct RunOutputs {
     // contact sheet of every frame.
     std::function<RunOutputs(int frame)> frame;
     std::string contact_sheet_png;
+    std::string preview_mp4;        // a shot's frames as a video (ffmpeg; needs each frame's png)
     // Every result file in `dir` under the server's names (image.png, image.exr, ...).
     static RunOutputs in_directory(const std::string& dir);
 };

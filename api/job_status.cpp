@@ -114,6 +114,7 @@ json to_json(const JobStatus& s) {
         }
         j["links"]["frame_exr"] = self + "/frames/{n}/image.exr";
         j["links"]["contact_sheet"] = self + "/contact_sheet.png";
+        j["links"]["preview"] = self + "/preview.mp4";
     }
     return j;
 }

@@ -8,6 +8,7 @@
 
 #include "api/job_status.h"
 #include "api/json_text.h"
+#include "api/preview_video.h"
 #include "engine/camera/camera.h"
 #include "engine/geometry/aabb.h"
 #include "engine/io/image_io.h"
@@ -125,6 +126,7 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
     frame_opt.keep_image = true;
     ContactSheet sheet(frames.size(), job.render.width, job.render.height);
     json entries = json::array();
+    std::vector<std::string> pngs;  // each frame's, for the preview
     uint64_t samples_before = 0;
     double render_s = 0, frames_s = 0;
     JobOutcome outcome;
@@ -166,6 +168,7 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
         const double frame_s = seconds_between(t0, Clock::now());
         frames_s += frame_s;
         if (done.image) sheet.add(i, *done.image);
+        if (!frame_out.png.empty()) pngs.push_back(frame_out.png);
         json entry = done.summary;
         entry["frame"] = n;
         entry["time_s"] = time_s;
@@ -179,6 +182,12 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
         if (!out.directory.empty()) std::filesystem::create_directories(out.directory);
         write_png(out.contact_sheet_png, sheet.image(), out.tone);
     }
+    json preview = nullptr;
+    if (!out.preview_mp4.empty()) {
+        const PreviewResult p = write_preview(pngs, job.fps, out.preview_mp4);
+        preview = {{"written", p.written}, {"seconds", p.seconds}};
+        if (!p.written) preview["why_not"] = p.why_not;
+    }
     json animations = json::array();
     for (const AnimationSummary& a : file.animations())
         animations.push_back({{"name", a.name}, {"start_s", a.start_s}, {"end_s", a.end_s}, {"channels", a.channels}});
@@ -189,6 +198,7 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
                  {"fps", job.fps},
                  {"animation", job.animation.empty() ? json(nullptr) : json(job.animation)},
                  {"animations", animations},
+                 {"preview", preview},
                  {"timings", {{"open_s", open_s}, {"render_s", render_s}, {"frames_s", frames_s}, {"total_s", total_s},
                               {"mean_frame_s", frames.empty() ? 0.0 : frames_s / double(frames.size())}}}};
     if (file.animations().empty()) shot["warnings"] = json::array({"the scene has no animation: every frame shows it at rest"});

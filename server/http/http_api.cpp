@@ -106,7 +106,8 @@ std::string allowed_methods(const std::string& path) {
         {std::regex(R"(/v1/comparisons)"), "POST"},
         {std::regex(R"(/v1/jobs/[^/]+)"), "GET, HEAD, DELETE"},
         {std::regex(R"(/v1/jobs/[^/]+/results)"), "DELETE"},
-        {std::regex(R"(/v1/jobs/[^/]+/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg))"), "GET, HEAD"},
+        {std::regex(R"(/v1/jobs/[^/]+/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg|contact_sheet\.png|preview\.mp4))"), "GET, HEAD"},
+        {std::regex(R"(/v1/jobs/[^/]+/frames/-?[0-9]{1,8}/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg))"), "GET, HEAD"},
     };
     for (const auto& [re, allow] : table)
         if (std::regex_match(path, re)) return allow;
@@ -641,12 +642,13 @@ void HttpApi::routes() {
                          : file == "convergence.csv" ? "text/csv" : file == "convergence.svg" ? "image/svg+xml" : "image/png";
         res.set_content(read_file(queue_.frame_result_path(id, frame, file)), type);
     });
-    s.Get(R"(/v1/jobs/([^/]+)/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg|contact_sheet\.png))", [this](const httplib::Request& req, httplib::Response& res) {
+    s.Get(R"(/v1/jobs/([^/]+)/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg|contact_sheet\.png|preview\.mp4))", [this](const httplib::Request& req, httplib::Response& res) {
         const std::string id = req.matches[1];
         const std::string file = req.matches[2];
         const float exposure = exposure_param(req, file);
         const char* type = file == "image.exr" ? "image/x-exr" : file == "report.json" ? "application/json"
-                         : file == "convergence.csv" ? "text/csv" : file == "convergence.svg" ? "image/svg+xml" : "image/png";
+                         : file == "convergence.csv" ? "text/csv" : file == "convergence.svg" ? "image/svg+xml"
+                         : file == "preview.mp4" ? "video/mp4" : "image/png";
         // A running job's images are its latest finished pass, said so in the headers.
         if (file == "image.png" || file == "image.exr" || file == "rate.png") {
             if (const auto live = queue_.live_pass(id)) {

@@ -159,6 +159,9 @@ void JobQueue::check_render_job(const api::RenderJob& job) {
     // The reference's size from its typed job, as stored.
     const api::Job stored = api::job_from_json(json::parse(ref->spec_json));
     const auto* r = std::get_if<api::RenderJob>(&stored);
+    if (r && r->frames)
+        throw QueueError(QueueErrorKind::invalid, "invalid-field", "Invalid job",
+                         "job " + job.reference + " is a shot; a reference is a still's image").with_field("/reference");
     if (!r || r->render.width != job.render.width || r->render.height != job.render.height)
         throw QueueError(QueueErrorKind::invalid, "invalid-field", "Invalid job",
                          r ? "the reference is " + std::to_string(r->render.width) + "×" + std::to_string(r->render.height) +
@@ -204,6 +207,19 @@ api::JobStatus JobQueue::status(const std::string& id) {
 api::JobStatus JobQueue::status_of(const JobRecord& rec, bool locked) {
     api::JobStatus st = record_status(rec);
     add_live(st, rec, locked);
+    // A shot no worker is rendering (queued, failed, canceled, or running before its worker
+    // has begun): its frames from the job, those done from the frames written, in order.
+    const bool shot = st.settings.is_object() && st.settings.contains("frames") && !st.settings["frames"].is_null();
+    if (shot && !st.shot && !(st.summary.is_object() && st.summary.contains("shot"))) {
+        const api::Job job = api::job_from_json(st.settings);
+        api::ShotProgress p;
+        p.frames = std::get<api::RenderJob>(job).frames->frames();
+        const fs::path frames_dir = fs::path(job_dir(rec.id)) / "frames";
+        while (p.frames_done < p.frames.size() && rec.state != JobState::queued &&
+               fs::exists(frames_dir / std::to_string(p.frames[p.frames_done]) / "report.json"))
+            ++p.frames_done;
+        st.shot = p;
+    }
     return st;
 }
 
@@ -243,8 +259,8 @@ std::string JobQueue::result_path(const std::string& id, const std::string& file
     if (shot && (file == "image.png" || file == "image.exr" || file == "rate.png" || file.starts_with("convergence.")))
         throw QueueError(QueueErrorKind::not_found, "per-frame-result", "A shot's images are per frame",
                          "job " + id + " is a shot: fetch /v1/jobs/" + id + "/frames/{n}/" + file + ", or contact_sheet.png");
-    if (!shot && file == "contact_sheet.png")
-        throw QueueError(QueueErrorKind::not_found, "not-a-shot", "Not a shot", "job " + id + " is a still: it has no contact sheet");
+    if (!shot && (file == "contact_sheet.png" || file == "preview.mp4"))
+        throw QueueError(QueueErrorKind::not_found, "not-a-shot", "Not a shot", "job " + id + " is a still: it has no " + file);
     if (!is_final(state))
         throw QueueError(QueueErrorKind::conflict, "not-finished", "The job is not finished",
                          "job " + id + " is " + to_string(state) + "; poll /v1/jobs/" + id);

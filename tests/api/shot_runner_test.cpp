@@ -3,8 +3,12 @@
 // contact sheet and report land where the server and the CLI look; progress counts every frame.
 #include "api/shot_runner.h"
 
+#include "api/preview_video.h"
+
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -151,6 +155,51 @@ TEST_F(Shot, AStopEndsTheShotWritingNoReport) {
     EXPECT_TRUE(fs::exists(dir_ / "stopped" / "frames" / "0" / "image.exr"));
     EXPECT_FALSE(fs::exists(dir_ / "stopped" / "frames" / "1"));
     EXPECT_FALSE(fs::exists(dir_ / "stopped" / "report.json"));
+}
+
+// The preview holds every frame at the shot's rate (counted by ffprobe). CI sets
+// TESSERA_REQUIRE_FFMPEG=1: there a missing ffmpeg fails instead of skipping.
+TEST_F(Shot, ThePreviewHoldsEveryFrame) {
+    if (find_ffmpeg().empty()) {
+        const char* req = std::getenv("TESSERA_REQUIRE_FFMPEG");
+        if (req && std::string(req) == "1") FAIL() << "ffmpeg is not installed (scripts/setup.sh installs it)";
+        GTEST_SKIP() << "ffmpeg is not installed";
+    }
+    run(job(json{{"start", 0}, {"end", 4}}, {{"fps", 10}}), "p");
+    const fs::path mp4 = dir_ / "p" / "preview.mp4";
+    ASSERT_TRUE(fs::exists(mp4));
+    std::ifstream in(mp4, std::ios::binary);
+    char head[8] = {};
+    in.read(head, 8);
+    EXPECT_EQ(std::string(head + 4, 4), "ftyp");
+    const std::string probe = "ffprobe -v error -count_frames -select_streams v:0 -show_entries stream=nb_read_frames,avg_frame_rate "
+                              "-of csv=p=0 '" + mp4.string() + "'";
+    FILE* p = ::popen(probe.c_str(), "r");
+    ASSERT_TRUE(p);
+    char line[128] = {};
+    const bool read = std::fgets(line, sizeof line, p) != nullptr;
+    ::pclose(p);
+    ASSERT_TRUE(read);
+    EXPECT_EQ(std::string(line).substr(0, std::string(line).find_last_not_of("\n") + 1), "10/1,5");
+    const json report = json::parse(std::ifstream(dir_ / "p" / "report.json"));
+    EXPECT_EQ(report["shot"]["preview"]["written"], true);
+    EXPECT_FALSE(fs::exists(dir_ / "p" / ".preview_frames"));  // the links are gone
+}
+
+// Without a working ffmpeg the shot succeeds and its report says why it has no preview.
+TEST_F(Shot, AFailingEncoderLeavesAReasonNotAFailure) {
+    ::setenv("TESSERA_FFMPEG", "/bin/false", 1);
+    run(job(json::array({0, 1})), "f");
+    ::setenv("TESSERA_FFMPEG", "/nonexistent/ffmpeg", 1);
+    run(job(json::array({0, 1})), "g");
+    ::unsetenv("TESSERA_FFMPEG");
+    const json failed = json::parse(std::ifstream(dir_ / "f" / "report.json"));
+    EXPECT_EQ(failed["shot"]["preview"]["written"], false);
+    EXPECT_NE(failed["shot"]["preview"]["why_not"].get<std::string>().find("ffmpeg failed"), std::string::npos);
+    const json absent = json::parse(std::ifstream(dir_ / "g" / "report.json"));
+    EXPECT_NE(absent["shot"]["preview"]["why_not"].get<std::string>().find("not installed"), std::string::npos);
+    EXPECT_FALSE(fs::exists(dir_ / "f" / "preview.mp4"));
+    EXPECT_TRUE(fs::exists(dir_ / "f" / "frames" / "1" / "image.exr"));
 }
 
 TEST(FramePath, HashesBecomeThePaddedFrameNumber) {

@@ -189,6 +189,42 @@ TEST_F(Events, FollowAJobFromCreationToItsResult) {
     EXPECT_TRUE(final_status["latest_pass"].is_null()) << "a finished job's curve is in its report";
 }
 
+// A shot's followers learn of each frame as it is written, in order, without polling: a "frame"
+// event per frame, each counting the frames done and naming the one rendering next.
+TEST_F(Events, AShotPublishesAFrameEventPerFrame) {
+    start();
+    EventReader reader(port_, "/v1/events");
+    ASSERT_TRUE(reader.wait_open());
+    const std::vector<int> frames = {0, 24, 48};
+    const std::string id = submit({{"scene", "cornell_shot"}, {"width", 32}, {"height", 24}, {"spp", 2}, {"max_depth", 2}, {"frames", frames}});
+    ASSERT_TRUE(reader.wait_for([&](const auto& ev) { return finished(ev, id); })) << reader.raw();
+
+    std::vector<json> frame_jobs;
+    bool ended = false;
+    for (const auto& e : of_job(reader.events(), id)) {
+        const json d = json::parse(e.data);
+        if (e.type == "state" && d["job"]["state"] == "succeeded") ended = true;
+        if (e.type != "frame") continue;
+        EXPECT_FALSE(ended) << "a frame event after the shot ended: " << e.data;
+        frame_jobs.push_back(d["job"]);
+    }
+    ASSERT_EQ(frame_jobs.size(), frames.size()) << reader.raw();
+    for (size_t i = 0; i < frame_jobs.size(); ++i) {
+        SCOPED_TRACE("frame event " + std::to_string(i));
+        json& job = frame_jobs[i];
+        EXPECT_EQ(job["state"], "running");
+        json& shot = job["shot"];
+        ASSERT_TRUE(shot.is_object()) << job.dump();
+        EXPECT_EQ(shot["frames_total"], frames.size());
+        EXPECT_EQ(shot["frames_done"], i + 1);
+        EXPECT_EQ(shot["current_frame"], i + 1 < frames.size() ? json(frames[i + 1]) : json(nullptr));
+        ASSERT_EQ(shot["frames"].size(), frames.size()) << shot.dump();
+        EXPECT_EQ(shot["frames"][i]["frame"], frames[i]);
+        EXPECT_EQ(shot["frames"][i]["state"], "succeeded");
+        EXPECT_TRUE(shot["mean_frame_s"].is_number()) << shot.dump();
+    }
+}
+
 TEST_F(Events, AReconnectingClientGetsWhatItMissedOrAReset) {
     start();
     std::string first_id;
