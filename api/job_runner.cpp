@@ -24,15 +24,6 @@ double seconds_between(Clock::time_point a, Clock::time_point b) { return std::c
 
 bool stop_requested(const RunCallbacks& cb) { return cb.stop && cb.stop->load(); }
 
-// Writes a text file whole or throws naming it (a full disk must fail the job, not leave a
-// truncated report behind a success).
-void write_text(const std::string& path, const std::string& text) {
-    if (path.empty()) return;
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out) throw std::runtime_error("cannot write " + path);
-}
 
 JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutputs& out, const RunCallbacks& cb) {
     const auto t0 = Clock::now();
@@ -233,7 +224,8 @@ JobOutcome render_prepared(const RenderJob& job, const RenderSettings& render_se
             v.film.resolve_into(*img);
             cb.pass(PassSnapshot{v.index, v.spp, v.point, img});
         };
-    if (!opt.environment_file.empty()) settings.environment = load_environment(opt.environment_file);
+    if (opt.environment) settings.environment = opt.environment;
+    else if (!opt.environment_file.empty()) settings.environment = load_environment(opt.environment_file);
     settings = lit_settings(std::move(settings), scene);
     if (!opt.reference_image.empty()) {
         if (!std::filesystem::exists(opt.reference_image)) throw std::runtime_error("the reference job's image was deleted");
@@ -256,6 +248,14 @@ JobOutcome render_prepared(const RenderJob& job, const RenderSettings& render_se
     done.tiles_done = tiles_done;
     done.tiles_total = tiles_total;
     return write_render(done, opt, out);
+}
+
+void write_text(const std::string& path, const std::string& text) {
+    if (path.empty()) return;
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out) throw std::runtime_error("cannot write " + path);
 }
 
 RunOutputs RunOutputs::in_directory(const std::string& dir) {

@@ -53,9 +53,14 @@ struct RunOptions {
     std::string job_id;             // names the job in metadata and plot titles; "" for none
     std::string reference_image;    // the reference job's EXR (RenderJob::reference, resolved)
     std::string environment_file;   // RenderJob::environment, resolved to a file; empty: none
+    std::shared_ptr<const EnvironmentMap> environment;  // or loaded already (a render node's): used first
     bool record_convergence = true; // keep the half buffers and report the estimated error
     ScenePreparer prepare;          // a server's cache of prepared scenes; unset: prepared for this job
     bool keep_image = false;        // JobOutcome::image holds the rendered image (a shot's contact sheet)
+    // A shot: frames already written by an earlier run of the same job (a node that died, a
+    // server that restarted) are kept, not rendered again; frames are independent, so the shot
+    // ends with the same images.
+    bool resume_frames = false;
 };
 
 // Where the results go; an empty path is not written.
@@ -119,6 +124,10 @@ struct FinishedRender {
     SceneCacheUse scene_cache;
 };
 JobOutcome write_render(const FinishedRender& done, const RunOptions& options, const RunOutputs& outputs);
+
+// Writes a result's text whole or throws naming the file (a full disk must fail the job, not
+// leave a truncated report behind a success). An empty path writes nothing.
+void write_text(const std::string& path, const std::string& text);
 
 // A scene ready to render, and what readying it cost this job.
 struct ScenePrepared {

@@ -67,6 +67,18 @@ json job_schema(const JobLimits& limits) {
     json adaptive = object_schema(adaptive_fields(), limits);
     adaptive.erase("required");
     for (auto& [k, v] : adaptive.items()) render["properties"]["adaptive"][k] = v;
+    // A shot's fields as the form edits them: frames as a range (a list goes through the API),
+    // the animation as a name or index typed in.
+    json& frames = render["properties"]["frames"];
+    frames["additionalProperties"] = false;
+    frames["properties"] = {
+        {"start", {{"type", "integer"}, {"minimum", -10'000'000}, {"maximum", 10'000'000}, {"default", 1}, {"description", "First frame."}}},
+        {"end", {{"type", "integer"}, {"minimum", -10'000'000}, {"maximum", 10'000'000}, {"default", 24}, {"description", "Last frame."}}},
+        {"step", {{"type", "integer"}, {"minimum", 1}, {"maximum", 10'000'000}, {"default", 1}, {"description", "Every step-th frame."}}}};
+    json& animation = render["properties"]["animation"];
+    animation["type"] = "string";
+    animation["minLength"] = 1;
+    animation["maxLength"] = 256;
     json comparison = object_schema(comparison_job_fields(), limits);
     return {{"render_job", render}, {"comparison_job", comparison}};
 }

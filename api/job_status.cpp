@@ -55,11 +55,13 @@ json to_json(const PassSummary& p) {
 
 json to_json(const ShotProgress& p) {
     const size_t total = p.frames.size();
-    const double mean = p.frames_done ? p.frames_seconds / double(p.frames_done) : 0.0;
+    // Timed from this process's frames only (a farm's node times its own): untimed is null.
+    const bool timed = p.frames_done && p.frames_seconds > 0;
+    const double mean = timed ? p.frames_seconds / double(p.frames_done) : 0.0;
     json j = {{"frames_total", total}, {"frames_done", p.frames_done},
               {"current_frame", p.running && p.frames_done < total ? json(p.frames[p.frames_done]) : json(nullptr)},
-              {"mean_frame_s", p.frames_done ? json(mean) : json(nullptr)},
-              {"eta_s", p.frames_done ? json(mean * double(total - p.frames_done)) : json(nullptr)}};
+              {"mean_frame_s", timed ? json(mean) : json(nullptr)},
+              {"eta_s", timed ? json(mean * double(total - p.frames_done)) : json(nullptr)}};
     if (total <= kStatusFrameList) {
         json list = json::array();
         for (size_t i = 0; i < total; ++i)

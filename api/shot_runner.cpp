@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 
 #include "api/job_status.h"
 #include "api/json_text.h"
@@ -70,12 +71,38 @@ private:
     Image sheet_;
 };
 
-void write_text(const std::string& path, const std::string& text) {
-    if (path.empty()) return;
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out) throw std::runtime_error("cannot write " + path);
+// A frame an earlier run of this job wrote whole: its line in the shot's report, its samples and
+// its image, read back from its own report and EXR.
+struct WrittenFrame {
+    json entry;
+    uint64_t samples = 0;
+    double render_s = 0;
+    std::shared_ptr<const Image> image;
+};
+
+std::optional<WrittenFrame> written_frame(const RunOutputs& out, const RenderJob& job, int frame) {
+    if (out.report_json.empty() || !std::filesystem::exists(out.report_json)) return std::nullopt;
+    json report;
+    try {
+        std::ifstream in(out.report_json);
+        report = json::parse(in);
+    } catch (const std::exception&) {
+        return std::nullopt;  // unreadable: rendered again
+    }
+    if (!report.is_object() || !report.contains("stats") || !report.contains("timings")) return std::nullopt;
+    WrittenFrame w;
+    w.entry = {{"timings", report["timings"]}, {"stats", report["stats"]}, {"progress", report.value("progress", json(nullptr))},
+               {"frame", frame}, {"time_s", double(frame) / job.fps}, {"seed", frame_seed(job.render.seed, frame)},
+               {"seconds", report["timings"].value("total_s", 0.0)}, {"resumed", true}};
+    w.samples = uint64_t(std::llround(report["stats"].value("spp_mean", 0.0) * double(job.render.width) * job.render.height));
+    w.render_s = report["timings"].value("render_s", 0.0);
+    if (!out.exr.empty() && std::filesystem::exists(out.exr)) {
+        try {
+            w.image = std::make_shared<const Image>(read_image(out.exr));
+        } catch (const std::exception&) {
+        }
+    }
+    return w;
 }
 
 }  // namespace
@@ -130,6 +157,7 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
     uint64_t samples_before = 0;
     double render_s = 0, frames_s = 0;
     JobOutcome outcome;
+    size_t resumed = 0;
     for (size_t i = 0; i < frames.size(); ++i) {
         if (cb.stop && cb.stop->load()) {
             outcome.stopped = true;
@@ -138,6 +166,22 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
         const int n = frames[i];
         const auto t0 = Clock::now();
         const double time_s = double(n) / job.fps;
+        RunOutputs frame_out = out.frame ? out.frame(n) : RunOutputs{};
+        frame_out.tone = out.tone;
+        if (opt.resume_frames) {
+            if (auto kept = written_frame(frame_out, job, n)) {
+                // report.json is a frame's last file: one that has it is whole.
+                samples_before += kept->samples;
+                if (kept->image) sheet.add(i, *kept->image);
+                if (!frame_out.png.empty()) pngs.push_back(frame_out.png);
+                frames_s += kept->entry["seconds"].get<double>();
+                render_s += kept->render_s;
+                entries.push_back(kept->entry);
+                ++resumed;
+                if (cb.frame) cb.frame(FrameDone{i, n, 0.0, kept->entry});
+                continue;
+            }
+        }
         SceneDescription desc = file.at(ScenePose{time_s, job.animation});
         if (!desc.camera && held_camera) desc.camera = held_camera;
         const auto t_posed = Clock::now();
@@ -153,8 +197,6 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
             cb.progress(whole);
         };
         frame_cb.frame = nullptr;
-        RunOutputs frame_out = out.frame ? out.frame(n) : RunOutputs{};
-        frame_out.tone = out.tone;
         RenderJob frame_job = job;
         frame_job.render = job.frame_settings(n);
         const JobOutcome done = render_prepared(frame_job, frame_job.render, ScenePrepared{scene, pose_s, build_s, {}}, t0,
@@ -202,6 +244,7 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
                  {"timings", {{"open_s", open_s}, {"render_s", render_s}, {"frames_s", frames_s}, {"total_s", total_s},
                               {"mean_frame_s", frames.empty() ? 0.0 : frames_s / double(frames.size())}}}};
     if (file.animations().empty()) shot["warnings"] = json::array({"the scene has no animation: every frame shows it at rest"});
+    shot["frames_resumed"] = resumed;
     outcome.report = {{"settings", to_json(job)}, {"shot", shot}};
     write_text(out.report_json, json_text(outcome.report, 2));
     outcome.summary = {{"shot", {{"frames_total", frames.size()}, {"frames_done", frames.size()},

@@ -14,6 +14,7 @@ import { announce } from '/ui/notify.js';
 import { convergenceSeries, drawPlot } from '/ui/plot.js';
 import { comparisonView } from '/ui/comparison_view.js';
 import { reportSections, stopReasonText } from '/ui/report_view.js';
+import { isShot, shotView } from '/ui/shot_view.js';
 import { ApiImage, applyZoom, exposureQuery, onViewChange, viewControls } from '/ui/viewer.js';
 
 const STALE_MS = 4000;   // no event for this long while active: ask for the status instead
@@ -290,7 +291,7 @@ export function mount(root, { id }) {
     if (!body) {
       const box = h('div', { class: 'stack' });
       view.append(box);
-      body = isComparison(j) ? comparisonView(box, j) : renderBody(box, j);
+      body = isComparison(j) ? comparisonView(box, j) : isShot(j) ? shotView(box, j) : renderBody(box, j);
     } else body.update(j, prev);
     if (prev && prev !== j.state) announce(`Job ${shortId(id)} ${stateLabel(j.state).toLowerCase()}`);
   }

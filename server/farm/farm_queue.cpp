@@ -108,13 +108,6 @@ void FarmQueue::publish_environment(const std::string& id, const std::string& na
 }
 
 api::JobStatus FarmQueue::enqueue(const api::Job& job, JobRecord rec) {
-    // Refused before anything is stored: a farm's render nodes take tiles of stills, not yet
-    // chunks of frames.
-    if (const auto* rj = std::get_if<api::RenderJob>(&job); rj && rj->frames)
-        throw QueueError(QueueErrorKind::invalid, "shots-not-on-farm", "Shots do not run on a farm yet",
-                         "this server is a render farm's API node, whose nodes render stills; render the shot on a one-process "
-                         "server (tessera serve without --redis) or with tessera render --frames")
-            .with_field("/frames");
     try {
         const size_t queued_now = store_->count(JobState::queued);
         if (queued_now >= config_.max_queued)

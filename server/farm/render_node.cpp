@@ -347,13 +347,17 @@ struct RenderNode::Impl {
     void begin(Redis& r, const Task& t, std::atomic<bool>& cancel) {
         const RedisValue st = r.command({"HGET", keys::job(t.job), "state"});
         const auto info = st.text == "queued" || st.text == "running" ? job_info(r, t.job) : nullptr;
-        // A comparison whose node died or stopped mid-run is still "running": it runs again here.
-        const bool rerun = st.text == "running" && info && std::holds_alternative<api::ComparisonJob>(info->job);
+        // A comparison or a shot whose node died or stopped mid-run is still "running": it runs
+        // again here (a shot from its first frame not yet written).
+        const auto* as_render = info ? std::get_if<api::RenderJob>(&info->job) : nullptr;
+        const bool whole = info && (std::holds_alternative<api::ComparisonJob>(info->job) || (as_render && as_render->frames));
+        const bool rerun = st.text == "running" && whole;
         if (st.text != "queued" && !rerun) { ++metrics.duplicates; return; }
         if (!info) return;
         ++metrics.starts;
         if (const auto* cj = std::get_if<api::ComparisonJob>(&info->job)) return compare(r, t, *cj, cancel);
         const auto& rj = std::get<api::RenderJob>(info->job);
+        if (rj.frames) return shoot(r, t, rj, cancel);
         cache.get(r, info->ref, rj.scene_options);  // a scene that does not load fails the job here, once
         const PassPlan& plan = info->plan;
         std::vector<std::string> args = {keys::prefix, t.job, redis_number(now_s())};
@@ -384,6 +388,36 @@ struct RenderNode::Impl {
         api::RunCallbacks cb;
         cb.stop = &cancel;
         const api::JobOutcome out = api::run_job(job, opt, api::RunOutputs::in_directory(dir.string()), cb);
+        if (out.stopped) return;
+        r.eval(kTransition, {}, {keys::prefix, t.job, "succeeded", "running", redis_number(now_s()), "", json_text(out.summary)});
+    }
+
+    // A shot runs on the node that starts it, frame after frame through the one renderer
+    // (api::run_shot), its frames written to the shared results folder as each is done; a node
+    // that takes it over from a silent one keeps the frames already written.
+    void shoot(Redis& r, const Task& t, const api::RenderJob& job, std::atomic<bool>& cancel) {
+        const std::string state = r.command({"HGET", keys::job(t.job), "state"}).text;
+        if (state != "running" &&
+            r.eval(kTransition, {}, {keys::prefix, t.job, "running", "queued", redis_number(now_s()), "", ""}).as_int() != 1)
+            return;  // canceled meanwhile
+        const auto info = job_info(r, t.job);
+        api::RunOptions opt;
+        opt.scene_source = cache.file_for(r, info->ref);
+        opt.load_limits = cfg.load_limits;
+        opt.threads = cfg.threads;
+        opt.job_id = t.job;
+        opt.resume_frames = true;
+        opt.environment = info->settings.environment;  // published by the API node, loaded with the job
+        const fs::path dir = job_results_dir(cfg.data_dir, t.job);
+        fs::create_directories(dir);
+        api::RunCallbacks cb;
+        cb.stop = &cancel;
+        api::JobOutcome out;
+        try {
+            out = api::run_job(job, opt, api::RunOutputs::in_directory(dir.string()), cb);
+        } catch (const SceneError& e) {
+            return fail_job(r, t.job, std::string("scene: ") + e.what());
+        }
         if (out.stopped) return;
         r.eval(kTransition, {}, {keys::prefix, t.job, "succeeded", "running", redis_number(now_s()), "", json_text(out.summary)});
     }

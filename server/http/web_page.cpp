@@ -32,10 +32,10 @@ const char* content_type(std::string_view name) {
 }
 
 void send_asset(const WebAsset& a, httplib::Response& res) {
-    // Nothing from other hosts, no framing by other sites; images may be blob: URLs made from
-    // responses fetched with a token.
+    // Nothing from other hosts, no framing by other sites; images and a shot's preview video
+    // may be blob: URLs made from responses fetched with a token.
     res.set_header("Content-Security-Policy",
-                   "default-src 'self'; img-src 'self' blob: data:; style-src 'self' 'unsafe-inline'; "
+                   "default-src 'self'; img-src 'self' blob: data:; media-src 'self' blob:; style-src 'self' 'unsafe-inline'; "
                    "script-src 'self'; connect-src 'self'; object-src 'none'; base-uri 'none'; frame-ancestors 'none'");
     res.set_header("X-Content-Type-Options", "nosniff");
     res.set_header("Referrer-Policy", "no-referrer");

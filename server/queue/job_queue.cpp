@@ -207,8 +207,9 @@ api::JobStatus JobQueue::status(const std::string& id) {
 api::JobStatus JobQueue::status_of(const JobRecord& rec, bool locked) {
     api::JobStatus st = record_status(rec);
     add_live(st, rec, locked);
-    // A shot no worker is rendering (queued, failed, canceled, or running before its worker
-    // has begun): its frames from the job, those done from the frames written, in order.
+    // A shot no worker of this process holds (queued, failed or canceled; running before its
+    // worker has begun, or on a farm's node): its frames from the job, those done from the
+    // frames written, in order, in the results folder the farm shares.
     const bool shot = st.settings.is_object() && st.settings.contains("frames") && !st.settings["frames"].is_null();
     if (shot && !st.shot && !(st.summary.is_object() && st.summary.contains("shot"))) {
         const api::Job job = api::job_from_json(st.settings);
@@ -218,6 +219,9 @@ api::JobStatus JobQueue::status_of(const JobRecord& rec, bool locked) {
         while (p.frames_done < p.frames.size() && rec.state != JobState::queued &&
                fs::exists(frames_dir / std::to_string(p.frames[p.frames_done]) / "report.json"))
             ++p.frames_done;
+        p.running = rec.state == JobState::running;
+        if (p.running && (!st.live_progress || st.live_progress->fraction == 0.0) && !p.frames.empty())
+            st.live_progress = api::JobProgress{double(p.frames_done) / double(p.frames.size()), 0, 0, 0};
         st.shot = p;
     }
     return st;
@@ -256,14 +260,15 @@ std::string JobQueue::result_path(const std::string& id, const std::string& file
     const api::JobStatus st = status(id);
     const JobState state = st.state;
     const bool shot = st.settings.is_object() && st.settings.contains("frames") && !st.settings["frames"].is_null();
-    if (shot && (file == "image.png" || file == "image.exr" || file == "rate.png" || file.starts_with("convergence.")))
-        throw QueueError(QueueErrorKind::not_found, "per-frame-result", "A shot's images are per frame",
-                         "job " + id + " is a shot: fetch /v1/jobs/" + id + "/frames/{n}/" + file + ", or contact_sheet.png");
     if (!shot && (file == "contact_sheet.png" || file == "preview.mp4"))
         throw QueueError(QueueErrorKind::not_found, "not-a-shot", "Not a shot", "job " + id + " is a still: it has no " + file);
+    // A running shot's image.png between passes is "not yet", as a still's before its first.
     if (!is_final(state))
         throw QueueError(QueueErrorKind::conflict, "not-finished", "The job is not finished",
                          "job " + id + " is " + to_string(state) + "; poll /v1/jobs/" + id);
+    if (shot && (file == "image.png" || file == "image.exr" || file == "rate.png" || file.starts_with("convergence.")))
+        throw QueueError(QueueErrorKind::not_found, "per-frame-result", "A shot's images are per frame",
+                         "job " + id + " is a shot: fetch /v1/jobs/" + id + "/frames/{n}/" + file + ", or contact_sheet.png");
     const fs::path p = fs::path(job_dir(id)) / file;
     if (!fs::exists(p))
         throw QueueError(QueueErrorKind::gone, "gone", "No such result",

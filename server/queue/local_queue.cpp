@@ -236,6 +236,7 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         opt.load_limits = config_.load_limits;
         opt.threads = config_.render_threads;
         opt.job_id = rec.id;
+        opt.resume_frames = true;  // a shot queued again after a shutdown keeps its written frames
         opt.prepare = [this](const std::string& source, const RenderSceneOptions& options) { return scenes_.get_local(source, options); };
         if (const auto* r = std::get_if<api::RenderJob>(&job)) {
             running.max_spp = r->render.spp;

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "engine/io/scene_loader.h"
+#include "tests/scratch_dir.h"
 
 namespace tessera::api {
 namespace {
@@ -18,16 +19,8 @@ using nlohmann::json;
 
 class Runner : public ::testing::Test {
 protected:
-    void SetUp() override {
-        dir_ = fs::temp_directory_path() / ("tessera_runner_" + std::to_string(::getpid()) + "_" +
-                                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override {
-        std::error_code ec;
-        fs::remove_all(dir_, ec);
-    }
+    void SetUp() override { dir_ = test::scratch_dir("tessera_runner"); }
+    void TearDown() override { test::remove_scratch_dir(dir_); }
     static RenderJob small_job() {
         return parse_render_job(json{{"scene", "builtin:cornell_box"}, {"width", 32}, {"height", 24}, {"spp", 4}, {"max_depth", 3}});
     }

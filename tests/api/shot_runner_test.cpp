@@ -17,6 +17,7 @@
 #include "build_paths.h"
 #include "engine/io/image_io.h"
 #include "engine/render/image.h"
+#include "tests/scratch_dir.h"
 
 namespace tessera::api {
 namespace {
@@ -28,16 +29,8 @@ std::string shot_scene() { return (fs::path(TESSERA_DEFAULT_SCENES_DIR) / "corne
 
 class Shot : public ::testing::Test {
 protected:
-    void SetUp() override {
-        dir_ = fs::temp_directory_path() / ("tessera_shot_" + std::to_string(::getpid()) + "_" +
-                                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override {
-        std::error_code ec;
-        fs::remove_all(dir_, ec);
-    }
+    void SetUp() override { dir_ = test::scratch_dir("tessera_shot"); }
+    void TearDown() override { test::remove_scratch_dir(dir_); }
     static RenderJob job(const json& frames, const json& more = json::object()) {
         json body = {{"scene", shot_scene()}, {"width", 24}, {"height", 18}, {"spp", 3}, {"max_depth", 2}, {"frames", frames}};
         body.update(more);

@@ -230,6 +230,24 @@ try {
   const focused = await page.evaluate(() => document.activeElement?.tagName);
   check(['A', 'BUTTON', 'SELECT', 'INPUT'].includes(focused), `Tab moves focus to controls (${focused})`);
 
+  // 6b. A shot (one process only: a farm refuses shots): the frame strip fills as frames are
+  // written, a written frame opens in the viewer, the preview plays once the shot is done.
+  if (!farm) {
+    const shotId = (await api('POST', '/v1/jobs', {scene: 'cornell_shot', width: 64, height: 48, spp: 2, max_depth: 2,
+                                                    frames: {start: 0, end: 48, step: 24}})).body.id;
+    await page.goto(`${base}/#/jobs/${shotId}`);
+    await page.waitForSelector('#frame-strip');
+    await page.waitForFunction(() => document.querySelectorAll('#frame-strip .frame-succeeded').length === 3, null, {timeout: 30000});
+    check(true, 'the frame strip shows every frame written');
+    await page.waitForSelector('#shot-preview:not([hidden])', {timeout: 15000});
+    check(await page.evaluate(() => document.querySelector('#shot-preview').src.startsWith('blob:')), 'the preview video is loaded');
+    await page.click('#frame-strip [data-frame="24"]');
+    await page.waitForFunction(() => document.querySelector('#frame-caption')?.textContent === 'Frame 24', null, {timeout: 5000});
+    await page.waitForSelector('#download-frame-exr', {timeout: 5000});
+    check(true, 'a written frame opens in the viewer with its downloads');
+    await shot('shot');
+  }
+
   // 7. A phone's width: nothing wider than the screen.
   await page.setViewportSize({width: 375, height: 800});
   await page.goto(`${base}/#/jobs/${id}`);

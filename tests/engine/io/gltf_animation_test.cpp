@@ -60,23 +60,6 @@ SceneDescription posed(const std::shared_ptr<const GltfDocument>& d, double t, c
     return d->pose(ScenePose{t, animation});
 }
 
-void expect_near(const glm::vec3& a, const glm::vec3& b, float eps = 1e-5f) {
-    EXPECT_NEAR(a.x, b.x, eps);
-    EXPECT_NEAR(a.y, b.y, eps);
-    EXPECT_NEAR(a.z, b.z, eps);
-}
-
-template <class F>
-SceneError error_of(F&& f) {
-    try {
-        f();
-    } catch (const SceneError& e) {
-        return e;
-    }
-    ADD_FAILURE() << "no SceneError";
-    return SceneError(SourceLocation{}, "none");
-}
-
 std::string animation(const std::string& channels, const std::string& samplers, const std::string& name = "") {
     return R"({"name":")" + name + R"(","channels":[)" + channels + R"(],"samplers":[)" + samplers + "]}";
 }

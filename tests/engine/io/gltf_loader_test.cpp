@@ -24,12 +24,6 @@ namespace {
 namespace fs = std::filesystem;
 using namespace test::gltf;
 
-void expect_near(const glm::vec3& a, const glm::vec3& b, float eps = 1e-5f) {
-    EXPECT_NEAR(a.x, b.x, eps);
-    EXPECT_NEAR(a.y, b.y, eps);
-    EXPECT_NEAR(a.z, b.z, eps);
-}
-
 std::pair<glm::vec3, glm::vec3> bounds(const SceneDescription& s) {
     glm::vec3 lo(INFINITY), hi(-INFINITY);
     for (const auto& m : s.meshes)
@@ -41,18 +35,6 @@ bool has_warning(const SceneDescription& s, const std::string& text) {
     for (const auto& w : s.warnings)
         if (w.find(text) != std::string::npos) return true;
     return false;
-}
-
-// Runs `f`, expects a SceneError, returns it.
-template <class F>
-SceneError error_of(F&& f) {
-    try {
-        f();
-    } catch (const SceneError& e) {
-        return e;
-    }
-    ADD_FAILURE() << "no SceneError";
-    return SceneError(SourceLocation{}, "none");
 }
 
 // --- the Khronos samples ---------------------------------------------------------------------

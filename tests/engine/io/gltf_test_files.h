@@ -7,6 +7,8 @@
 #include <string_view>
 #include <utility>
 
+#include <gtest/gtest.h>
+
 #include "engine/io/gltf_loader.h"
 
 namespace tessera::test::gltf {
@@ -78,6 +80,24 @@ inline std::string triangle_file(const std::string& nodes, const std::string& mo
         "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}]$MORE})",
                        {{"$SCENES", scenes}, {"$NODES", nodes}, {"$PRIM", primitive_extra}, {"$URI", triangle_blob().uri()},
                         {"$MORE", more.empty() ? "" : "," + more}});
+}
+
+inline void expect_near(const glm::vec3& a, const glm::vec3& b, float eps = 1e-5f) {
+    EXPECT_NEAR(a.x, b.x, eps);
+    EXPECT_NEAR(a.y, b.y, eps);
+    EXPECT_NEAR(a.z, b.z, eps);
+}
+
+// Runs `f`, expects a SceneError, returns it.
+template <class F>
+SceneError error_of(F&& f) {
+    try {
+        f();
+    } catch (const SceneError& e) {
+        return e;
+    }
+    ADD_FAILURE() << "no SceneError";
+    return SceneError(SourceLocation{}, "none");
 }
 
 }  // namespace tessera::test::gltf

@@ -91,34 +91,22 @@ TEST_F(FarmQueueTest, TheFarmsQueueBoundAndCancel) {
     EXPECT_FALSE(queue_->live_pass(a)) << "no one process holds a farm's passes";
 }
 
-// The farm's nodes render stills: a shot stored for them would be rendered as its first frame
-// alone, or not at all. It is refused with the reason and the field, before the scene is
-// published or the job stored, and takes no place in the queue.
-TEST_F(FarmQueueTest, AShotIsRefusedBeforeAnythingIsStored) {
-    const json still = {{"scene", "builtin:cornell_box"}, {"width", 8}, {"height", 8}};
-    queue_->submit(still);
-    const size_t queued = queue_->store().count(api::JobState::queued), all = queue_->store().count(std::nullopt);
-    ASSERT_EQ(queued, 1u);
-    for (const json& frames : {json{{"start", 0}, {"end", 3}}, json::array({0, 24, 48})}) {
-        SCOPED_TRACE(frames.dump());
-        try {
-            queue_->submit({{"scene", "cornell_shot"}, {"width", 8}, {"height", 8}, {"frames", frames}});
-            ADD_FAILURE() << "a farm's API node accepted a shot";
-        } catch (const QueueError& e) {
-            EXPECT_EQ(e.kind, QueueErrorKind::invalid) << e.what();  // 400, not a retry
-            EXPECT_EQ(e.code, "shots-not-on-farm") << e.what();
-            EXPECT_EQ(e.field.value_or("(none)"), "/frames") << e.what();
-        }
-    }
-    EXPECT_EQ(queue_->store().count(api::JobState::queued), queued);
-    EXPECT_EQ(queue_->store().count(std::nullopt), all);
+// A shot is a farm job like any other: stored with its scene published for the nodes (which
+// render it through the one shot runner: RenderNodeFarm.AShotGivesOneProcessFramesBitForBitAndResumes),
+// and its status shows its frames, none written yet.
+TEST_F(FarmQueueTest, AShotIsStoredWithItsSceneForTheNodes) {
+    const size_t queued = queue_->store().count(api::JobState::queued);
+    const api::JobStatus st = queue_->submit({{"scene", "cornell_shot"}, {"width", 8}, {"height", 8}, {"frames", json::array({0, 24, 48})}});
+    EXPECT_EQ(queue_->store().count(api::JobState::queued), queued + 1);
     const auto shot_file = read_scene_file((fs::path(TESSERA_PROJECT_SCENES) / "cornell_shot.gltf").string());
     ASSERT_TRUE(shot_file);
-    EXPECT_EQ(Redis(redis_->url()).command({"EXISTS", keys::scene(shot_file->ref.hash)}).as_int(), 0)
-        << "the shot's scene was published for the nodes";
-    // With max_queued 2, a second still fits only if the shots took no place.
-    EXPECT_NO_THROW(queue_->submit(still));
-    EXPECT_EQ(queue_->queue_depth(), 2u);
+    EXPECT_EQ(Redis(redis_->url()).command({"EXISTS", keys::scene(shot_file->ref.hash)}).as_int(), 1)
+        << "the shot's scene is published for the nodes";
+    const json status = api::to_json(queue_->status(st.id));
+    ASSERT_TRUE(status["shot"].is_object()) << status.dump();
+    EXPECT_EQ(status["shot"]["frames_total"], 3);
+    EXPECT_EQ(status["shot"]["frames_done"], 0);
+    EXPECT_EQ(status["shot"]["frames"][2]["state"], "queued");
 }
 
 TEST_F(FarmQueueTest, ReadinessSaysWhenRedisIsAway) {

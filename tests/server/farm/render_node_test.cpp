@@ -149,5 +149,48 @@ TEST_F(RenderNodeFarm, EveryPassScheduleGivesOneProcessImageBitForBit) {
     }
 }
 
+// A shot on the farm: the node that starts it renders it through the one shot runner into the
+// shared results folder, so every frame equals one process's bit for bit; a shot whose first
+// frame an earlier run already wrote (a node that died) keeps it and renders the rest.
+TEST_F(RenderNodeFarm, AShotGivesOneProcessFramesBitForBitAndResumes) {
+    const json body = {{"scene", "cornell_shot"}, {"width", 32}, {"height", 24}, {"spp", 2}, {"max_depth", 2},
+                       {"frames", {{"start", 0}, {"end", 48}, {"step", 24}}}};
+    const std::string id = run_on_farm(body);
+    const fs::path farm = job_results_dir((dir_ / "data").string(), id);
+    const fs::path one = run_in_one_process(body, (fs::path(TESSERA_PROJECT_SCENES) / "cornell_shot.gltf").string(), "one-shot");
+    for (int n : {0, 24, 48}) {
+        SCOPED_TRACE(n);
+        const std::string f = "frames/" + std::to_string(n) + "/image.exr";
+        const Image a = read_image((farm / f).string()), b = read_image((one / f).string());
+        ASSERT_EQ(a.rgb.size(), b.rgb.size());
+        EXPECT_EQ(0, std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)));
+    }
+    EXPECT_TRUE(fs::exists(farm / "contact_sheet.png"));
+    const json status = api::to_json(service_->status(id));
+    EXPECT_EQ(status["shot"]["frames_done"], 3) << status.dump();
+
+    // The same job again, with frame 24 already written as a dead node would have left it (a
+    // marker in its report shows whether it was kept).
+    const std::string id2 = service_->submit(body).id;
+    (void)service_->cancel(id2);  // not run yet: only its folder is wanted
+    const fs::path again = job_results_dir((dir_ / "data").string(), id2);
+    fs::create_directories(again / "frames");
+    fs::copy(farm / "frames" / "24", again / "frames" / "24", fs::copy_options::recursive);
+    json kept = json::parse(std::ifstream(again / "frames" / "24" / "report.json"));
+    kept["timings"]["total_s"] = 1234.5;
+    std::ofstream(again / "frames" / "24" / "report.json") << kept.dump();
+    api::RunOptions opt;
+    opt.scene_source = (fs::path(TESSERA_PROJECT_SCENES) / "cornell_shot.gltf").string();
+    opt.threads = 2;
+    opt.resume_frames = true;
+    const api::JobOutcome out = api::run_job(api::parse_render_job(body), opt, api::RunOutputs::in_directory(again.string()));
+    EXPECT_EQ(out.report["shot"]["frames_resumed"], 1);
+    EXPECT_EQ(out.report["shot"]["frames"][1]["seconds"], 1234.5);
+    for (int n : {0, 24, 48}) {
+        const std::string f = "frames/" + std::to_string(n) + "/image.exr";
+        EXPECT_EQ(read_image((again / f).string()).rgb, read_image((one / f).string()).rgb) << n;
+    }
+}
+
 }  // namespace
 }  // namespace tessera::server
