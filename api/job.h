@@ -69,6 +69,7 @@ struct RenderJob {
     std::optional<FrameSet> frames;
     double fps = 24;
     std::string animation;
+    int chunk = 0;  // frames per task on a farm; 0: chosen from the measured open and frame times
     // A shot's frame as the engine renders it: the job with that frame's seed.
     RenderSettings frame_settings(int frame) const;
 };

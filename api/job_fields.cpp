@@ -184,9 +184,12 @@ json get_adaptive(const RenderJob& j) {
     return j.render.adaptive ? fields_to_json(adaptive_fields(), *j.render.adaptive) : json(nullptr);
 }
 
-// "frames": null (a still), {"start", "end", "step"} or a list of distinct frame numbers.
+// "frames": null (a still), {"start", "end", "step"} or a list of distinct frame numbers. A list
+// is kept to kMaxFrameList: the job's settings (with the list) come back with every status and
+// job listing, and a range says any longer shot in three numbers.
 void set_frames(RenderJob& j, const json& v, const ParseContext& ctx) {
     constexpr int64_t kMaxFrame = 10'000'000;
+    constexpr int64_t kMaxFrameList = 1000;
     const std::string& p = ctx.pointer;
     if (v.is_null()) {
         j.frames.reset();
@@ -204,8 +207,10 @@ void set_frames(RenderJob& j, const json& v, const ParseContext& ctx) {
     FrameSet f;
     if (v.is_array()) {
         if (v.empty()) throw InvalidJob(p, p + " must list at least one frame");
-        if (int64_t(v.size()) > max_frames)
-            throw InvalidJob(p, p + " lists " + std::to_string(v.size()) + " frames, over the limit of " + std::to_string(max_frames));
+        const int64_t max_list = std::min(max_frames, kMaxFrameList);
+        if (int64_t(v.size()) > max_list)
+            throw InvalidJob(p, p + " lists " + std::to_string(v.size()) + " frames, over the limit of " + std::to_string(max_list) +
+                                    (max_list == kMaxFrameList ? " for a list (give a range {start, end, step} for more)" : ""));
         for (size_t i = 0; i < v.size(); ++i) f.list.push_back(frame_number(v[i], p + "/" + std::to_string(i)));
         std::vector<int> sorted = f.list;
         std::sort(sorted.begin(), sorted.end());
@@ -353,6 +358,10 @@ const Field<RenderJob> kRenderFields[] = {
     }(),
     not_per_config(number<RenderJob, &RenderJob::fps>("fps", 0, 1000, "24", "A shot's frames per second (glTF files carry none).",
                                                       "--fps", Limit::none, true)),
+    not_per_config(integer<RenderJob, &RenderJob::chunk>(
+        "chunk", 0, 100'000, "0",
+        "A shot on a render farm: frames per task (a node opens the scene once per chunk); 0: chosen from the first frame's "
+        "measured open and render times.")),
     [] {
         Field<RenderJob> f = field<RenderJob>(
             "animation", FieldKind::object,

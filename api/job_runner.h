@@ -9,6 +9,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
@@ -61,6 +62,9 @@ struct RunOptions {
     // server that restarted) are kept, not rendered again; frames are independent, so the shot
     // ends with the same images.
     bool resume_frames = false;
+    // A farm's chunk of a shot: only frames[first, first + count) (indices into the shot's
+    // frames), and no contact sheet, preview or report (the shot's last chunk writes those).
+    std::optional<std::pair<size_t, size_t>> frame_slice;
 };
 
 // Where the results go; an empty path is not written.

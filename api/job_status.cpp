@@ -58,15 +58,18 @@ json to_json(const ShotProgress& p) {
     // Timed from this process's frames only (a farm's node times its own): untimed is null.
     const bool timed = p.frames_done && p.frames_seconds > 0;
     const double mean = timed ? p.frames_seconds / double(p.frames_done) : 0.0;
+    const bool by_mask = !p.written.empty();
     json j = {{"frames_total", total}, {"frames_done", p.frames_done},
-              {"current_frame", p.running && p.frames_done < total ? json(p.frames[p.frames_done]) : json(nullptr)},
+              {"current_frame", !by_mask && p.running && p.frames_done < total ? json(p.frames[p.frames_done]) : json(nullptr)},
               {"mean_frame_s", timed ? json(mean) : json(nullptr)},
               {"eta_s", timed ? json(mean * double(total - p.frames_done)) : json(nullptr)}};
     if (total <= kStatusFrameList) {
         json list = json::array();
-        for (size_t i = 0; i < total; ++i)
+        for (size_t i = 0; i < total; ++i) {
+            const bool done = by_mask ? i < p.written.size() && p.written[i] : i < p.frames_done;
             list.push_back({{"frame", p.frames[i]},
-                            {"state", i < p.frames_done ? "succeeded" : i == p.frames_done && p.running ? "running" : "queued"}});
+                            {"state", done ? "succeeded" : !by_mask && i == p.frames_done && p.running ? "running" : "queued"}});
+        }
         j["frames"] = list;
     }
     return j;

@@ -40,9 +40,12 @@ nlohmann::json to_json(const PassSummary& p);
 // the frames measured so far.
 struct ShotProgress {
     std::vector<int> frames;       // every frame, in rendering order
-    size_t frames_done = 0;        // the first frames_done of `frames` are written
-    bool running = false;          // frames[frames_done] is rendering
+    size_t frames_done = 0;        // the first frames_done of `frames` are written (unless `written`)
+    bool running = false;          // frames[frames_done] is rendering (unless `written`)
     double frames_seconds = 0;     // the frames done, together
+    // Written frames one by one, where they finish out of order (a farm's chunks); empty: the
+    // first frames_done. Which frame renders next is then not known here.
+    std::vector<char> written;
 };
 // Frames listed one by one in a status up to this many (a longer shot gives counts only).
 constexpr size_t kStatusFrameList = 2000;

@@ -158,7 +158,9 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
     double render_s = 0, frames_s = 0;
     JobOutcome outcome;
     size_t resumed = 0;
-    for (size_t i = 0; i < frames.size(); ++i) {
+    const size_t first = opt.frame_slice ? std::min(opt.frame_slice->first, frames.size()) : 0;
+    const size_t end = opt.frame_slice ? std::min(frames.size(), first + opt.frame_slice->second) : frames.size();
+    for (size_t i = first; i < end; ++i) {
         if (cb.stop && cb.stop->load()) {
             outcome.stopped = true;
             return outcome;
@@ -220,6 +222,11 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
         if (cb.frame) cb.frame(FrameDone{i, n, frame_s, entry});
     }
 
+    if (opt.frame_slice) {
+        // A chunk: its frames are written; the shot's last chunk writes what covers them all.
+        outcome.summary = {{"frames", end - first}, {"frames_resumed", resumed}, {"open_s", open_s}, {"frames_s", frames_s}};
+        return outcome;
+    }
     if (!out.contact_sheet_png.empty()) {
         if (!out.directory.empty()) std::filesystem::create_directories(out.directory);
         write_png(out.contact_sheet_png, sheet.image(), out.tone);

@@ -3,11 +3,8 @@
 // before anything is allocated, because glTF files come from users and fuzzers.
 #include "engine/io/gltf_loader.h"
 
-// Must match engine/io/tinygltf_impl.cpp: these switches change TinyGLTF's inline constructor,
-// which would otherwise refer to stb image functions that are not compiled.
-#define TINYGLTF_NO_STB_IMAGE
-#define TINYGLTF_NO_STB_IMAGE_WRITE
-#include <tiny_gltf.h>
+#include "engine/io/gltf_animation_reader.h"
+#include "engine/io/gltf_context.h"
 
 #include <nlohmann/json.hpp>
 
@@ -29,6 +26,7 @@
 namespace tessera {
 namespace {
 
+using namespace gltf;
 namespace fs = std::filesystem;
 static_assert(std::endian::native == std::endian::little, "glTF buffers are little-endian and read by memcpy");
 
@@ -39,27 +37,6 @@ constexpr const char* kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_mate
                                                 "KHR_materials_specular", "KHR_texture_transform"};
 
 constexpr const char* kVerticesLeft = "vertices left under LoadLimits::max_vertices";
-
-SourceLocation at(const std::string& file, const std::string& pointer) { return {file, 0, pointer}; }
-
-[[noreturn]] void fail(const std::string& file, const std::string& pointer, const std::string& what) {
-    throw SceneError(at(file, pointer), what);
-}
-
-std::string str(uint64_t v) { return std::to_string(v); }
-std::string num(double v) {
-    char b[32];
-    std::snprintf(b, sizeof b, "%g", v);
-    return b;
-}
-
-// tinygltf quotes whole data URIs in some messages, and names are copied per instance: keep
-// both bounded.
-std::string clip(std::string s, size_t max = 400) {
-    while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
-    if (s.size() > max) s = s.substr(0, max) + "...";
-    return s;
-}
 
 void check_json_depth(std::string_view json, const std::string& file, int max_depth) {
     if (json_nesting_depth(json, max_depth) > max_depth)
@@ -186,16 +163,6 @@ bool guard_read(std::vector<unsigned char>* out, std::string* err, const std::st
     return true;
 }
 
-// Each image decoded as tinygltf reaches it, into our own list (tinygltf's Image keeps nothing).
-// A failure is kept, not raised: it matters only if a material uses the image, and then the
-// error names it.
-struct DecodedImages {
-    const LoadLimits* limits = nullptr;
-    uint64_t budget = 0;
-    std::vector<std::shared_ptr<const TextureImage>> images;
-    std::vector<std::string> errors;
-};
-
 bool decode_image(tinygltf::Image*, const int index, std::string*, std::string*, int, int, const unsigned char* bytes,
                   int size, void* user) {
     auto* d = static_cast<DecodedImages*>(user);
@@ -268,152 +235,6 @@ tinygltf::Model read_model(std::string_view bytes, bool binary, const std::strin
 
 // --- conversion -----------------------------------------------------------------------------
 
-// A node's animated values at the pose being flattened; unset ones keep the node's own.
-struct NodeState {
-    bool has_t = false, has_r = false, has_s = false, has_weights = false;
-    glm::dvec3 t{0.0}, s{1.0};
-    glm::dvec4 r{0, 0, 0, 1};  // x y z w
-    std::vector<double> weights;
-};
-
-struct Ctx {
-    const tinygltf::Model& m;
-    const std::string& file;
-    const LoadLimits& limits;
-    SceneDescription& out;
-    const DecodedImages& decoded;
-    std::vector<NodeState> state{};     // per node; empty: at rest
-    std::vector<glm::dmat4> world{};    // per node, once visited
-    std::vector<size_t> skinned{};      // nodes whose meshes wait for every joint's world matrix
-    std::vector<int> texture_index{};  // glTF texture -> SceneDescription::textures, -1 before use
-    std::vector<int> image_index{};    // glTF image -> SceneDescription::images
-    int uv_sets_above_1 = 0, missing_uv = 0;
-    uint64_t vertices = 0, triangles = 0;
-    std::vector<char> on_path{}, visited{};
-    int points_lines = 0, no_position = 0, spots = 0, extra_cameras = 0, dropped_normals = 0;
-    std::string first_dropped{};
-};
-
-[[noreturn]] void fail(const Ctx& c, const std::string& pointer, const std::string& what) { fail(c.file, pointer, what); }
-
-// A bounds-checked window onto an accessor: element k starts at data + k * stride.
-struct AccessorView {
-    const unsigned char* data = nullptr;
-    size_t stride = 0;
-    size_t count = 0;
-    int component_type = 0;
-};
-
-const char* type_name(int type) {
-    switch (type) {
-        case TINYGLTF_TYPE_SCALAR: return "SCALAR";
-        case TINYGLTF_TYPE_VEC2: return "VEC2";
-        case TINYGLTF_TYPE_VEC3: return "VEC3";
-        case TINYGLTF_TYPE_VEC4: return "VEC4";
-        case TINYGLTF_TYPE_MAT2: return "MAT2";
-        case TINYGLTF_TYPE_MAT3: return "MAT3";
-        case TINYGLTF_TYPE_MAT4: return "MAT4";
-        default: return "unknown type";
-    }
-}
-
-// True when `count` elements of `elem` bytes, `stride` apart, starting at `offset`, end within
-// `length` bytes. Written so that no intermediate value can overflow.
-bool fits(uint64_t offset, uint64_t stride, uint64_t count, uint64_t elem, uint64_t length) {
-    if (count == 0) return offset <= length;
-    if (offset > length || elem > length - offset) return false;
-    return (count - 1) <= (length - offset - elem) / stride;
-}
-
-// `ref` is the JSON pointer of the reference (e.g. "/meshes/0/primitives/1/indices"); errors
-// about the accessor itself point at "/accessors/N". `max_count` is checked before the caller
-// allocates anything.
-AccessorView view_accessor(const Ctx& c, int index, const std::string& ref, const char* role, int want_type,
-                           std::initializer_list<int> want_components, uint64_t max_count, const char* what_is_left) {
-    if (index < 0 || static_cast<size_t>(index) >= c.m.accessors.size())
-        fail(c, ref, "refers to accessor " + std::to_string(index) + ", but the file has " + str(c.m.accessors.size()));
-    const tinygltf::Accessor& a = c.m.accessors[static_cast<size_t>(index)];
-    const std::string ap = "/accessors/" + str(static_cast<size_t>(index));
-    if (a.sparse.isSparse) fail(c, ap, std::string("sparse accessors are not supported (used as ") + role + ")");
-    if (a.type != want_type ||
-        std::find(want_components.begin(), want_components.end(), a.componentType) == want_components.end())
-        fail(c, ap, std::string(role) + " accessor has type " + type_name(a.type) + " with componentType " +
-                        std::to_string(a.componentType) + ", which is not allowed here (see " + ref + ")");
-    if (a.count > max_count)
-        fail(c, ap, "count " + str(a.count) + " exceeds the " + str(max_count) + " " + what_is_left);
-    if (a.bufferView < 0)
-        fail(c, ap, "accessor without a bufferView (all zeros) is not supported for " + std::string(role));
-    if (static_cast<size_t>(a.bufferView) >= c.m.bufferViews.size())
-        fail(c, ap, "refers to bufferView " + std::to_string(a.bufferView) + ", but the file has " +
-                        str(c.m.bufferViews.size()));
-    const tinygltf::BufferView& bv = c.m.bufferViews[static_cast<size_t>(a.bufferView)];
-    const std::string bp = "/bufferViews/" + std::to_string(a.bufferView);
-    if (bv.buffer < 0 || static_cast<size_t>(bv.buffer) >= c.m.buffers.size())
-        fail(c, bp, "refers to buffer " + std::to_string(bv.buffer) + ", but the file has " + str(c.m.buffers.size()));
-    const std::vector<unsigned char>& buf = c.m.buffers[static_cast<size_t>(bv.buffer)].data;
-    if (!fits(bv.byteOffset, 1, 1, bv.byteLength, buf.size()))
-        fail(c, bp, "byteOffset " + str(bv.byteOffset) + " + byteLength " + str(bv.byteLength) + " exceeds buffer " +
-                        std::to_string(bv.buffer) + " of " + str(buf.size()) + " bytes");
-    const uint64_t elem = static_cast<uint64_t>(tinygltf::GetComponentSizeInBytes(a.componentType)) *
-                          static_cast<uint64_t>(tinygltf::GetNumComponentsInType(a.type));
-    const uint64_t stride = bv.byteStride ? bv.byteStride : elem;
-    if (stride < elem)
-        fail(c, bp, "byteStride " + str(stride) + " is smaller than the " + str(elem) + "-byte elements of accessor " +
-                        std::to_string(index));
-    if (!fits(a.byteOffset, stride, a.count, elem, bv.byteLength))
-        fail(c, ap, "byteOffset " + str(a.byteOffset) + " + " + str(a.count) + " elements of " + str(elem) +
-                        " bytes, stride " + str(stride) + ", exceed bufferView " + std::to_string(a.bufferView) +
-                        " of " + str(bv.byteLength) + " bytes");
-    if (a.count == 0) return {};
-    return {buf.data() + bv.byteOffset + a.byteOffset, static_cast<size_t>(stride), a.count, a.componentType};
-}
-
-glm::vec3 read_vec3(const AccessorView& v, size_t k) {
-    float f[3];
-    std::memcpy(f, v.data + k * v.stride, sizeof f);
-    return {f[0], f[1], f[2]};
-}
-
-uint32_t read_index(const AccessorView& v, size_t k) {
-    const unsigned char* p = v.data + k * v.stride;
-    if (v.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) return p[0];
-    if (v.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT) {
-        uint16_t s;
-        std::memcpy(&s, p, 2);
-        return s;
-    }
-    uint32_t u;
-    std::memcpy(&u, p, 4);
-    return u;
-}
-
-bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
-
-// Component j of element k: a float, or a normalized unsigned byte or short as glTF allows for
-// texture coordinates and colours.
-float read_component(const AccessorView& v, size_t k, int j) {
-    const unsigned char* p = v.data + k * v.stride;
-    switch (v.component_type) {
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return p[j] / 255.f;
-        case TINYGLTF_COMPONENT_TYPE_BYTE: return std::max(static_cast<signed char>(p[j]) / 127.f, -1.f);
-        case TINYGLTF_COMPONENT_TYPE_SHORT: {
-            int16_t i;
-            std::memcpy(&i, p + 2 * j, 2);
-            return std::max(i / 32767.f, -1.f);
-        }
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-            uint16_t u;
-            std::memcpy(&u, p + 2 * j, 2);
-            return u / 65535.f;
-        }
-        default: {
-            float f;
-            std::memcpy(&f, p + 4 * j, 4);
-            return f;
-        }
-    }
-}
-
 // An optional per-vertex attribute of `components` numbers per element (texture coordinates,
 // colours, tangents), checked against POSITION's count and for finite values.
 template <class Vec>
@@ -446,8 +267,6 @@ std::vector<Vec> read_attribute(Ctx& c, const tinygltf::Primitive& prim, const c
     }
     return out;
 }
-
-uint64_t left(uint64_t limit, uint64_t used) { return used >= limit ? 0 : limit - used; }
 
 // How a primitive's vertices leave their bind shape: morph weights (one per target) and a skin's
 // joint matrices (the joint's world transform times its inverse bind matrix).
@@ -1076,159 +895,6 @@ void traverse_scene(Ctx& c) {
     for (size_t k = 0; k < roots.size(); ++k)
         visit(c, roots[k], glm::dmat4(1.0), 1, roots_ptr + (s >= 0 ? str(k) : str(static_cast<size_t>(roots[k]))));
     for (size_t ni : c.skinned) emit_skinned(c, ni);
-}
-
-// --- animation ------------------------------------------------------------------------------
-
-struct ReadAnimations {
-    std::vector<Animation> list;
-    std::vector<std::string> refusal;  // per animation: why it cannot be played ("" if it can)
-};
-
-size_t morph_target_count(const tinygltf::Mesh& mesh) {
-    size_t n = 0;
-    for (const auto& prim : mesh.primitives) n = std::max(n, prim.targets.size());
-    return n;
-}
-
-// Every animation's channels as plain keys, checked: a malformed channel fails the file; one
-// that animates what Tessera cannot render (KHR_animation_pointer's paths, say) makes only its
-// animation unplayable, so a still of the file still renders.
-ReadAnimations read_animations(Ctx& c) {
-    ReadAnimations r;
-    constexpr auto kFloat = TINYGLTF_COMPONENT_TYPE_FLOAT;
-    uint64_t keys_left = c.limits.max_vertices;  // keys and values cost like vertices
-    for (size_t ai = 0; ai < c.m.animations.size(); ++ai) {
-        const tinygltf::Animation& a = c.m.animations[ai];
-        const std::string ap = "/animations/" + str(ai);
-        Animation out;
-        out.name = clip(a.name, 200);
-        std::string refusal;
-        double start = std::numeric_limits<double>::infinity(), end = -start;
-        for (size_t ci = 0; ci < a.channels.size(); ++ci) {
-            const tinygltf::AnimationChannel& ch = a.channels[ci];
-            const std::string cp = ap + "/channels/" + str(ci);
-            AnimationChannel o;
-            if (ch.target_path == "translation") o.property = AnimatedProperty::translation, o.width = 3;
-            else if (ch.target_path == "rotation") o.property = AnimatedProperty::rotation, o.width = 4;
-            else if (ch.target_path == "scale") o.property = AnimatedProperty::scale, o.width = 3;
-            else if (ch.target_path == "weights") o.property = AnimatedProperty::weights;
-            else {
-                if (refusal.empty())
-                    refusal = cp + "/target/path animates '" + clip(ch.target_path, 80) +
-                              "'; Tessera plays node translation, rotation and scale and morph weights only";
-                continue;
-            }
-            if (ch.target_node < 0 || static_cast<size_t>(ch.target_node) >= c.m.nodes.size())
-                fail(c, cp + "/target/node", "refers to node " + std::to_string(ch.target_node) + ", but the file has " + str(c.m.nodes.size()));
-            o.node = ch.target_node;
-            const tinygltf::Node& node = c.m.nodes[static_cast<size_t>(o.node)];
-            if (o.property != AnimatedProperty::weights && !node.matrix.empty())
-                fail(c, cp + "/target", "animates node " + std::to_string(o.node) + ", which has a matrix (glTF allows only TRS nodes to be animated)");
-            if (o.property == AnimatedProperty::weights) {
-                const size_t targets = node.mesh >= 0 && static_cast<size_t>(node.mesh) < c.m.meshes.size()
-                                           ? morph_target_count(c.m.meshes[static_cast<size_t>(node.mesh)])
-                                           : 0;
-                if (targets == 0) fail(c, cp + "/target", "animates the morph weights of node " + std::to_string(o.node) + ", which has no morph targets");
-                o.width = static_cast<int>(targets);
-            }
-            if (ch.sampler < 0 || static_cast<size_t>(ch.sampler) >= a.samplers.size())
-                fail(c, cp + "/sampler", "refers to sampler " + std::to_string(ch.sampler) + ", but the animation has " + str(a.samplers.size()));
-            const tinygltf::AnimationSampler& sm = a.samplers[static_cast<size_t>(ch.sampler)];
-            const std::string sp = ap + "/samplers/" + std::to_string(ch.sampler);
-            if (sm.interpolation.empty() || sm.interpolation == "LINEAR") o.interpolation = Interpolation::linear;
-            else if (sm.interpolation == "STEP") o.interpolation = Interpolation::step;
-            else if (sm.interpolation == "CUBICSPLINE") o.interpolation = Interpolation::cubic_spline;
-            else fail(c, sp + "/interpolation", "unknown interpolation '" + clip(sm.interpolation, 80) + "'");
-            const AccessorView in = view_accessor(c, sm.input, sp + "/input", "animation input", TINYGLTF_TYPE_SCALAR, {kFloat},
-                                                  keys_left, "keys left under LoadLimits::max_vertices");
-            if (in.count == 0) fail(c, sp + "/input", "an animation sampler needs at least one key");
-            o.times.resize(in.count);
-            for (size_t k = 0; k < in.count; ++k) {
-                o.times[k] = read_component(in, k, 0);
-                if (!std::isfinite(o.times[k])) fail(c, "/accessors/" + std::to_string(sm.input), "key time " + str(k) + " is not finite");
-                if (k > 0 && !(o.times[k] > o.times[k - 1]))
-                    fail(c, "/accessors/" + std::to_string(sm.input), "key times must increase strictly (key " + str(k) + ")");
-            }
-            const size_t per_key = (o.interpolation == Interpolation::cubic_spline ? 3 : 1);
-            const bool scalar = o.property == AnimatedProperty::weights;
-            const int type = scalar ? TINYGLTF_TYPE_SCALAR : o.width == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4;
-            const uint64_t elements = uint64_t(in.count) * per_key * (scalar ? uint64_t(o.width) : 1);
-            const uint64_t budget = left(keys_left, in.count);
-            const char* budget_name = "keys left under LoadLimits::max_vertices";
-            // Rotations and weights may be normalized integers; translations and scales are floats.
-            const AccessorView outv =
-                o.property == AnimatedProperty::translation || o.property == AnimatedProperty::scale
-                    ? view_accessor(c, sm.output, sp + "/output", "animation output", type, {kFloat}, budget, budget_name)
-                    : view_accessor(c, sm.output, sp + "/output", "animation output", type,
-                                    {kFloat, TINYGLTF_COMPONENT_TYPE_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
-                                     TINYGLTF_COMPONENT_TYPE_SHORT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
-                                    budget, budget_name);
-            if (outv.count != elements)
-                fail(c, sp + "/output", "holds " + str(outv.count) + " values; " + str(in.count) + " keys of " +
-                                            (o.interpolation == Interpolation::cubic_spline ? "CUBICSPLINE " : "") + "'" + ch.target_path +
-                                            "' need " + str(elements));
-            const int per_element = scalar ? 1 : o.width;
-            o.values.resize(outv.count * size_t(per_element));
-            for (size_t k = 0; k < outv.count; ++k)
-                for (int j = 0; j < per_element; ++j) {
-                    const float v = read_component(outv, k, j);
-                    if (!std::isfinite(v)) fail(c, "/accessors/" + std::to_string(sm.output), "value " + str(k) + " is not finite");
-                    o.values[k * size_t(per_element) + size_t(j)] = v;
-                }
-            keys_left = left(keys_left, in.count + outv.count);
-            start = std::min(start, double(o.times.front()));
-            end = std::max(end, double(o.times.back()));
-            out.channels.push_back(std::move(o));
-        }
-        out.start_s = out.channels.empty() ? 0.0 : start;
-        out.end_s = out.channels.empty() ? 0.0 : end;
-        r.list.push_back(std::move(out));
-        r.refusal.push_back(refusal);
-    }
-    return r;
-}
-
-// Which animations `name` chooses: "" every one; else the one of that name, or of that index.
-std::vector<size_t> choose_animations(const Ctx& c, const std::vector<Animation>& list, const std::string& name) {
-    std::vector<size_t> chosen;
-    if (name.empty()) {
-        for (size_t i = 0; i < list.size(); ++i) chosen.push_back(i);
-        return chosen;
-    }
-    for (size_t i = 0; i < list.size(); ++i)
-        if (list[i].name == name) return {i};
-    if (!name.empty() && name.size() < 10 && std::all_of(name.begin(), name.end(), [](char ch) { return ch >= '0' && ch <= '9'; })) {
-        const size_t i = std::stoul(name);
-        if (i < list.size()) return {i};
-    }
-    std::string names;
-    for (size_t i = 0; i < list.size() && i < 20; ++i) names += (i ? ", " : "") + (list[i].name.empty() ? "#" + str(i) : "'" + list[i].name + "'");
-    fail(c, "/animations", "no animation '" + clip(name, 80) + "': the file has " +
-                               (list.empty() ? std::string("none") : str(list.size()) + " (" + names + ")"));
-}
-
-// The node values that `pose` gives: each chosen animation's channels sampled at its time; where
-// two animate the same property, the later one in the file wins.
-std::vector<NodeState> pose_nodes(const Ctx& c, const ReadAnimations& anims, const ScenePose& pose) {
-    std::vector<NodeState> state(c.m.nodes.size());
-    if (!std::isfinite(pose.time_s)) fail(c, "", "the pose's time is not finite");
-    std::vector<float> v;
-    for (size_t ai : choose_animations(c, anims.list, pose.animation)) {
-        if (!anims.refusal[ai].empty()) fail(c, "/animations/" + str(ai), "cannot be played: " + anims.refusal[ai]);
-        for (const AnimationChannel& ch : anims.list[ai].channels) {
-            v.assign(size_t(ch.width), 0.f);
-            sample(ch, pose.time_s, v.data());
-            NodeState& s = state[size_t(ch.node)];
-            switch (ch.property) {
-                case AnimatedProperty::translation: s.has_t = true, s.t = {v[0], v[1], v[2]}; break;
-                case AnimatedProperty::scale: s.has_s = true, s.s = {v[0], v[1], v[2]}; break;
-                case AnimatedProperty::rotation: s.has_r = true, s.r = {v[0], v[1], v[2], v[3]}; break;
-                case AnimatedProperty::weights: s.has_weights = true, s.weights.assign(v.begin(), v.end()); break;
-            }
-        }
-    }
-    return state;
 }
 
 void summarise(Ctx& c) {

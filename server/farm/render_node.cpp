@@ -26,6 +26,7 @@
 #include "server/store/cluster_lua.h"
 #include "server/farm/farm_records.h"
 #include "server/farm/film_codec.h"
+#include "server/farm/shot_chunks.h"
 #include "server/store/job_results.h"
 #include "server/queue/scene_cache.h"
 
@@ -79,6 +80,8 @@ const RedisScript kAdvance{lua::advance_pass};
 const RedisScript kComplete{lua::complete_run};
 const RedisScript kTransition{lua::transition_job};
 const RedisScript kRenew{lua::renew_claim};
+const RedisScript kAddChunks{lua::add_chunks};
+const RedisScript kChunkDone{lua::chunk_done};
 
 // A job as a node runs it: parsed once per node (the stored job never changes).
 struct JobInfo {
@@ -330,6 +333,7 @@ struct RenderNode::Impl {
                 if (tile(r, t, cancel, acked)) return;
             } else if (t.kind == "assemble") assemble(r, t);
             else if (t.kind == "start") begin(r, t, cancel);
+            else if (t.kind == "frames") shot_chunk(r, t, cancel);
             else spdlog::warn("node {}: unknown task kind '{}' dropped", name, t.kind);
         } catch (const RedisError&) {
             throw;
@@ -357,7 +361,7 @@ struct RenderNode::Impl {
         ++metrics.starts;
         if (const auto* cj = std::get_if<api::ComparisonJob>(&info->job)) return compare(r, t, *cj, cancel);
         const auto& rj = std::get<api::RenderJob>(info->job);
-        if (rj.frames) return shoot(r, t, rj, cancel);
+        if (rj.frames) return begin_shot(r, t, rj, cancel);
         cache.get(r, info->ref, rj.scene_options);  // a scene that does not load fails the job here, once
         const PassPlan& plan = info->plan;
         std::vector<std::string> args = {keys::prefix, t.job, redis_number(now_s())};
@@ -392,32 +396,80 @@ struct RenderNode::Impl {
         r.eval(kTransition, {}, {keys::prefix, t.job, "succeeded", "running", redis_number(now_s()), "", json_text(out.summary)});
     }
 
-    // A shot runs on the node that starts it, frame after frame through the one renderer
-    // (api::run_shot), its frames written to the shared results folder as each is done; a node
-    // that takes it over from a silent one keeps the frames already written.
-    void shoot(Redis& r, const Task& t, const api::RenderJob& job, std::atomic<bool>& cancel) {
+    // A shot is spread over the nodes in chunks of frames, each rendered through the one shot
+    // runner (api::run_shot) into the shared results folder. The node that starts it renders
+    // the first frame, which measures what opening the scene and a frame cost, and queues the
+    // rest as chunks; the node that writes the last chunk writes the contact sheet, preview and
+    // report. Every run keeps the frames already written (a chunk taken over from a silent
+    // node, a start task delivered again), so each frame is rendered once and the shot's
+    // images do not depend on which node rendered what.
+    api::RunOptions shot_options(Redis& r, const Task& t, const JobInfo& info) {
+        api::RunOptions opt;
+        opt.scene_source = cache.file_for(r, info.ref);
+        opt.load_limits = cfg.load_limits;
+        opt.threads = cfg.threads;
+        opt.job_id = t.job;
+        opt.resume_frames = true;
+        opt.environment = info.settings.environment;  // published by the API node, loaded with the job
+        return opt;
+    }
+
+    api::RunOutputs shot_outputs(const std::string& id) {
+        const fs::path dir = job_results_dir(cfg.data_dir, id);
+        fs::create_directories(dir);
+        return api::RunOutputs::in_directory(dir.string());
+    }
+
+    void begin_shot(Redis& r, const Task& t, const api::RenderJob& job, std::atomic<bool>& cancel) {
         const std::string state = r.command({"HGET", keys::job(t.job), "state"}).text;
         if (state != "running" &&
             r.eval(kTransition, {}, {keys::prefix, t.job, "running", "queued", redis_number(now_s()), "", ""}).as_int() != 1)
             return;  // canceled meanwhile
         const auto info = job_info(r, t.job);
-        api::RunOptions opt;
-        opt.scene_source = cache.file_for(r, info->ref);
-        opt.load_limits = cfg.load_limits;
-        opt.threads = cfg.threads;
-        opt.job_id = t.job;
-        opt.resume_frames = true;
-        opt.environment = info->settings.environment;  // published by the API node, loaded with the job
-        const fs::path dir = job_results_dir(cfg.data_dir, t.job);
-        fs::create_directories(dir);
+        api::RunOptions opt = shot_options(r, t, *info);
+        opt.frame_slice = std::make_pair(size_t(0), size_t(1));
         api::RunCallbacks cb;
         cb.stop = &cancel;
-        api::JobOutcome out;
-        try {
-            out = api::run_job(job, opt, api::RunOutputs::in_directory(dir.string()), cb);
-        } catch (const SceneError& e) {
-            return fail_job(r, t.job, std::string("scene: ") + e.what());
+        const api::JobOutcome first = api::run_job(job, opt, shot_outputs(t.job), cb);
+        if (first.stopped) return;
+        metrics.frames += first.summary.value("frames", 0) - first.summary.value("frames_resumed", 0);
+        const size_t total = job.frames->count();
+        const size_t live = std::max<long long>(1, r.command({"HLEN", keys::nodes}).as_int());
+        const size_t chunk = chunk_frames(first.summary.value("open_s", 0.0), first.summary.value("frames_s", 0.0), total - 1, live,
+                                          size_t(job.chunk));
+        std::vector<std::string> args = {t.job};
+        for (const auto& [from, count] : plan_chunks(1, total, chunk)) {
+            args.push_back(std::to_string(from));
+            args.push_back(std::to_string(count));
         }
+        if (r.eval(kAddChunks, {keys::shot_chunks(t.job), t.stream}, args).as_int() == 1)
+            spdlog::info("node {}: shot {} running: {} frames in chunks of {}", name, t.job, total, chunk);
+        if (total == 1) finish_shot(r, t, job, cancel);
+    }
+
+    void shot_chunk(Redis& r, const Task& t, std::atomic<bool>& cancel) {
+        if (r.command({"HGET", keys::job(t.job), "state"}).text != "running") return;  // canceled or failed
+        const auto info = job_info(r, t.job);
+        if (!info) return;
+        const auto& job = std::get<api::RenderJob>(info->job);
+        api::RunOptions opt = shot_options(r, t, *info);
+        opt.frame_slice = std::make_pair(size_t(std::max(t.pass, 0)), size_t(std::max(t.tile, 0)));
+        api::RunCallbacks cb;
+        cb.stop = &cancel;
+        const api::JobOutcome out = api::run_job(job, opt, shot_outputs(t.job), cb);
+        if (out.stopped) return;
+        metrics.frames += out.summary.value("frames", 0) - out.summary.value("frames_resumed", 0);
+        const RedisValue v = r.eval(kChunkDone, {keys::shot_done(t.job), keys::shot_chunks(t.job)}, {std::to_string(t.pass)});
+        // Every chunk written: this node finishes the shot (a finish repeated after a node died
+        // mid-way finds every frame written and writes the same files).
+        if (v.items.size() == 2 && v.items[0].as_int() == v.items[1].as_int()) finish_shot(r, t, job, cancel);
+    }
+
+    void finish_shot(Redis& r, const Task& t, const api::RenderJob& job, std::atomic<bool>& cancel) {
+        const auto info = job_info(r, t.job);
+        api::RunCallbacks cb;
+        cb.stop = &cancel;
+        const api::JobOutcome out = api::run_job(job, shot_options(r, t, *info), shot_outputs(t.job), cb);
         if (out.stopped) return;
         r.eval(kTransition, {}, {keys::prefix, t.job, "succeeded", "running", redis_number(now_s()), "", json_text(out.summary)});
     }
@@ -621,7 +673,7 @@ struct RenderNode::Impl {
                     const std::string st = r.command({"HGET", keys::job(h.task.job), "state"}).text;
                     if (st != "running" && st != "queued") *h.cancel = true;  // canceled (or gone): stop within a row
                 }
-                const json m = {{"tiles", metrics.tiles.load()}, {"assemblies", metrics.assemblies.load()},
+                const json m = {{"tiles", metrics.tiles.load()}, {"assemblies", metrics.assemblies.load()}, {"frames", metrics.frames.load()},
                                 {"starts", metrics.starts.load()}, {"duplicates", metrics.duplicates.load()},
                                 {"reclaimed", metrics.reclaimed.load()}, {"redis_errors", metrics.redis_errors.load()},
                                 {"rays", metrics.rays.load()}, {"render_seconds", double(metrics.render_micros.load()) * 1e-6},

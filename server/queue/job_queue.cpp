@@ -215,10 +215,13 @@ api::JobStatus JobQueue::status_of(const JobRecord& rec, bool locked) {
         const api::Job job = api::job_from_json(st.settings);
         api::ShotProgress p;
         p.frames = std::get<api::RenderJob>(job).frames->frames();
+        // A farm's chunks finish out of order: every frame is looked at.
         const fs::path frames_dir = fs::path(job_dir(rec.id)) / "frames";
-        while (p.frames_done < p.frames.size() && rec.state != JobState::queued &&
-               fs::exists(frames_dir / std::to_string(p.frames[p.frames_done]) / "report.json"))
-            ++p.frames_done;
+        if (rec.state != JobState::queued) {
+            p.written.assign(p.frames.size(), 0);
+            for (size_t i = 0; i < p.frames.size(); ++i)
+                if (fs::exists(frames_dir / std::to_string(p.frames[i]) / "report.json")) p.written[i] = 1, ++p.frames_done;
+        }
         p.running = rec.state == JobState::running;
         if (p.running && (!st.live_progress || st.live_progress->fraction == 0.0) && !p.frames.empty())
             st.live_progress = api::JobProgress{double(p.frames_done) / double(p.frames.size()), 0, 0, 0};

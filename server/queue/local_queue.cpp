@@ -242,7 +242,9 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
             running.max_spp = r->render.spp;
             if (r->frames) {
                 std::lock_guard<std::mutex> lock(running.pass_mutex);
-                running.shot = api::ShotProgress{r->frames->frames(), 0, true, 0.0};
+                running.shot = api::ShotProgress{};
+                running.shot->frames = r->frames->frames();
+                running.shot->running = true;
             }
             if (!r->reference.empty()) opt.reference_image = job_image_exr(config_.data_dir, r->reference).string();
             if (!r->environment.empty()) {

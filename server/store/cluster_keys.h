@@ -32,6 +32,10 @@ inline std::string job_scene(const std::string& id) { return prefix + "jobscene:
 // A job's environment map, when it names one (SceneRef::encode of the .exr/.hdr file, whose
 // bytes are kept under scene(hash) like a scene's), written with job_scene.
 inline std::string job_environment(const std::string& id) { return prefix + "jobenv:" + id; }
+// A shot spread over nodes: how many chunk tasks it has (set once, when they are queued), and
+// the chunks written (a set of their first frame's index).
+inline std::string shot_chunks(const std::string& id) { return prefix + "shotchunks:" + id; }
+inline std::string shot_done(const std::string& id) { return prefix + "shotdone:" + id; }
 // Scene files by content hash.
 inline std::string scene(const std::string& hash) { return prefix + "scene:" + hash; }
 // Live render nodes: hash name → JSON of its metrics, with a heartbeat time.

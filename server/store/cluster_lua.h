@@ -38,6 +38,25 @@ local function transition(prefix, id, new_state, allowed, now, err, report)
 end
 )lua";
 
+// Queues a shot's chunks of frames as tasks, once: a start task delivered again finds the count
+// set and adds none. KEYS: the chunk count, the task stream. ARGV: job id, then the first frame
+// index and frame count of each chunk.
+inline const std::string add_chunks = R"lua(
+local n = (#ARGV - 1) / 2
+if not redis.call('SET', KEYS[1], n, 'NX') then return 0 end
+for i = 2, #ARGV, 2 do
+  redis.call('XADD', KEYS[2], '*', 'job', ARGV[1], 'kind', 'frames', 'pass', ARGV[i], 'tile', ARGV[i + 1])
+end
+return 1
+)lua";
+
+// A chunk of a shot is written: returns {chunks written, chunks in all}. KEYS: the written set,
+// the chunk count. ARGV: the chunk's first frame index.
+inline const std::string chunk_done = R"lua(
+redis.call('SADD', KEYS[1], ARGV[1])
+return {redis.call('SCARD', KEYS[1]), tonumber(redis.call('GET', KEYS[2]) or '-1')}
+)lua";
+
 // XADDs the tiles of one pass to a job's task stream.
 inline const std::string add_tiles = R"lua(
 local function add_tiles(stream, id, pass, n)

@@ -189,7 +189,7 @@ bool RedisJobStore::remove_final(const std::string& id) {
     return locked("remove", [&] {
         return redis_.eval(kRemoveFinal,
                            {keys::film(id), keys::deliveries(id), keys::node_tiles(id), keys::node_seconds(id), keys::curve(id),
-                            keys::job_scene(id), keys::job_environment(id), keys::sums(id)},
+                            keys::job_scene(id), keys::job_environment(id), keys::sums(id), keys::shot_chunks(id), keys::shot_done(id)},
                            {keys::prefix, id})
                    .as_int() == 1;
     });

@@ -118,7 +118,7 @@ TEST(RenderJob, RoundTripsEveryField) {
         "triangle_test":"moller_trumbore","integrator":"normals","sampler":"independent","environment":"sky",
         "lens_radius":0.25,"focal_distance":3.5})");
     json want = body;
-    want.update({{"frames", nullptr}, {"fps", 24.0}, {"animation", nullptr}});
+    want.update({{"frames", nullptr}, {"fps", 24.0}, {"chunk", 0}, {"animation", nullptr}});
     const json back = to_json(parse_render_job(body));
     EXPECT_EQ(back, want) << back.dump();
     EXPECT_EQ(to_json(std::get<RenderJob>(job_from_json(back))), back);
@@ -153,6 +153,11 @@ TEST(RenderJob, BadShotsAreRefusedNamingTheField) {
     EXPECT_EQ(refused(R"({"scene":"x","frames":{"start":0,"end":2000000000}})"), "/frames/end");
     EXPECT_EQ(refused(R"({"scene":"x","frames":{"start":-10000000,"end":10000000}})"), "/frames");  // over max_frames
     EXPECT_EQ(refused(R"({"scene":"x","frames":"1-10"})"), "/frames");
+    json long_list = {{"scene", "x"}, {"frames", json::array()}};
+    for (int f = 0; f < 1001; ++f) long_list["frames"].push_back(f);
+    EXPECT_EQ(pointer_of(long_list), "/frames");  // a list is kept short: it comes back with every status
+    long_list["frames"].erase(1000);
+    EXPECT_EQ(pointer_of(long_list), "<accepted>");
     EXPECT_EQ(refused(R"({"scene":"x","frames":[1],"fps":0})"), "/fps");
     EXPECT_EQ(refused(R"({"scene":"x","frames":[1],"animation":""})"), "/animation");
     EXPECT_EQ(refused(R"({"scene":"x","frames":[1],"animation":-1})"), "/animation");

@@ -168,6 +168,22 @@ TEST_F(RenderNodeFarm, AShotGivesOneProcessFramesBitForBitAndResumes) {
     EXPECT_TRUE(fs::exists(farm / "contact_sheet.png"));
     const json status = api::to_json(service_->status(id));
     EXPECT_EQ(status["shot"]["frames_done"], 3) << status.dump();
+    EXPECT_EQ(nodes_[0]->metrics().frames + nodes_[1]->metrics().frames, 3u) << "each frame rendered once";
+
+    // In chunks of one frame over both nodes: every frame rendered once, by whichever node
+    // took its chunk, and the same images.
+    json chunked = body;
+    chunked["frames"] = {{"start", 0}, {"end", 48}, {"step", 12}};
+    chunked["chunk"] = 1;
+    const uint64_t before = nodes_[0]->metrics().frames + nodes_[1]->metrics().frames;
+    const std::string id3 = run_on_farm(chunked);
+    EXPECT_EQ(nodes_[0]->metrics().frames + nodes_[1]->metrics().frames - before, 5u);
+    const fs::path spread = job_results_dir((dir_ / "data").string(), id3);
+    for (int n : {0, 24, 48})
+        EXPECT_EQ(read_image((spread / ("frames/" + std::to_string(n) + "/image.exr")).string()).rgb,
+                  read_image((one / ("frames/" + std::to_string(n) + "/image.exr")).string()).rgb) << n;
+    const json report = json::parse(std::ifstream(spread / "report.json"));
+    EXPECT_EQ(report["shot"]["frames"].size(), 5u);
 
     // The same job again, with frame 24 already written as a dead node would have left it (a
     // marker in its report shows whether it was kept).
