@@ -2,6 +2,7 @@
 
 #include "api/job_fields.h"
 
+#include <algorithm>
 #include <limits>
 
 namespace tessera::api {
@@ -25,6 +26,11 @@ std::vector<int> FrameSet::frames() const {
     std::vector<int> out;
     for (int64_t f = start; f <= end; f += step) out.push_back(int(f));
     return out;
+}
+
+bool FrameSet::contains(int frame) const {
+    if (!list.empty()) return std::find(list.begin(), list.end(), frame) != list.end();
+    return frame >= start && frame <= end && (int64_t(frame) - start) % step == 0;
 }
 
 size_t FrameSet::count() const { return list.empty() ? size_t((int64_t(end) - start) / step + 1) : list.size(); }

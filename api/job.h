@@ -48,6 +48,7 @@ struct FrameSet {
     std::vector<int> list;
     std::vector<int> frames() const;
     size_t count() const;
+    bool contains(int frame) const;  // without listing a range's frames
 };
 
 // The seed frame `frame` renders with: the job's seed mixed with the frame number, so that a

@@ -1,10 +1,12 @@
 #include "server/queue/job_queue.h"
 
 #include <cerrno>
+#include <charconv>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <random>
+#include <unordered_map>
 
 #include <spdlog/spdlog.h>
 
@@ -215,12 +217,23 @@ api::JobStatus JobQueue::status_of(const JobRecord& rec, bool locked) {
         const api::Job job = api::job_from_json(st.settings);
         api::ShotProgress p;
         p.frames = std::get<api::RenderJob>(job).frames->frames();
-        // A farm's chunks finish out of order: every frame is looked at.
+        // A farm's chunks finish out of order. The folders there are listed, not every frame
+        // looked up: a status costs what was written, not the shot's length.
         const fs::path frames_dir = fs::path(job_dir(rec.id)) / "frames";
-        if (rec.state != JobState::queued) {
+        std::error_code ec;
+        if (rec.state != JobState::queued && fs::is_directory(frames_dir, ec)) {
+            std::unordered_map<int, size_t> index;
+            for (size_t i = 0; i < p.frames.size(); ++i) index.emplace(p.frames[i], i);
             p.written.assign(p.frames.size(), 0);
-            for (size_t i = 0; i < p.frames.size(); ++i)
-                if (fs::exists(frames_dir / std::to_string(p.frames[i]) / "report.json")) p.written[i] = 1, ++p.frames_done;
+            for (const auto& e : fs::directory_iterator(frames_dir, ec)) {
+                int n = 0;
+                const std::string name = e.path().filename().string();
+                const auto [end, err] = std::from_chars(name.data(), name.data() + name.size(), n);
+                if (err != std::errc() || end != name.data() + name.size()) continue;
+                const auto it = index.find(n);
+                if (it != index.end() && !p.written[it->second] && fs::exists(e.path() / "report.json", ec))
+                    p.written[it->second] = 1, ++p.frames_done;
+            }
         }
         p.running = rec.state == JobState::running;
         if (p.running && (!st.live_progress || st.live_progress->fraction == 0.0) && !p.frames.empty())
@@ -287,8 +300,7 @@ std::string JobQueue::frame_result_path(const std::string& id, int frame, const 
     if (!r || !r->frames)
         throw QueueError(QueueErrorKind::not_found, "not-a-shot", "Not a shot",
                          "job " + id + " is a still: fetch /v1/jobs/" + id + "/" + file);
-    const std::vector<int> frames = r->frames->frames();
-    if (std::find(frames.begin(), frames.end(), frame) == frames.end())
+    if (!r->frames->contains(frame))
         throw QueueError(QueueErrorKind::not_found, "no-such-frame", "No such frame",
                          "job " + id + " does not render frame " + std::to_string(frame));
     const fs::path dir = fs::path(job_dir(id)) / "frames" / std::to_string(frame);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <limits>
 #include <set>
 
@@ -139,6 +140,12 @@ TEST(RenderJob, ShotFieldsRoundTrip) {
     EXPECT_EQ(range.frames->frames(), (std::vector<int>{-3, 1, 5, 9}));
     EXPECT_EQ(range.frames->count(), 4u);
     EXPECT_EQ(parse_render_job(json::parse(R"({"scene":"x","frames":{"start":5,"end":5}})")).frames->frames(), (std::vector<int>{5}));
+    for (int f = -6; f <= 12; ++f) {
+        const auto all = range.frames->frames();
+        EXPECT_EQ(range.frames->contains(f), std::find(all.begin(), all.end(), f) != all.end()) << f;
+    }
+    EXPECT_TRUE(parse_render_job(json::parse(R"({"scene":"x","frames":[7,1,4]})")).frames->contains(4));
+    EXPECT_FALSE(parse_render_job(json::parse(R"({"scene":"x","frames":[7,1,4]})")).frames->contains(5));
 }
 
 TEST(RenderJob, BadShotsAreRefusedNamingTheField) {
