@@ -22,11 +22,14 @@
 
 #include <spdlog/spdlog.h>
 
+#include "engine/io/image_io.h"
 #include "server/http/http_api.h"
 #include "server/farm/farm_queue.h"
 
 namespace {
 using namespace tessera::server;
+struct Harness;
+Harness* harness = nullptr;
 
 // One server for the whole run, with small bounds so that what a fuzzed job asks for stays
 // cheap: tiny images, few samples, short event streams.
@@ -42,6 +45,7 @@ struct Harness {
         pthread_sigmask(SIG_BLOCK, &block, &old);
         dir = std::filesystem::temp_directory_path() / ("tessera_fuzz_requests_" + std::to_string(::getpid()));
         std::filesystem::remove_all(dir);
+        std::filesystem::create_directories(dir);
         ServiceConfig cfg;
         cfg.data_dir = dir.string();
         cfg.project_scenes = TESSERA_PROJECT_SCENES;
@@ -51,6 +55,10 @@ struct Harness {
         cfg.job_limits.max_spp = 4;
         cfg.job_limits.max_depth = 3;
         cfg.load_limits.max_texture_bytes = 16 << 20;
+        // OpenEXR's global thread pool is a function-local static: made here, before the
+        // atexit below, it is destroyed after the queue's workers have stopped, not under a
+        // worker writing a frame when libFuzzer calls exit() at the end of its time.
+        tessera::write_exr((dir / "warm.exr").string(), tessera::Image(1, 1));
         service = open_job_queue(cfg);
         std::ofstream(dir / "openapi.yaml") << "openapi: 3.0.3\n";
         HttpLimits limits;
@@ -65,6 +73,15 @@ struct Harness {
         thread = std::thread([this] { api->serve(); });
         pthread_sigmask(SIG_SETMASK, &old, nullptr);
     }
+    // At exit: the listener and the workers stop before the libraries' statics go.
+    ~Harness() {
+        api->stop();
+        thread.join();
+        api.reset();
+        service.reset();
+        std::error_code ec;
+        std::filesystem::remove_all(dir, ec);
+    }
     std::filesystem::path dir;
     std::unique_ptr<JobQueue> service;
     std::unique_ptr<HttpApi> api;
@@ -75,7 +92,11 @@ struct Harness {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-    static Harness* h = new Harness();  // lives as long as the process
+    static Harness* h = [] {
+        auto* made = new Harness();
+        std::atexit([] { delete harness; });
+        return harness = made;
+    }();
     const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
     sockaddr_in a{};
     a.sin_family = AF_INET;
