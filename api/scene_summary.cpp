@@ -1,15 +1,15 @@
 #include "api/scene_summary.h"
 
 #include "engine/geometry/aabb.h"
+#include "engine/scene/instancing.h"
 
 namespace tessera::api {
 
 nlohmann::json describe_scene(const SceneDescription& s) {
-    Aabb b;
-    for (const auto& m : s.meshes) for (const auto& p : m.positions) b.expand(p);
-    for (const auto& sp : s.spheres) { b.expand(sp.center - glm::vec3(sp.radius)); b.expand(sp.center + glm::vec3(sp.radius)); }
-    nlohmann::json j = {{"triangles", s.triangle_count()}, {"spheres", s.spheres.size()}, {"lights", s.lights.size()},
-                        {"warnings", s.warnings}};
+    const Aabb b = scene_bounds(s);
+    nlohmann::json j = {{"triangles", s.triangle_count()}, {"placed_triangles", s.placed_triangle_count()},
+                        {"instances", s.instances.size()}, {"prototypes", s.prototypes.size()},
+                        {"spheres", s.spheres.size()}, {"lights", s.lights.size()}, {"warnings", s.warnings}};
     size_t emissive = 0;
     for (const auto& m : s.meshes)
         if (m.material >= 0 && s.materials[size_t(m.material)].emits()) ++emissive;

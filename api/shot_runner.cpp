@@ -14,6 +14,7 @@
 #include "engine/geometry/aabb.h"
 #include "engine/io/image_io.h"
 #include "engine/io/scene_loader.h"
+#include "engine/scene/instancing.h"
 #include "engine/render/image.h"
 
 namespace tessera::api {
@@ -136,13 +137,7 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
     {
         const SceneDescription rest = file.at(std::nullopt);
         if (!rest.camera) {
-            Aabb bounds;
-            for (const MeshDesc& m : rest.meshes)
-                for (const glm::vec3& p : m.positions) bounds.expand(p);
-            for (const SphereDesc& s : rest.spheres) {
-                bounds.expand(s.center - glm::vec3(s.radius));
-                bounds.expand(s.center + glm::vec3(s.radius));
-            }
+            const Aabb bounds = scene_bounds(rest);
             CameraDesc cam;
             if (frame_camera(std::nullopt, bounds, cam)) held_camera = cam;
         }

@@ -19,6 +19,8 @@ struct Ray {
     // error bound that would reject it anyway: about a quarter of a shadow ray's block tests
     // (Cycles' self-primitive skip). Spheres are curved and are never skipped.
     uint32_t origin_tri = kNoTriangle;
+    // With instances: the placement origin_tri belongs to (its triangle is skipped there only).
+    uint32_t origin_instance = ~0u;
 };
 
 }  // namespace tessera

@@ -66,6 +66,10 @@ struct Ctx {
     std::vector<char> on_path{}, visited{};
     int points_lines = 0, no_position = 0, spots = 0, extra_cameras = 0, dropped_normals = 0;
     std::string first_dropped{};
+    // Instancing: how many rigid nodes place each mesh (those placed twice or more are stored
+    // once, as prototypes), and each primitive's prototype (-1 not yet made, -2 none: no triangles).
+    std::vector<uint32_t> mesh_placements{};
+    std::vector<std::vector<int>> prototype_of{};
 };
 
 [[noreturn]] void fail(const Ctx& c, const std::string& pointer, const std::string& what);

@@ -386,7 +386,7 @@ void emit_primitive(Ctx& c, size_t mi, size_t pi, const glm::dmat4& world, const
     if (tris > tri_budget)
         fail(c, pp, str(tris) + " triangles exceed the triangle limit (" + str(c.limits.max_triangles) + " in all)");
     if (tris == 0) return;
-    if (c.out.meshes.size() >= c.limits.max_instances)
+    if (c.out.meshes.size() + c.out.instances.size() >= c.limits.max_instances)
         fail(c, pp, "more than " + str(c.limits.max_instances) + " mesh primitive instances in the scene (the instance limit)");
 
     MeshDesc out;
@@ -629,9 +629,52 @@ std::vector<double> morph_weights(const Ctx& c, size_t ni) {
     return given;
 }
 
+// Places a mesh that several nodes use: each primitive is converted once, in the mesh's own
+// space (a prototype), and this node adds an instance of it.
+void place_instances(Ctx& c, size_t mi, size_t ni, const glm::dmat4& world) {
+    if (c.prototype_of.size() != c.m.meshes.size()) c.prototype_of.assign(c.m.meshes.size(), {});
+    std::vector<int>& slots = c.prototype_of[mi];
+    if (slots.empty()) slots.assign(c.m.meshes[mi].primitives.size(), -1);
+    for (size_t pi = 0; pi < slots.size(); ++pi) {
+        if (slots[pi] == -1) {
+            const size_t before = c.out.meshes.size();
+            emit_primitive(c, mi, pi, glm::dmat4(1.0));
+            if (c.out.meshes.size() == before) {
+                slots[pi] = -2;
+            } else {
+                slots[pi] = static_cast<int>(c.out.prototypes.size());
+                c.out.prototypes.push_back(std::move(c.out.meshes.back()));
+                c.out.meshes.pop_back();
+            }
+        }
+        if (slots[pi] < 0) continue;
+        if (c.out.meshes.size() + c.out.instances.size() >= c.limits.max_instances)
+            fail(c, "/nodes/" + str(ni), "more than " + str(c.limits.max_instances) +
+                                             " mesh primitive instances in the scene (the instance limit)");
+        c.out.instances.push_back({static_cast<uint32_t>(slots[pi]), glm::mat4(world), at(c.file, "/nodes/" + str(ni))});
+    }
+}
+
+// Whether a node's transform can place an instance: invertible in single precision (a zero
+// scale, which glTF allows for hiding, or a projection onto a plane is drawn flat instead).
+bool placeable(const glm::dmat4& world) {
+    const glm::dmat3 l(world);
+    const double det = glm::determinant(l);
+    if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
+    const glm::dmat3 inv = glm::inverse(l);
+    for (int col = 0; col < 3; ++col)
+        for (int row = 0; row < 3; ++row)
+            if (!(std::abs(inv[col][row]) < 1e30) || !(std::abs(l[col][row]) < 1e30)) return false;
+    return world[0][3] == 0.0 && world[1][3] == 0.0 && world[2][3] == 0.0 && world[3][3] == 1.0;
+}
+
 void emit_mesh(Ctx& c, size_t ni, const glm::dmat4& world, const std::vector<glm::dmat4>* joints) {
     const size_t mi = static_cast<size_t>(c.m.nodes[ni].mesh);
     const std::vector<double> weights = morph_weights(c, ni);
+    if (!joints && weights.empty() && mi < c.mesh_placements.size() && c.mesh_placements[mi] > 1 && placeable(world)) {
+        place_instances(c, mi, ni, world);
+        return;
+    }
     const Deform deform{weights.empty() ? nullptr : &weights, joints};
     for (size_t pi = 0; pi < c.m.meshes[mi].primitives.size(); ++pi) emit_primitive(c, mi, pi, world, deform);
 }
@@ -870,6 +913,9 @@ void check_extensions(Ctx& c) {
 }
 
 void traverse_scene(Ctx& c) {
+    c.mesh_placements.assign(c.m.meshes.size(), 0);
+    for (const tinygltf::Node& n : c.m.nodes)
+        if (n.mesh >= 0 && static_cast<size_t>(n.mesh) < c.m.meshes.size() && n.skin < 0) ++c.mesh_placements[static_cast<size_t>(n.mesh)];
     std::vector<int> roots;
     std::string roots_ptr;
     const int nscenes = static_cast<int>(c.m.scenes.size());

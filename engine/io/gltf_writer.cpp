@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
+#include "engine/scene/instancing.h"
 
 namespace tessera {
 namespace {
@@ -65,6 +66,7 @@ MeshDesc icosphere(const SphereDesc& s, int subdivisions) {
 
 std::string to_gltf(const SceneDescription& scene, int sphere_subdivisions) {
     std::vector<MeshDesc> meshes = scene.meshes;
+    for (const InstanceDesc& in : scene.instances) meshes.push_back(placed_mesh(scene.prototypes[in.prototype], in.to_world));
     for (const SphereDesc& s : scene.spheres) meshes.push_back(icosphere(s, sphere_subdivisions));
     std::vector<unsigned char> buf;
     auto append = [&](const void* data, size_t n) {

@@ -62,6 +62,48 @@ struct AlphaQuery {
     }
 };
 
+// The ray in a placement's space: the same t along it (the direction keeps its scale), and its
+// origin triangle skipped only in the placement it left.
+Ray to_object(const Instance& in, uint32_t index, const Ray& ray) {
+    Ray r = ray;
+    r.o = in.to_object * glm::vec4(ray.o, 1.f);
+    r.d = in.to_object * glm::vec4(ray.d, 0.f);
+    if (ray.origin_instance != index) r.origin_tri = kNoTriangle;
+    return r;
+}
+
+template <bool kAlpha>
+bool closest_instance(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& counters) {
+    return bvh_closest_hit(scene.instance_bvh, ray, [&](uint32_t i, Ray& r) {
+        const Instance& in = scene.instances[i];
+        const Prototype& p = scene.prototypes[in.prototype];
+        Ray local = to_object(in, i, r);
+        const Triangle4Ray r4 = make_triangle4_ray(local);
+        const bool found = wide_closest_hit(p.wide, local, [&](uint32_t first, uint32_t count, Ray& lr) {
+            return test_blocks<false, kAlpha>(scene, r4, p.first_block + first, count, lr,
+                                              [&](uint32_t prim, uint32_t slot, float t, float b1, float b2) {
+                                                  hit = Hit{t, prim, b1, b2, false, slot, i};
+                                              });
+        }, counters);
+        if (found) r.tmax = local.tmax;
+        return found;
+    }, counters);
+}
+
+template <bool kAlpha>
+bool any_instance(const RenderScene& scene, const Ray& ray, TraversalCounters& counters) {
+    return bvh_any_hit(scene.instance_bvh, ray, [&](uint32_t i, const Ray& r) {
+        const Instance& in = scene.instances[i];
+        const Prototype& p = scene.prototypes[in.prototype];
+        const Ray local = to_object(in, i, r);
+        const Triangle4Ray r4 = make_triangle4_ray(local);
+        return wide_any_hit(p.wide, local, [&](uint32_t first, uint32_t count, const Ray& lr) {
+            return test_blocks<true, kAlpha>(scene, r4, p.first_block + first, count, lr,
+                                             [](uint32_t, uint32_t, float, float, float) {});
+        }, counters);
+    }, counters);
+}
+
 }  // namespace
 
 bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& counters) {
@@ -76,7 +118,7 @@ bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& 
             hit = Hit{ray.tmax, prim, b1, b2, false, prim};
             found = true;
         }
-    } else if (scene.triangle_count()) {
+    } else if (scene.flat_triangles) {
         const Triangle4Ray r4 = make_triangle4_ray(ray);
         auto closest = [&]<bool kAlpha>(std::bool_constant<kAlpha>) {
             return wide_closest_hit(scene.tri_wide, ray, [&](uint32_t first, uint32_t count, Ray& r) {
@@ -87,6 +129,9 @@ bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& 
         };
         found = scene.has_alpha ? closest(std::true_type{}) : closest(std::false_type{});
     }
+    if (!scene.instances.empty())
+        found |= scene.has_alpha ? closest_instance<true>(scene, ray, hit, counters)
+                                 : closest_instance<false>(scene, ray, hit, counters);
     if (!scene.spheres.empty()) {
         const Sphere* sph = scene.spheres.data();
         found |= bvh_closest_hit(scene.sphere_bvh, ray, [&](uint32_t i, Ray& r) {
@@ -111,7 +156,10 @@ bool occluded(const RenderScene& scene, const Ray& ray, TraversalCounters& count
             }, counters))
             return true;
     }
-    if (!scene.triangle_count()) return false;
+    if (!scene.instances.empty() &&
+        (scene.has_alpha ? any_instance<true>(scene, ray, counters) : any_instance<false>(scene, ray, counters)))
+        return true;
+    if (!scene.flat_triangles) return false;
     if (scene.embree) {
         const AlphaQuery q{scene, ray};
         const EmbreeHitFilter f = q.filter();
@@ -125,6 +173,33 @@ bool occluded(const RenderScene& scene, const Ray& ray, TraversalCounters& count
     };
     return scene.has_alpha ? any(std::true_type{}) : any(std::false_type{});
 }
+
+namespace {
+
+// A prototype's surface point, placed: the point as anchor and offset, its error bound grown by
+// the transform's own rounding (pbrt-v4's Transform of a Point3fi), normals by the inverse
+// transpose (to_object's linear part, transposed).
+void to_world(const Instance& in, uint32_t index, SurfaceInteraction& si) {
+    const glm::mat3 l(in.to_world);
+    const glm::vec3 shift = in.to_world[3];
+    const glm::mat3 al(glm::abs(l[0]), glm::abs(l[1]), glm::abs(l[2]));
+    const glm::vec3 anchor = l * si.anchor + shift;
+    const glm::vec3 local = l * si.local;
+    si.p_err = al * si.p_err + gamma(3) * (al * glm::abs(si.anchor) + glm::abs(shift)) + gamma(3) * (al * glm::abs(si.local));
+    si.anchor = anchor;
+    si.local = local;
+    si.p = anchor + local;
+    si.p_err += gamma(1) * glm::abs(si.p);
+    const glm::mat3 nm = glm::transpose(glm::mat3(in.to_object));
+    const glm::vec3 ng = nm * si.ng, ns = nm * si.ns;
+    const float lg = glm::length(ng), ls = glm::length(ns);
+    si.ng = lg > 0.f && std::isfinite(lg) ? ng / lg : glm::vec3(0, 1, 0);
+    si.ns = ls > 0.f && std::isfinite(ls) ? ns / ls : si.ng;
+    if (glm::dot(si.ns, si.ng) < 0.f) si.ns = -si.ns;
+    si.instance = index;
+}
+
+}  // namespace
 
 SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hit& hit) {
     SurfaceInteraction si;
@@ -173,6 +248,7 @@ SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hi
     si.ns = glm::dot(ns, si.ng) < 0.f ? -ns : ns;
     si.material = sh.material;
     si.tri = hit.prim;
+    if (hit.instance != kNoInstance) to_world(scene.instances[hit.instance], hit.instance, si);
     return si;
 }
 

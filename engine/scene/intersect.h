@@ -12,6 +12,7 @@ struct Hit {
     float b1 = 0.f, b2 = 0.f;  // barycentrics of p1, p2 (triangles)
     bool sphere = false;
     uint32_t slot = 0;         // triangles: 4 × block + lane, where the vertices are
+    uint32_t instance = kNoInstance;  // the placement of a prototype's triangle (prim and slot are the prototype's)
 };
 
 struct SurfaceInteraction {
@@ -26,6 +27,7 @@ struct SurfaceInteraction {
     uint32_t material;
     float t;
     uint32_t tri = kNoTriangle;  // the triangle (Hit::prim) p lies on; spawned rays skip it
+    uint32_t instance = kNoInstance;  // ... in this placement (a prototype's triangle lies in each)
 };
 
 // Lowers ray.tmax to the hit distance.

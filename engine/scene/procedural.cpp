@@ -4,8 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <unordered_map>
 #include <utility>
+
+#include <glm/gtc/matrix_transform.hpp>
 
 #include "engine/sampling/rng.h"
 
@@ -307,7 +310,81 @@ SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed) {
     return s;
 }
 
+SceneDescription instanced_field(uint32_t count, uint64_t triangles_each, uint32_t seed) {
+    SceneDescription s = displaced_sphere(triangles_each, seed);
+    s.source = "builtin:instances";
+    s.prototypes.push_back(std::move(s.meshes.back()));
+    s.meshes.pop_back();
+    // A square grid, 3 units apart (a placed sphere reaches at most 1.15 × 1.3 from its centre),
+    // each turned about y, scaled and every fifth mirrored in x, so the placement's inverse,
+    // normal matrix and winding are all exercised.
+    const uint32_t side = uint32_t(std::ceil(std::sqrt(double(std::max<uint32_t>(count, 1)))));
+    const float half = 1.5f * float(side - 1);
+    Pcg32 rng(seed, 11);
+    for (uint32_t i = 0; i < count; ++i) {
+        const float angle = 6.2831853f * rng.next_float();
+        const float scale = 0.7f + 0.6f * rng.next_float();
+        glm::mat4 m(1.f);
+        m = glm::translate(m, glm::vec3(3.f * float(i % side) - half, scale * 1.15f, 3.f * float(i / side) - half));
+        m = glm::rotate(m, angle, glm::vec3(0, 1, 0));
+        m = glm::scale(m, glm::vec3(i % 5 == 4 ? -scale : scale, scale, scale));
+        s.instances.push_back({0, m, here("instance")});
+    }
+    MeshDesc ground;
+    ground.name = "ground";
+    const float g = half + 3.f;
+    ground.positions = {{-g, 0, -g}, {g, 0, -g}, {g, 0, g}, {-g, 0, g}};
+    ground.indices = {0, 2, 1, 0, 3, 2};
+    ground.material = add_material(s, "ground", glm::vec3(0.4f));
+    ground.origin = here("ground");
+    s.meshes.push_back(std::move(ground));
+    CameraDesc cam;
+    cam.position = glm::vec3(-half - 4.f, 2.f + 0.35f * half, half + 4.f);
+    cam.look_at = glm::vec3(0.f, 0.5f, 0.f);
+    cam.vfov_deg = 40.f;
+    cam.hfov_deg = 60.f;
+    cam.origin = here("camera");
+    s.camera = cam;
+    return s;
+}
+
 namespace {
+
+// "builtin:instances[?count=N&triangles=T]": how many placements of a sphere of how many
+// triangles; nullopt for another name.
+std::optional<std::pair<uint32_t, uint64_t>> instances_params(const std::string& name) {
+    const SourceLocation where{name, 0, ""};
+    const std::string prefix = "builtin:instances";
+    if (name.rfind(prefix, 0) != 0) return std::nullopt;
+    std::pair<uint32_t, uint64_t> p{100, 10'000};
+    std::string rest = name.substr(prefix.size());
+    if (rest.empty()) return p;
+    if (rest[0] != '?') throw SceneError(where, "expected '?count=N&triangles=T' after " + prefix);
+    rest = rest.substr(1);
+    bool seen_count = false, seen_tris = false;
+    while (!rest.empty()) {
+        const size_t amp = rest.find('&');
+        const std::string item = rest.substr(0, amp);
+        rest = amp == std::string::npos ? "" : rest.substr(amp + 1);
+        const size_t eq = item.find('=');
+        const std::string key = item.substr(0, eq), num = eq == std::string::npos ? "" : item.substr(eq + 1);
+        if (num.empty() || num.size() > 9 || num.find_first_not_of("0123456789") != std::string::npos)
+            throw SceneError(where, "'" + key + "' must be a whole number");
+        const uint64_t v = std::stoull(num);
+        if (key == "count" && !seen_count) {
+            if (v < 1 || v > 1'000'000) throw SceneError(where, "count must lie in [1, 1000000]");
+            p.first = uint32_t(v);
+            seen_count = true;
+        } else if (key == "triangles" && !seen_tris) {
+            if (v < 8 || v > 20'000'000) throw SceneError(where, "triangles must lie in [8, 20000000]");
+            p.second = v;
+            seen_tris = true;
+        } else {
+            throw SceneError(where, "unknown or repeated parameter '" + key + "' (count, triangles)");
+        }
+    }
+    return p;
+}
 
 // The triangle count of "builtin:displaced_sphere[?triangles=N]", or 0 for another name.
 uint64_t displaced_sphere_triangles(const std::string& name) {
@@ -333,7 +410,9 @@ const char* const kBuiltins[] = {"builtin:cornell_box", "builtin:cornell_spheres
 
 void check_builtin_name(const std::string& name, uint64_t max_triangles) {
     for (const char* b : kBuiltins) if (name == b) return;
-    if (const uint64_t asked = displaced_sphere_triangles(name)) {
+    uint64_t asked = displaced_sphere_triangles(name);
+    if (const auto inst = instances_params(name)) asked = inst->second;  // stored once, however often placed
+    if (asked) {
         // What it will build (8k² triangles, k = ⌈√(N/8)⌉), held to the server's bound before a
         // triangle is made.
         const uint64_t k = uint64_t(std::max(1, int(std::ceil(std::sqrt(double(asked) / 8.0)))));
@@ -344,7 +423,7 @@ void check_builtin_name(const std::string& name, uint64_t max_triangles) {
     }
     throw SceneError(SourceLocation{name, 0, ""}, "unknown built-in scene (builtin:cornell_box, builtin:cornell_spheres, builtin:cornell_glossy, builtin:lamp_room, "
                                                   "builtin:furnace, builtin:many_lights, builtin:scattered_lights, builtin:lamp_field, "
-                                                  "builtin:displaced_sphere?triangles=N)");
+                                                  "builtin:displaced_sphere?triangles=N, builtin:instances?count=N&triangles=T)");
 }
 
 SceneDescription builtin_scene(const std::string& name) {
@@ -357,6 +436,7 @@ SceneDescription builtin_scene(const std::string& name) {
     if (name == "builtin:many_lights") return many_lights();
     if (name == "builtin:scattered_lights") return scattered_lights();
     if (name == "builtin:lamp_field") return lamp_field();
+    if (const auto inst = instances_params(name)) return instanced_field(inst->first, inst->second);
     return displaced_sphere(displaced_sphere_triangles(name));
 }
 

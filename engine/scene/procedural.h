@@ -40,10 +40,15 @@ SceneDescription furnace_box(float albedo, float emission, float half = 1.f, glm
 SceneDescription furnace_sphere(float albedo, float emission, float radius = 1.f, glm::vec3 center = glm::vec3(0.f), int frequency = 4);
 // A noisy subdivided sphere with at least `min_triangles` triangles and a directional light.
 SceneDescription displaced_sphere(uint64_t min_triangles, uint32_t seed = 1);
+// `count` placements (instances) of one displaced sphere of at least `triangles_each`
+// triangles on a grid over a ground plane, turned, scaled and some mirrored; a camera above one
+// corner. The sphere is stored once (SceneDescription::prototypes).
+SceneDescription instanced_field(uint32_t count, uint64_t triangles_each, uint32_t seed = 1);
 
 // "builtin:cornell_box", "builtin:cornell_spheres", "builtin:cornell_glossy", "builtin:lamp_room", "builtin:furnace", "builtin:many_lights", "builtin:scattered_lights",
 // "builtin:lamp_field",
-// "builtin:displaced_sphere?triangles=N" (N ≤ 20 million). Throws SceneError for other names.
+// "builtin:displaced_sphere?triangles=N" (N ≤ 20 million),
+// "builtin:instances?count=N&triangles=T" (N ≤ 1 million placements of T ≤ 20 million). Throws SceneError for other names.
 SceneDescription builtin_scene(const std::string& name);
 // Checks a built-in name and its parameters without building the scene; throws SceneError.
 // Also refuses a displaced sphere of more than `max_triangles` triangles (a loader's bound).

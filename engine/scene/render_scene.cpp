@@ -4,11 +4,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <span>
 
 #include "engine/accel/triangle4_leaves.h"
 #include "engine/core/parallel.h"
 #include "engine/geometry/triangle.h"
+#include "engine/scene/instancing.h"
 #include "engine/scene/surface_textures.h"
 
 namespace tessera {
@@ -68,8 +70,9 @@ BvhBuildOptions options_for(size_t n, const RenderSceneOptions& o, const char* w
 // their shading records; area-weighted vertex normals where the file gave none (as CS184 does);
 // each emissive mesh becomes an area light. Expands s.bounds by the triangles. The per-triangle
 // passes run on `threads` threads over disjoint ranges, so the result is the same for any count.
-LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& meshes, uint32_t default_material,
-                                            int threads, RenderScene& s) {
+// Meshes from `world_meshes` on are prototypes, in their own space: they add no bounds and no lights.
+LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& meshes, size_t world_meshes,
+                                            uint32_t default_material, int threads, RenderScene& s) {
     auto mat = [&](int m) { return m < 0 ? default_material : uint32_t(m); };
     std::vector<size_t> first_tri(meshes.size() + 1, 0), first_vertex(meshes.size() + 1, 0);
     for (size_t k = 0; k < meshes.size(); ++k) {
@@ -103,7 +106,7 @@ LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& 
     });
 
     std::vector<uint32_t> mesh_light(meshes.size(), kNoLight);
-    for (size_t k = 0; k < meshes.size(); ++k) {
+    for (size_t k = 0; k < world_meshes; ++k) {
         const uint32_t m = mat(meshes[k]->material);
         if (s.materials[m].emissive()) mesh_light[k] = add_area_light(*meshes[k], s.materials[m], m, s);
     }
@@ -113,6 +116,7 @@ LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& 
     s.tri_shading.resize(ntri);
     const int parts = pass_threads(ntri, threads);
     std::vector<Aabb> part_bounds(static_cast<size_t>(parts));
+    const size_t world_tris = first_tri[world_meshes];
     parallel_ranges(ntri, parts, [&](size_t begin, size_t end, int part) {
         Aabb box;
         size_t k = size_t(std::upper_bound(first_tri.begin(), first_tri.end(), begin) - first_tri.begin()) - 1;
@@ -122,7 +126,7 @@ LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& 
             const size_t i = 3 * (t - first_tri[k]);
             const uint32_t i0 = mesh.indices[i], i1 = mesh.indices[i + 1], i2 = mesh.indices[i + 2];
             triangles[t] = {mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]};
-            box.expand(triangles[t].p0); box.expand(triangles[t].p1); box.expand(triangles[t].p2);
+            if (t < world_tris) { box.expand(triangles[t].p0); box.expand(triangles[t].p1); box.expand(triangles[t].p2); }
             const uint32_t base = uint32_t(first_vertex[k]);
             s.tri_shading[t] = {base + i0, base + i1, base + i2, mat(mesh.material), kNoLight};
         }
@@ -146,6 +150,35 @@ LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& 
     return triangles;
 }
 
+// Our tree over `tris` (a span of `all`), collapsed wide, its blocks appended to `blocks`
+// (leaves name them from the first appended). `first_id`: the id of tris[0] in `all`, which
+// lanes name; empty when tris is all of it.
+WideBvh build_wide(std::span<const TriangleVerts> tris, std::span<const TriangleVerts> all, std::optional<uint32_t> first_id,
+                   BvhBuildOptions bo, int threads, LargeVector<Triangle4>& blocks, BvhBuildStats& stats, StageClock* clock) {
+    // SAH: Embree's division of labour. The binary builder splits down to one block, and
+    // the collapse merges a subtree back into one leaf (up to max_leaf_size) only where
+    // the SAH says a leaf beats one more wide node, so wide nodes fill up with small leaves
+    // rather than keep the binary tree's larger ones (maxplanck: 61% of slots filled
+    // against 50%, SAH cost 12.3 against 13.2; `tessera bench rays`).
+    WideCollapseOptions co;
+    if (bo.type == BvhType::sah) {
+        co = {bo.max_leaf_size, bo.traversal_cost, bo.intersection_cost, bo.leaf_block};
+        bo.max_leaf_size = std::min(bo.max_leaf_size, std::max(1, bo.leaf_block));
+    }
+    Bvh bvh = build_bvh(tris.size(), [tris](size_t i) { return triangle_bounds(tris[i]); }, bo);
+    if (clock) clock->lap("bvh build");
+    stats = bvh.stats;
+    WideBvh wide = collapse_to_wide(bvh, co);
+    if (clock) clock->lap("collapse");
+    if (first_id)
+        for (uint32_t& i : bvh.prim_index) i += *first_id;
+    LargeVector<Triangle4> packed = pack_triangle4_leaves(wide, all, bvh.prim_index, threads);
+    if (blocks.empty()) blocks = std::move(packed);
+    else blocks.insert(blocks.end(), packed.begin(), packed.end());
+    if (clock) clock->lap("pack blocks");
+    return wide;
+}
+
 // The triangles' acceleration structure (ours, or Embree's), with the triangles packed in the
 // order traversal reads them. Lanes name triangles by input index, as tri_shading is kept.
 void build_triangle_accel(std::span<const TriangleVerts> triangles, const RenderSceneOptions& options, RenderScene& s,
@@ -164,24 +197,10 @@ void build_triangle_accel(std::span<const TriangleVerts> triangles, const Render
                                  " quality): " + std::to_string(triangles.size()) + " triangles");
     } else {
         const auto tb = std::chrono::steady_clock::now();
-        BvhBuildOptions bo = options_for(triangles.size(), options, "triangles", s.report);
-        // SAH: Embree's division of labour. The binary builder splits down to one block, and
-        // the collapse merges a subtree back into one leaf (up to max_leaf_size) only where
-        // the SAH says a leaf beats one more wide node, so wide nodes fill up with small leaves
-        // rather than keep the binary tree's larger ones (maxplanck: 61% of slots filled
-        // against 50%, SAH cost 12.3 against 13.2; `tessera bench rays`).
-        WideCollapseOptions co;
-        if (bo.type == BvhType::sah) {
-            co = {bo.max_leaf_size, bo.traversal_cost, bo.intersection_cost, bo.leaf_block};
-            bo.max_leaf_size = std::min(bo.max_leaf_size, std::max(1, bo.leaf_block));
-        }
-        const Bvh bvh = build_bvh(triangles.size(), [triangles](size_t i) { return triangle_bounds(triangles[i]); }, bo);
-        clock.lap("bvh build");
-        s.tri_bvh_stats = bvh.stats;
-        s.tri_wide = collapse_to_wide(bvh, co);
-        clock.lap("collapse");
-        s.tri_blocks = pack_triangle4_leaves(s.tri_wide, triangles, bvh.prim_index, threads);
-        clock.lap("pack blocks");
+        const BvhBuildOptions bo = options_for(triangles.size(), options, "triangles", s.report);
+        BvhBuildStats stats;
+        s.tri_wide = build_wide(triangles, triangles, {}, bo, threads, s.tri_blocks, stats, &clock);
+        s.tri_bvh_stats = stats;
         s.tri_build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tb).count();
         s.report.built.push_back("triangle BVH (" + std::string(to_string(options.bvh.type)) + "): " +
                                  std::to_string(triangles.size()) + " triangles in " +
@@ -189,6 +208,53 @@ void build_triangle_accel(std::span<const TriangleVerts> triangles, const Render
                                  std::to_string(s.tri_bvh_stats.node_count) + " binary nodes collapsed to " +
                                  std::to_string(s.tri_wide.nodes.size()) + " " + std::to_string(kBvhWidth) + "-wide nodes");
     }
+}
+
+// The instances' two levels: a tree per prototype over its own triangles, and one over the
+// placements' world boxes. A prototype is built once however often it is placed.
+void build_instances(std::span<const TriangleVerts> triangles, const std::vector<const InstanceDesc*>& placements,
+                     const std::vector<uint32_t>& prototype_first_tri, const std::vector<uint32_t>& prototype_tris,
+                     const RenderSceneOptions& options, RenderScene& s) {
+    if (placements.empty()) {
+        s.report.left_out.push_back("instances: none in the scene (one level of BVH)");
+        return;
+    }
+    const int threads = options.bvh.build_threads;
+    size_t stored = 0, placed = 0;
+    for (size_t k = 0; k < prototype_first_tri.size(); ++k) {
+        Prototype p;
+        p.first_tri = prototype_first_tri[k];
+        p.triangles = prototype_tris[k];
+        p.first_block = uint32_t(s.tri_blocks.size());
+        const std::span<const TriangleVerts> tris = triangles.subspan(p.first_tri, p.triangles);
+        for (const TriangleVerts& t : tris) p.bounds.expand(triangle_bounds(t));
+        BvhBuildOptions bo = options.bvh;
+        if (p.triangles < options.min_prims_for_bvh) bo.type = BvhType::none;
+        BvhBuildStats stats;
+        p.wide = build_wide(tris, triangles, p.first_tri, bo, threads, s.tri_blocks, stats, nullptr);
+        stored += p.triangles;
+        s.prototypes.push_back(std::move(p));
+    }
+    std::vector<Aabb> bounds;
+    bounds.reserve(placements.size());
+    for (const InstanceDesc* in : placements) {
+        const glm::dmat4 m(in->to_world);
+        s.instances.push_back({glm::mat4x3(glm::mat4(glm::inverse(m))), glm::mat4x3(in->to_world), in->prototype});
+        const Prototype& p = s.prototypes[in->prototype];
+        bounds.push_back(transformed_bounds(p.bounds, in->to_world));
+        s.bounds.expand(bounds.back());
+        placed += p.triangles;
+    }
+    BvhBuildOptions top = options.bvh;
+    top.leaf_block = 1;  // instances are entered one at a time
+    top.max_leaf_size = 2;
+    if (placements.size() < options.min_prims_for_bvh) top.type = BvhType::none;
+    s.instance_bvh = build_bvh(bounds, top);
+    to_leaf_order(s.instance_bvh, s.instances);
+    s.report.built.push_back("instances: " + std::to_string(s.instances.size()) + " placements of " +
+                             std::to_string(s.prototypes.size()) + " prototype mesh(es), " + std::to_string(stored) +
+                             " triangles stored for " + std::to_string(placed) +
+                             " placed (a BVH per prototype under one over the placements)");
 }
 
 // Spheres always take our own path (with Embree too): a list or our BVH beside its triangles.
@@ -232,8 +298,9 @@ void report_materials(const std::vector<Material>& materials, BuildReport& repor
 // and the images they use; materials that read none keep the untextured path.
 void add_material_textures(const SceneDescription& desc, RenderScene& s) {
     std::vector<char> coloured(desc.materials.size(), 0);
-    for (const MeshDesc& m : desc.meshes)
-        if (m.material >= 0 && !m.colors.empty()) coloured[size_t(m.material)] = 1;
+    for (const std::vector<MeshDesc>* list : {&desc.meshes, &desc.prototypes})
+        for (const MeshDesc& m : *list)
+            if (m.material >= 0 && !m.colors.empty()) coloured[size_t(m.material)] = 1;
     size_t textured = 0;
     for (size_t i = 0; i < desc.materials.size(); ++i) {
         const MaterialDesc& d = desc.materials[i];
@@ -280,10 +347,55 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     s.materials.push_back(Material{});
     report_materials(s.materials, s.report);
 
+    // Instances stay instances unless their mesh emits (light sampling needs world-space
+    // triangles) or Embree traces the scene (its instancing is not wired up): those are placed
+    // as world-space meshes.
+    std::vector<MeshDesc> placed;
+    std::vector<const InstanceDesc*> placements;
+    std::vector<uint32_t> prototype_slot(desc.prototypes.size(), kNoInstance);  // its index among those kept
+    std::vector<const MeshDesc*> kept_prototypes;
+    for (const InstanceDesc& in : desc.instances) {
+        const MeshDesc& proto = desc.prototypes[in.prototype];
+        const bool emits = proto.material >= 0 && s.materials[size_t(proto.material)].emissive();
+        if (emits || options.bvh.type == BvhType::embree) {
+            placed.push_back(placed_mesh(proto, in.to_world));
+            placed.back().origin = in.origin;
+            continue;
+        }
+        if (prototype_slot[in.prototype] == kNoInstance) {
+            prototype_slot[in.prototype] = uint32_t(kept_prototypes.size());
+            kept_prototypes.push_back(&proto);
+        }
+        placements.push_back(&in);
+    }
+    if (!placed.empty() && options.bvh.type == BvhType::embree)
+        s.report.warnings.push_back(std::to_string(placed.size()) + " instance(s) placed as world-space meshes: Embree's "
+                                    "instancing is not wired up (bvh \"sah\" keeps them instanced)");
+    std::vector<InstanceDesc> renumbered;  // prototype indices among those kept
+    renumbered.reserve(placements.size());
+    for (const InstanceDesc* in : placements) {
+        renumbered.push_back(*in);
+        renumbered.back().prototype = prototype_slot[in->prototype];
+    }
+    std::vector<const InstanceDesc*> kept_instances;
+    for (const InstanceDesc& in : renumbered) kept_instances.push_back(&in);
+
     std::vector<const MeshDesc*> meshes;
     for (const MeshDesc& m : desc.meshes) meshes.push_back(&m);
     for (const MeshDesc& m : lamps) meshes.push_back(&m);
-    const LargeVector<TriangleVerts> triangles = gather_triangles(meshes, default_material, options.bvh.build_threads, s);
+    for (const MeshDesc& m : placed) meshes.push_back(&m);
+    const size_t world_meshes = meshes.size();
+    for (const MeshDesc* m : kept_prototypes) meshes.push_back(m);
+    const LargeVector<TriangleVerts> triangles =
+        gather_triangles(meshes, world_meshes, default_material, options.bvh.build_threads, s);
+    std::vector<uint32_t> prototype_first_tri, prototype_tris;
+    size_t next = 0;
+    for (size_t k = 0; k < meshes.size(); ++k) {
+        const size_t n = meshes[k]->indices.size() / 3;
+        if (k < world_meshes) s.flat_triangles += n;
+        else { prototype_first_tri.push_back(uint32_t(next)); prototype_tris.push_back(uint32_t(n)); }
+        next += n;
+    }
     clock.lap("gather");
     build_power_table(s.area_lights);
     if (s.light_triangles.size() > 1) {
@@ -296,7 +408,10 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     for (const SphereDesc& sd : desc.spheres)
         s.spheres.push_back({sd.center, sd.radius, sd.material < 0 ? default_material : uint32_t(sd.material)});
 
-    build_triangle_accel(triangles, options, s, clock);
+    const std::span<const TriangleVerts> all(triangles.data(), triangles.size());
+    build_triangle_accel(all.first(s.flat_triangles), options, s, clock);
+    build_instances(all, kept_instances, prototype_first_tri, prototype_tris, options, s);
+    if (!kept_instances.empty()) clock.lap("instances");
     std::vector<Aabb> bounds(s.spheres.size());
     for (size_t i = 0; i < s.spheres.size(); ++i) { bounds[i] = sphere_bounds(s.spheres[i]); s.bounds.expand(bounds[i]); }
     build_sphere_accel(bounds, options, s);
@@ -316,7 +431,11 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
 }
 
 size_t RenderScene::triangle_accel_bytes() const {
-    return tri_blocks.size() * sizeof(Triangle4) + tri_wide.memory_bytes() + (embree ? embree_memory_bytes(*embree) : 0);
+    size_t instanced = instances.size() * sizeof(Instance) + instance_bvh.nodes.size() * sizeof(BvhNode) +
+                       instance_bvh.prim_index.size() * sizeof(uint32_t);
+    for (const Prototype& p : prototypes) instanced += p.wide.memory_bytes();
+    return tri_blocks.size() * sizeof(Triangle4) + tri_wide.memory_bytes() + instanced +
+           (embree ? embree_memory_bytes(*embree) : 0);
 }
 
 }  // namespace tessera

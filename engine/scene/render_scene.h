@@ -27,6 +27,25 @@ enum class TriangleTest { watertight, moller_trumbore };
 struct TriangleShading { uint32_t n0, n1, n2; uint32_t material; uint32_t light = kNoLight; };
 struct Sphere { glm::vec3 center; float radius; uint32_t material; };
 
+inline constexpr uint32_t kNoInstance = ~0u;
+
+// A mesh placed by instances: its triangles are entries of the scene's arrays like any other's
+// (tri_shading, tri_blocks, vertex attributes), in a tree of its own over its own space.
+struct Prototype {
+    WideBvh wide;              // leaves name blocks relative to first_block
+    uint32_t first_block = 0;  // in tri_blocks
+    uint32_t first_tri = 0, triangles = 0;
+    Aabb bounds;               // in its own space
+};
+
+// One placement, as traversal reads it: affine maps both ways (columns; the inverse transpose
+// of to_world's linear part is to_object's transposed, so normals need no third matrix).
+struct Instance {
+    glm::mat4x3 to_object;
+    glm::mat4x3 to_world;
+    uint32_t prototype;
+};
+
 // What building the render scene did and left out, and what it cost (reported per job).
 struct BuildStage {
     std::string name;
@@ -74,6 +93,10 @@ struct RenderScene {
     double tri_build_seconds = 0;               // build, collapse and packing (or Embree's build)
     std::shared_ptr<EmbreeAccel> embree;        // instead of ours, with bvh "embree"
     double embree_build_seconds = 0;            // Embree's alone (also in tri_build_seconds)
+    size_t flat_triangles = 0;                  // tri_shading [0, flat_triangles): world space, in tri_wide
+    std::vector<Prototype> prototypes;          // meshes placed by instances, each stored and built once
+    std::vector<Instance> instances;            // instance_bvh's leaf order
+    Bvh instance_bvh;                           // over the instances' world bounds (the top level)
     std::vector<Sphere> spheres;                // BVH leaf order
     Bvh sphere_bvh;
     std::vector<Material> materials;            // last entry: the default grey
@@ -88,7 +111,8 @@ struct RenderScene {
     Aabb bounds;
     TriangleTest triangle_test = TriangleTest::watertight;
     BuildReport report;
-    // Bytes of what intersecting triangles reads: the blocks and the tree (ours or Embree's).
+    // Bytes of what intersecting triangles reads: the blocks and the trees (ours or Embree's),
+    // with the instances and the tree over them.
     size_t triangle_accel_bytes() const;
 };
 

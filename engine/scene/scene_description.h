@@ -67,6 +67,14 @@ struct MeshDesc {
     SourceLocation origin;
 };
 
+// A placement of a prototype mesh (SceneDescription::prototypes, in the mesh's own space): a
+// mesh that several nodes use is stored once and built once, however many times it is placed.
+struct InstanceDesc {
+    uint32_t prototype = 0;
+    glm::mat4 to_world{1.f};  // affine (bottom row 0 0 0 1), invertible
+    SourceLocation origin;
+};
+
 struct SphereDesc {
     glm::vec3 center{0.0f};
     float radius = 1.0f;
@@ -121,16 +129,28 @@ struct SceneDescription {
     std::vector<MaterialDesc> materials;
     std::vector<std::shared_ptr<const TextureImage>> images;  // decoded, shared with the render scene
     std::vector<Texture> textures;       // Texture::image indexes images
-    std::vector<MeshDesc> meshes;
+    std::vector<MeshDesc> meshes;        // world space, each placed once
+    std::vector<MeshDesc> prototypes;    // object space, placed by instances (none of them emissive
+                                         // is required: the render scene flattens emitters)
+    std::vector<InstanceDesc> instances;
     std::vector<SphereDesc> spheres;
     std::vector<LightDesc> lights;
     std::optional<CameraDesc> camera;    // absent: a default camera frames the scene
     std::vector<AnimationSummary> animations;  // what the file animates (posed or not)
     std::vector<std::string> warnings;   // things that were read but are not (yet) rendered as written
 
+    // Triangles stored: each prototype once (what memory and the triangle limit count).
     size_t triangle_count() const {
         size_t n = 0;
         for (const auto& m : meshes) n += m.indices.size() / 3;
+        for (const auto& m : prototypes) n += m.indices.size() / 3;
+        return n;
+    }
+    // Triangles in the world: each prototype as often as it is placed.
+    size_t placed_triangle_count() const {
+        size_t n = 0;
+        for (const auto& m : meshes) n += m.indices.size() / 3;
+        for (const auto& i : instances) n += prototypes[i.prototype].indices.size() / 3;
         return n;
     }
 };

@@ -155,7 +155,7 @@ bool alpha_passes(const RenderScene& s, const Ray& ray, uint32_t prim, float b1,
 }
 
 void apply_textures(const RenderScene& s, const MaterialTextures& mt, uint32_t prim, float b1, float b2, Bsdf& bsdf,
-                    glm::vec3& ns, const glm::vec3& ng) {
+                    glm::vec3& ns, const glm::vec3& ng, uint32_t instance) {
     const TriangleShading& sh = s.tri_shading[prim];
     if (mt.base_color.used()) bsdf.albedo *= glm::vec3(lookup(s, mt.base_color, sh, b1, b2, true));
     if (mt.vertex_colors) bsdf.albedo *= glm::vec3(interpolate(s.colors, sh, b1, b2));
@@ -167,7 +167,12 @@ void apply_textures(const RenderScene& s, const MaterialTextures& mt, uint32_t p
         bsdf.metallic = std::clamp(bsdf.metallic * t.z, 0.f, 1.f);
     }
     if (mt.normal.used() && !s.tangents.empty()) {
-        const glm::vec4 t4 = interpolate(s.tangents, sh, b1, b2);
+        glm::vec4 t4 = interpolate(s.tangents, sh, b1, b2);
+        if (instance != kNoInstance) {
+            // A prototype's tangent, placed as placed_mesh places it (a mirror flips the side).
+            const glm::mat3 l(s.instances[instance].to_world);
+            t4 = glm::vec4(l * glm::vec3(t4), glm::determinant(l) < 0.f ? -t4.w : t4.w);
+        }
         glm::vec3 t(t4);
         t -= ns * glm::dot(ns, t);
         const float tl = glm::length(t);

@@ -34,7 +34,8 @@ bool alpha_passes(const RenderScene& s, const Ray& ray, uint32_t prim, float b1,
 // The material's inputs at a hit: base colour (× vertex colour), metallic and roughness into
 // `bsdf`, and the normal map applied to `ns` (unit, on ng's side). Emission: emission_at.
 void apply_textures(const RenderScene& s, const MaterialTextures& mt, uint32_t prim, float b1, float b2, Bsdf& bsdf,
-                    glm::vec3& ns, const glm::vec3& ng);
+                    glm::vec3& ns, const glm::vec3& ng,
+                    uint32_t instance = kNoInstance);
 
 // Emission of material m at a hit on triangle `prim` (its constant where it has no texture).
 glm::vec3 emission_at(const RenderScene& s, const Material& m, uint32_t prim, float b1, float b2);

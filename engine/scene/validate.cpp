@@ -1,6 +1,7 @@
 #include <cmath>
 #include <string>
 
+#include "engine/geometry/aabb.h"
 #include "engine/scene/scene_description.h"
 
 namespace tessera {
@@ -64,7 +65,7 @@ void validate(const SceneDescription& scene) {
         if (m.albedo.x < 0 || m.albedo.y < 0 || m.albedo.z < 0)
             throw SceneError(m.origin, "material '" + m.name + "' has negative albedo " + vec_str(m.albedo));
     }
-    for (const auto& mesh : scene.meshes) {
+    auto check_mesh = [&](const MeshDesc& mesh) {
         if (mesh.indices.size() % 3 != 0)
             throw SceneError(mesh.origin, "mesh '" + mesh.name + "' has " + std::to_string(mesh.indices.size()) +
                                               " indices, not a multiple of 3");
@@ -90,6 +91,44 @@ void validate(const SceneDescription& scene) {
                 throw SceneError(mesh.origin, "mesh '" + mesh.name + "' index " + std::to_string(i) + " = " +
                                                   std::to_string(mesh.indices[i]) + " is out of range (" +
                                                   std::to_string(mesh.positions.size()) + " vertices)");
+    };
+    for (const auto& mesh : scene.meshes) check_mesh(mesh);
+    for (const auto& mesh : scene.prototypes) check_mesh(mesh);
+    std::vector<Aabb> prototype_bounds(scene.prototypes.size());
+    for (size_t k = 0; k < scene.prototypes.size(); ++k)
+        for (const glm::vec3& p : scene.prototypes[k].positions) prototype_bounds[k].expand(p);
+    for (size_t k = 0; k < scene.instances.size(); ++k) {
+        const InstanceDesc& in = scene.instances[k];
+        const std::string what = "instance " + std::to_string(k);
+        if (in.prototype >= scene.prototypes.size())
+            throw SceneError(in.origin, what + " places prototype " + std::to_string(in.prototype) + " of " +
+                                            std::to_string(scene.prototypes.size()));
+        const glm::mat4& m = in.to_world;
+        for (int c = 0; c < 4; ++c)
+            if (!finite(glm::vec3(m[c])) || !std::isfinite(m[c][3]))
+                throw SceneError(in.origin, what + " has a non-finite transform");
+        if (m[0][3] != 0.f || m[1][3] != 0.f || m[2][3] != 0.f || m[3][3] != 1.f)
+            throw SceneError(in.origin, what + " has a projective transform (its bottom row must be 0 0 0 1)");
+        // Singular (or so nearly that its inverse overflows): rays cannot be taken into the
+        // mesh's space, and the placed mesh would be flat.
+        const glm::dmat3 l(m);
+        const double det = glm::determinant(l);
+        const glm::dmat3 inv = det != 0.0 ? glm::inverse(l) : glm::dmat3(0.0);
+        bool ok = det != 0.0 && std::isfinite(det);
+        for (int c = 0; c < 3 && ok; ++c)
+            for (int r = 0; r < 3; ++r) ok &= std::abs(inv[c][r]) < 1e30;
+        if (!ok) throw SceneError(in.origin, what + " has a singular transform (no inverse)");
+        // Placed, every vertex must stay finite in single precision: an affine map takes the
+        // prototype's box to a parallelepiped spanned by the images of its corners.
+        const std::vector<Aabb>& boxes = prototype_bounds;
+        for (int corner = 0; corner < 8; ++corner) {
+            const Aabb& b = boxes[in.prototype];
+            if (b.empty()) break;
+            const glm::vec3 p(corner & 1 ? b.hi.x : b.lo.x, corner & 2 ? b.hi.y : b.lo.y, corner & 4 ? b.hi.z : b.lo.z);
+            if (!finite(glm::vec3(m * glm::vec4(p, 1.f))))
+                throw SceneError(in.origin, what + " places prototype '" + scene.prototypes[in.prototype].name +
+                                                "' outside the finite range");
+        }
     }
     for (const auto& s : scene.spheres) {
         if (!finite(s.center) || !std::isfinite(s.radius) || !(s.radius > 0))

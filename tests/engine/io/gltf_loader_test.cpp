@@ -15,6 +15,7 @@
 
 #include <unistd.h>
 
+#include "engine/scene/instancing.h"
 #include "tests/engine/io/gltf_test_files.h"
 #include "tests/test_paths.h"
 
@@ -75,9 +76,14 @@ TEST(GltfSamples, TriangleWithoutIndices) {
 
 TEST(GltfSamples, SimpleMeshesInstancesOneMeshTwice) {
     TESSERA_REQUIRE_GLTF_SAMPLES(dir);
-    const SceneDescription s = load_gltf(dir + "/SimpleMeshes.gltf");
+    const SceneDescription stored = load_gltf(dir + "/SimpleMeshes.gltf");
+    ASSERT_EQ(stored.prototypes.size(), 1u);  // one mesh, stored once and placed twice
+    ASSERT_EQ(stored.instances.size(), 2u);
+    EXPECT_EQ(stored.triangle_count(), 1u);
+    SceneDescription s = stored;
+    flatten_instances(s);
     ASSERT_EQ(s.meshes.size(), 2u);
-    EXPECT_EQ(s.triangle_count(), 2u);
+    EXPECT_EQ(s.placed_triangle_count(), 2u);
     expect_near(s.meshes[0].positions[1], {1, 0, 0});
     expect_near(s.meshes[1].positions[1], {2, 0, 0});  // second node translates by +x
     ASSERT_EQ(s.meshes[1].normals.size(), 3u);
@@ -157,6 +163,39 @@ TEST(GltfTransforms, NodeDepthLimit) {
     limits.max_node_depth = 5;
     const SceneError e = error_of([&] { parse(triangle_file(nodes), limits); });
     EXPECT_NE(std::string(e.what()).find("deeper than 5"), std::string::npos) << e.what();
+}
+
+// --- instances -------------------------------------------------------------------------------
+
+TEST(GltfInstances, AMeshTwoNodesPlaceIsStoredOnce) {
+    const SceneDescription s = parse(triangle_file(R"([{"children":[1,2]},{"mesh":0,"translation":[5,0,0]},
+        {"mesh":0,"scale":[-1,1,1]}])", "", R"([{"nodes":[0]}])"));
+    EXPECT_TRUE(s.meshes.empty());
+    ASSERT_EQ(s.prototypes.size(), 1u);
+    ASSERT_EQ(s.instances.size(), 2u);
+    EXPECT_EQ(s.triangle_count(), 1u);
+    EXPECT_EQ(s.placed_triangle_count(), 2u);
+    expect_near(s.prototypes[0].positions[1], {1, 0, 0});  // in the mesh's own space
+    expect_near(glm::vec3(s.instances[0].to_world[3]), {5, 0, 0});
+    EXPECT_EQ(s.instances[1].to_world[0][0], -1.f);
+    EXPECT_EQ(s.instances[0].origin.pointer, "/nodes/1");
+    // The instance limit counts placements.
+    LoadLimits limits;
+    limits.max_instances = 1;
+    const SceneError e = error_of([&] {
+        parse(triangle_file(R"([{"mesh":0},{"mesh":0,"translation":[5,0,0]}])", "", R"([{"nodes":[0,1]}])"), limits);
+    });
+    EXPECT_NE(std::string(e.what()).find("instance limit"), std::string::npos) << e.what();
+}
+
+TEST(GltfInstances, ASingularNodeIsDrawnFlatAndAMeshUsedOnceIsNotInstanced) {
+    // glTF hides a node by scaling it to zero: no inverse, so it is not an instance.
+    const SceneDescription hidden = parse(triangle_file(R"([{"mesh":0},{"mesh":0,"scale":[0,0,0]}])", "", R"([{"nodes":[0,1]}])"));
+    EXPECT_EQ(hidden.instances.size(), 1u);
+    EXPECT_EQ(hidden.meshes.size(), 1u);
+    const SceneDescription once = parse(triangle_file(R"([{"mesh":0}])"));
+    EXPECT_TRUE(once.instances.empty());
+    EXPECT_EQ(once.meshes.size(), 1u);
 }
 
 // --- geometry --------------------------------------------------------------------------------
@@ -250,9 +289,14 @@ TEST(GltfGeometry, LimitsAreCheckedBeforeAllocating) {
     limits = {};
     limits.max_vertices = 3;
     error_of([&] { parse(quad_file(5123, bytes_of<uint16_t>({0, 1, 2, 0, 2, 3})), limits); });
-    // Instancing counts against the limits too.
+    // A mesh placed twice is stored once: the triangle limit (memory) counts it once, the
+    // instance limit counts its placements.
     limits = {};
     limits.max_triangles = 1;
+    const SceneDescription twice = parse(triangle_file(R"([{"mesh":0},{"mesh":0}])", "", R"([{"nodes":[0,1]}])"), limits);
+    EXPECT_EQ(twice.triangle_count(), 1u);
+    EXPECT_EQ(twice.placed_triangle_count(), 2u);
+    limits.max_instances = 1;
     error_of([&] { parse(triangle_file(R"([{"mesh":0},{"mesh":0}])", "", R"([{"nodes":[0,1]}])"), limits); });
 }
 
@@ -374,6 +418,11 @@ TEST(GltfCamera, DefaultsWithoutAspectRatioAndZfar) {
 
 TEST(GltfScenes, DefaultSceneFallbacks) {
     const std::string nodes = R"([{"mesh":0},{"mesh":0,"translation":[5,0,0]}])";
+    auto parse = [](const std::string& file) {
+        SceneDescription s = test::gltf::parse(file);
+        flatten_instances(s);  // the mesh is placed by two nodes
+        return s;
+    };
     // "scene" picks the scene; without it scene 0; without scenes every root node.
     EXPECT_EQ(parse(triangle_file(nodes, R"("scene":1)", R"([{"nodes":[0]},{"nodes":[1]}])")).meshes[0].positions[0].x, 5);
     EXPECT_EQ(parse(triangle_file(nodes, "", R"([{"nodes":[1]},{"nodes":[0]}])")).meshes[0].positions[0].x, 5);
