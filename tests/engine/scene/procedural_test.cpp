@@ -37,6 +37,22 @@ SceneError refusal_of(const std::string& name) {
     return SceneError(SourceLocation{}, "taken");
 }
 
+TEST(Procedural, InstancesTakeACountAndATriangleCountWithinBounds) {
+    const SceneDescription d = builtin_scene("builtin:instances?count=7&triangles=200");
+    EXPECT_EQ(d.instances.size(), 7u);
+    ASSERT_EQ(d.prototypes.size(), 1u);
+    EXPECT_GE(d.prototypes[0].indices.size() / 3, 200u);
+    EXPECT_NO_THROW(validate(d));
+    EXPECT_EQ(builtin_scene("builtin:instances").instances.size(), 100u);
+    for (const char* bad : {"builtin:instances?count=0", "builtin:instances?count=1000001", "builtin:instances?triangles=7",
+                            "builtin:instances?count=5&count=6", "builtin:instances?colour=3", "builtin:instances?count=",
+                            "builtin:instances&count=3", "builtin:instances?count=-1"})
+        refusal_of(bad);
+    // The triangle bound counts the mesh once, however often it is placed.
+    EXPECT_NO_THROW(check_builtin_name("builtin:instances?count=1000&triangles=800", 1000));
+    EXPECT_THROW(check_builtin_name("builtin:instances?count=1&triangles=100000", 1000), SceneError);
+}
+
 glm::vec3 face_normal(const MeshDesc& m, size_t tri) {
     const glm::vec3 a = m.positions[m.indices[3 * tri]], b = m.positions[m.indices[3 * tri + 1]],
                     c = m.positions[m.indices[3 * tri + 2]];
