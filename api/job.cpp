@@ -64,6 +64,10 @@ RenderJob parse_render_job(const json& body, const JobLimits& limits) {
                                        std::to_string(limits.max_pixels));
     if (job.frames && !job.reference.empty())
         throw InvalidJob("/reference", "a shot cannot be measured against a reference image (a still's); leave out reference or frames");
+    if (job.shutter && !job.frames)
+        throw InvalidJob("/shutter", "a shutter blurs a shot's motion: it needs frames (a still is the scene at rest)");
+    if (job.shutter && job.scene_options.bvh.type == BvhType::embree)
+        throw InvalidJob("/shutter", "motion blur is traced by our BVH only: leave out shutter or bvh \"embree\"");
     if (job.frames && job.frames->count() > size_t(limits.max_frames))
         throw InvalidJob("/frames", "a shot of " + std::to_string(job.frames->count()) + " frames is over the limit of " +
                                         std::to_string(limits.max_frames));

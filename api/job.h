@@ -71,6 +71,9 @@ struct RenderJob {
     double fps = 24;
     std::string animation;
     int chunk = 0;  // frames per task on a farm; 0: chosen from the measured open and frame times
+    // A shot's motion blur: the shutter's opening and closing in frames around each frame
+    // (e.g. -0.25 and 0.25); absent: none (each frame an instant).
+    std::optional<std::pair<double, double>> shutter;
     // A shot's frame as the engine renders it: the job with that frame's seed.
     RenderSettings frame_settings(int frame) const;
 };

@@ -253,6 +253,33 @@ void set_animation(RenderJob& j, const json& v, const ParseContext& ctx) {
 
 json get_animation(const RenderJob& j) { return j.animation.empty() ? json(nullptr) : json(j.animation); }
 
+// "shutter": null (none) or {"open", "close"} in frames around each frame, -1 <= open < close <= 1.
+void set_shutter(RenderJob& j, const json& v, const ParseContext& ctx) {
+    const std::string& p = ctx.pointer;
+    if (v.is_null()) {
+        j.shutter.reset();
+        return;
+    }
+    if (!v.is_object()) throw InvalidJob(p, p + " must be {\"open\": O, \"close\": C} in frames, or null (no motion blur)");
+    for (const auto& [key, value] : v.items())
+        if (key != "open" && key != "close") throw InvalidJob(p + "/" + key, "unknown field '" + key + "' (open, close)");
+    auto read = [&](const char* key) {
+        const auto it = v.find(key);
+        if (it == v.end() || !it->is_number()) throw InvalidJob(p + "/" + key, p + "/" + key + " must be a number of frames");
+        const double x = it->get<double>();
+        if (!std::isfinite(x) || x < -1.0 || x > 1.0) throw InvalidJob(p + "/" + key, p + "/" + key + " must lie in [-1, 1] frames");
+        return x;
+    };
+    const double open = read("open"), close = read("close");
+    if (!(open < close)) throw InvalidJob(p + "/close", "the shutter must close after it opens (open < close)");
+    j.shutter = std::make_pair(open, close);
+}
+
+json get_shutter(const RenderJob& j) {
+    if (!j.shutter) return nullptr;
+    return {{"open", j.shutter->first}, {"close", j.shutter->second}};
+}
+
 const Field<AdaptiveSettings> kAdaptiveFields[] = {
     integer<AdaptiveSettings, &AdaptiveSettings::batch>("batch", 1, 1 << 16, "32", "Samples between convergence checks.",
                                                         {}, Limit::spp),
@@ -360,7 +387,7 @@ const Field<RenderJob> kRenderFields[] = {
                                                       "--fps", Limit::none, true)),
     not_per_config(integer<RenderJob, &RenderJob::chunk>(
         "chunk", 0, 100'000, "0",
-        "A shot on a render farm: frames per task (a node opens the scene once per chunk); 0: chosen from the first frame's "
+        "A shot on a render farm: frames per task (a node opens the scene once per shot and keeps it across its chunks); 0: chosen from the first frame's "
         "measured open and render times.")),
     [] {
         Field<RenderJob> f = field<RenderJob>(
@@ -371,6 +398,18 @@ const Field<RenderJob> kRenderFields[] = {
         f.nullable = true;
         f.set = &set_animation;
         f.get = &get_animation;
+        f.per_config = false;
+        return f;
+    }(),
+    [] {
+        Field<RenderJob> f = field<RenderJob>(
+            "shutter", FieldKind::object,
+            "A shot's motion blur: {open, close} in frames around each frame (e.g. -0.25 and 0.25, a 180° shutter); the camera, "
+            "moving placements and deforming meshes move within it. null: none.",
+            "null");
+        f.nullable = true;
+        f.set = &set_shutter;
+        f.get = &get_shutter;
         f.per_config = false;
         return f;
     }(),

@@ -19,6 +19,10 @@
 #include "engine/io/scene_loader.h"
 #include "engine/scene/render_scene.h"
 
+namespace tessera {
+class SceneFile;  // engine/io/scene_loader.h
+}  // namespace tessera
+
 namespace tessera::api {
 
 // A scene loaded and built for rendering; a cache shares one between jobs (read-only).
@@ -65,6 +69,9 @@ struct RunOptions {
     // A farm's chunk of a shot: only frames[first, first + count) (indices into the shot's
     // frames), and no contact sheet, preview or report (the shot's last chunk writes those).
     std::optional<std::pair<size_t, size_t>> frame_slice;
+    // A shot's scene opened already (a render node's, kept across the chunks of a shot it
+    // renders): used instead of opening the file again.
+    std::shared_ptr<const SceneFile> scene_file;
 };
 
 // Where the results go; an empty path is not written.

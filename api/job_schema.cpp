@@ -75,6 +75,11 @@ json job_schema(const JobLimits& limits) {
         {"start", {{"type", "integer"}, {"minimum", -10'000'000}, {"maximum", 10'000'000}, {"default", 1}, {"description", "First frame."}}},
         {"end", {{"type", "integer"}, {"minimum", -10'000'000}, {"maximum", 10'000'000}, {"default", 24}, {"description", "Last frame."}}},
         {"step", {{"type", "integer"}, {"minimum", 1}, {"maximum", 10'000'000}, {"default", 1}, {"description", "Every step-th frame."}}}};
+    json& shutter = render["properties"]["shutter"];
+    shutter["additionalProperties"] = false;
+    shutter["properties"] = {
+        {"open", {{"type", "number"}, {"minimum", -1}, {"maximum", 1}, {"default", -0.25}, {"description", "Opens, in frames from the frame."}}},
+        {"close", {{"type", "number"}, {"minimum", -1}, {"maximum", 1}, {"default", 0.25}, {"description", "Closes, in frames from the frame."}}}};
     json& animation = render["properties"]["animation"];
     animation["type"] = "string";
     animation["minLength"] = 1;

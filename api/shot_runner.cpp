@@ -15,10 +15,27 @@
 #include "engine/io/image_io.h"
 #include "engine/io/scene_loader.h"
 #include "engine/scene/instancing.h"
+#include "engine/scene/prototype_cache.h"
 #include "engine/render/image.h"
 
 namespace tessera::api {
 namespace {
+
+// Emitters and lights where `moment` has them (a frame's own time), in `scene` of the same shape
+// (its shutter's opening): the engine does not blur them (render_scene.h).
+void hold_emitters(SceneDescription& scene, const SceneDescription& moment) {
+    auto emits = [&](int material) { return material >= 0 && size_t(material) < scene.materials.size() && scene.materials[size_t(material)].emits(); };
+    if (scene.meshes.size() == moment.meshes.size())
+        for (size_t k = 0; k < scene.meshes.size(); ++k)
+            if (emits(scene.meshes[k].material) && scene.meshes[k].positions.size() == moment.meshes[k].positions.size()) {
+                scene.meshes[k].positions = moment.meshes[k].positions;
+                scene.meshes[k].normals = moment.meshes[k].normals;
+            }
+    if (scene.instances.size() == moment.instances.size())
+        for (size_t k = 0; k < scene.instances.size(); ++k)
+            if (emits(scene.prototypes[scene.instances[k].prototype].material)) scene.instances[k].to_world = moment.instances[k].to_world;
+    scene.lights = moment.lights;
+}
 
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
@@ -126,13 +143,17 @@ std::string frame_path(const std::string& pattern, int frame) {
 JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutputs& out, const RunCallbacks& cb) {
     const auto t_start = Clock::now();
     const std::vector<int> frames = job.frames->frames();
-    const SceneFile file(opt.scene_source, opt.load_limits);
+    const std::shared_ptr<const SceneFile> opened =
+        opt.scene_file ? opt.scene_file : std::make_shared<const SceneFile>(opt.scene_source, opt.load_limits);
+    const SceneFile& file = *opened;
     const double open_s = seconds_between(t_start, Clock::now());
     if (!job.animation.empty() && file.animations().empty())
         throw SceneError(SourceLocation{opt.scene_source, 0, ""}, "the job plays animation '" + job.animation + "', but the scene has none");
 
     // A scene without a camera is framed once, at rest, and seen from there in every frame: a
     // camera re-framed per frame would follow the bounds of a moving model and jump.
+    // Prototype trees kept from frame to frame: a placement that moves rebuilds nothing.
+    PrototypeCache prototypes;
     std::optional<CameraDesc> held_camera;
     {
         const SceneDescription rest = file.at(std::nullopt);
@@ -181,8 +202,20 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
         }
         SceneDescription desc = file.at(ScenePose{time_s, job.animation});
         if (!desc.camera && held_camera) desc.camera = held_camera;
+        // Motion blur: the scene at the shutter's opening and closing; the engine blurs what
+        // moves between them and holds emitters and lights where the opening has them, which
+        // is made the frame's own moment.
+        std::optional<SceneDescription> closing;
+        if (job.shutter) {
+            SceneDescription opening = file.at(ScenePose{(double(n) + job.shutter->first) / job.fps, job.animation});
+            closing = file.at(ScenePose{(double(n) + job.shutter->second) / job.fps, job.animation});
+            if (!opening.camera && held_camera) opening.camera = held_camera;
+            if (!closing->camera && held_camera) closing->camera = held_camera;
+            hold_emitters(opening, desc);
+            desc = std::move(opening);
+        }
         const auto t_posed = Clock::now();
-        const RenderScene scene = build_render_scene(desc, job.scene_options);
+        const RenderScene scene = build_render_scene(desc, job.scene_options, &prototypes, closing ? &*closing : nullptr);
         const double pose_s = seconds_between(t0, t_posed) + (i == 0 ? open_s : 0.0);
         const double build_s = seconds_between(t_posed, Clock::now());
 
@@ -219,7 +252,8 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
 
     if (opt.frame_slice) {
         // A chunk: its frames are written; the shot's last chunk writes what covers them all.
-        outcome.summary = {{"frames", end - first}, {"frames_resumed", resumed}, {"open_s", open_s}, {"frames_s", frames_s}};
+        outcome.summary = {{"frames", end - first}, {"frames_resumed", resumed}, {"open_s", open_s}, {"frames_s", frames_s},
+                           {"scene_opened", !opt.scene_file}};
         return outcome;
     }
     if (!out.contact_sheet_png.empty()) {

@@ -245,6 +245,7 @@ const Kind kKinds[] = {
     {"prepare", bench_prepare, "scene preparation: every stage on 1 and 2 threads beside Embree, peak memory, cache hits"},
     {"cluster", bench_cluster, "a render farm: tile hand-offs, overhead per tile, two nodes against one process"},
     {"instances", bench_instances, "instancing: memory of many placements against one, time against the flattened scene"},
+    {"shot", bench_shot, "a shot's per-frame overhead (pose, build, write) against its render time"},
     {"materials", bench_materials, "the energy each BSDF keeps, and the CS184 material scenes with their time"},
 };
 

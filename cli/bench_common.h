@@ -41,5 +41,6 @@ int bench_rays(int argc, char** argv);
 int bench_cluster(int argc, char** argv);
 int bench_materials(int argc, char** argv);
 int bench_instances(int argc, char** argv);
+int bench_shot(int argc, char** argv);
 
 }  // namespace tessera::cli

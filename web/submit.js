@@ -15,6 +15,7 @@ const LABELS = {
   tile_size: 'Tile size (pixels)', time_limit_s: 'Time limit (s)', target_error: 'Target error (relative MSE)',
   reference: 'Reference job', reference_spp: 'Reference samples per pixel', seconds: 'Seconds per run',
   reps: 'Runs per configuration', adaptive: 'Adaptive sampling', batch: 'Batch (samples)',
+  shutter: 'Motion blur (shutter)', open: 'Opens (frames from the frame)', close: 'Closes (frames from the frame)',
 };
 const SOURCES = { builtin: 'Built in', project: 'Project scenes', directory: 'Scene folders', upload: 'Uploaded' };
 

@@ -7,6 +7,8 @@
 #include <span>
 #include <vector>
 
+#include <glm/glm.hpp>
+
 #include "engine/geometry/ray.h"
 #include "engine/geometry/triangle.h"
 
@@ -18,12 +20,26 @@ enum class EmbreeQuality { low, medium, high };
 
 bool embree_available();
 
-// Builds Embree's BVH over `tris` (primitive ids are indices into `tris`); throws
-// std::runtime_error when Embree is missing or fails. `build_seconds` receives the build time.
-// `threads`: Embree's thread pool (0: one thread per core).
+// Meshes placed by instances, for Embree's instancing: a prototype's triangles (ids from
+// first_id on) become a scene of their own, and each placement an instance geometry of it.
+struct EmbreePrototype {
+    std::span<const TriangleVerts> tris;
+    uint32_t first_id = 0;
+};
+struct EmbreePlacement {
+    uint32_t prototype = 0;
+    glm::mat4x3 to_world{1.f};  // columns: Embree's RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR
+};
+
+// Builds Embree's BVH over `tris` (primitive ids are indices into `tris`) and the placements
+// (a hit names the prototype's triangle by first_id + its index, and the placement's index);
+// throws std::runtime_error when Embree is missing or fails. `build_seconds` receives the build
+// time. `threads`: Embree's thread pool (0: one thread per core).
 // `filtered`: queries may pass an EmbreeHitFilter (alpha-tested materials).
 std::shared_ptr<EmbreeAccel> build_embree(std::span<const TriangleVerts> tris, EmbreeQuality quality,
-                                          double& build_seconds, int threads = 0, bool filtered = false);
+                                          double& build_seconds, int threads = 0, bool filtered = false,
+                                          std::span<const EmbreePrototype> prototypes = {},
+                                          std::span<const EmbreePlacement> placements = {});
 
 // What Embree holds for this scene (its memory monitor's count: BVH, primitive blocks and the
 // geometry buffers it was given).
@@ -35,9 +51,10 @@ struct EmbreeHitFilter {
     const void* user;
 };
 
-// rtcIntersect1: lowers ray.tmax on a hit and returns the triangle and barycentrics of p1, p2.
+// rtcIntersect1: lowers ray.tmax on a hit and returns the triangle and barycentrics of p1, p2,
+// and in `instance` the placement hit (~0u for a triangle of `tris`).
 bool embree_intersect(const EmbreeAccel& accel, Ray& ray, uint32_t& prim, float& b1, float& b2,
-                      const EmbreeHitFilter* filter = nullptr);
+                      const EmbreeHitFilter* filter = nullptr, uint32_t* instance = nullptr);
 // rtcOccluded1.
 bool embree_occluded(const EmbreeAccel& accel, const Ray& ray, const EmbreeHitFilter* filter = nullptr);
 

@@ -21,6 +21,9 @@ struct Ray {
     uint32_t origin_tri = kNoTriangle;
     // With instances: the placement origin_tri belongs to (its triangle is skipped there only).
     uint32_t origin_instance = ~0u;
+    // Within a shutter: 0 at its opening, 1 at its closing (a camera ray draws it; the rays of its
+    // path carry it). A still's rays leave it 0.
+    float time = 0.f;
 };
 
 }  // namespace tessera

@@ -26,8 +26,8 @@ inline glm::vec3 offset_ray_origin(const glm::vec3& p, const glm::vec3& p_err, c
 // `tri`: the triangle p lies on (SurfaceInteraction::tri), which the ray then never tests;
 // `instance`: the placement it lies in, for a prototype's triangle.
 inline Ray spawn_ray(const glm::vec3& p, const glm::vec3& p_err, const glm::vec3& ng, const glm::vec3& dir,
-                     uint32_t tri = kNoTriangle, uint32_t instance = ~0u) {
-    return Ray{offset_ray_origin(p, p_err, ng, dir), 0.f, dir, INFINITY, tri, instance};
+                     uint32_t tri = kNoTriangle, uint32_t instance = ~0u, float time = 0.f) {
+    return Ray{offset_ray_origin(p, p_err, ng, dir), 0.f, dir, INFINITY, tri, instance, time};
 }
 
 // A ray from a surface point toward a target point (shadow rays); it stops just short of the
@@ -35,9 +35,9 @@ inline Ray spawn_ray(const glm::vec3& p, const glm::vec3& p_err, const glm::vec3
 inline constexpr float shadow_epsilon = 1e-4f;
 
 inline Ray spawn_ray_to(const glm::vec3& p, const glm::vec3& p_err, const glm::vec3& ng, const glm::vec3& target,
-                         uint32_t tri = kNoTriangle, uint32_t instance = ~0u) {
+                         uint32_t tri = kNoTriangle, uint32_t instance = ~0u, float time = 0.f) {
     const glm::vec3 o = offset_ray_origin(p, p_err, ng, target - p);
-    return Ray{o, 0.f, target - o, 1.f - shadow_epsilon, tri, instance};
+    return Ray{o, 0.f, target - o, 1.f - shadow_epsilon, tri, instance, time};
 }
 
 // A ray between two surface points (a shadow ray to a point sampled on a light): both ends are
@@ -47,10 +47,10 @@ inline Ray spawn_ray_to(const glm::vec3& p, const glm::vec3& p_err, const glm::v
 // then occlude the ray (measured: 10% of the light lost at 10⁴ radii from the origin).
 inline Ray spawn_ray_between(const glm::vec3& p, const glm::vec3& p_err, const glm::vec3& ng, const glm::vec3& q,
                              const glm::vec3& q_err, const glm::vec3& nq, uint32_t tri = kNoTriangle,
-                             uint32_t instance = ~0u) {
+                             uint32_t instance = ~0u, float time = 0.f) {
     const glm::vec3 o = offset_ray_origin(p, p_err, ng, q - p);
     const glm::vec3 t = offset_ray_origin(q, q_err, nq, o - q);
-    return Ray{o, 0.f, t - o, 1.f - shadow_epsilon, tri, instance};
+    return Ray{o, 0.f, t - o, 1.f - shadow_epsilon, tri, instance, time};
 }
 
 }  // namespace tessera

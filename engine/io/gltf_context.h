@@ -70,6 +70,10 @@ struct Ctx {
     // once, as prototypes), and each primitive's prototype (-1 not yet made, -2 none: no triangles).
     std::vector<uint32_t> mesh_placements{};
     std::vector<std::vector<int>> prototype_of{};
+    // Nodes an animation moves (a translation, rotation or scale channel targets them), and
+    // those that move with them (their descendants): a rigid mesh there is placed as an
+    // instance, so a shot moves it without building its tree again.
+    std::vector<char> animated{}, moving{};
 };
 
 [[noreturn]] void fail(const Ctx& c, const std::string& pointer, const std::string& what);

@@ -629,8 +629,8 @@ std::vector<double> morph_weights(const Ctx& c, size_t ni) {
     return given;
 }
 
-// Places a mesh that several nodes use: each primitive is converted once, in the mesh's own
-// space (a prototype), and this node adds an instance of it.
+// Places a mesh that several nodes use, or that an animation moves: each primitive is converted
+// once, in the mesh's own space (a prototype), and this node adds an instance of it.
 void place_instances(Ctx& c, size_t mi, size_t ni, const glm::dmat4& world) {
     if (c.prototype_of.size() != c.m.meshes.size()) c.prototype_of.assign(c.m.meshes.size(), {});
     std::vector<int>& slots = c.prototype_of[mi];
@@ -671,7 +671,9 @@ bool placeable(const glm::dmat4& world) {
 void emit_mesh(Ctx& c, size_t ni, const glm::dmat4& world, const std::vector<glm::dmat4>* joints) {
     const size_t mi = static_cast<size_t>(c.m.nodes[ni].mesh);
     const std::vector<double> weights = morph_weights(c, ni);
-    if (!joints && weights.empty() && mi < c.mesh_placements.size() && c.mesh_placements[mi] > 1 && placeable(world)) {
+    const bool shared = mi < c.mesh_placements.size() && c.mesh_placements[mi] > 1;
+    const bool moving = ni < c.moving.size() && c.moving[ni];
+    if (!joints && weights.empty() && (shared || moving) && placeable(world)) {
         place_instances(c, mi, ni, world);
         return;
     }
@@ -715,7 +717,7 @@ void emit_skinned(Ctx& c, size_t ni) {
     emit_mesh(c, ni, c.world[ni], &joints);
 }
 
-void visit(Ctx& c, int node, const glm::dmat4& parent, int depth, const std::string& ref) {
+void visit(Ctx& c, int node, const glm::dmat4& parent, int depth, const std::string& ref, bool parent_moves = false) {
     if (node < 0 || static_cast<size_t>(node) >= c.m.nodes.size())
         fail(c, ref, "refers to node " + std::to_string(node) + ", but the file has " + str(c.m.nodes.size()));
     const size_t ni = static_cast<size_t>(node);
@@ -729,6 +731,9 @@ void visit(Ctx& c, int node, const glm::dmat4& parent, int depth, const std::str
     const tinygltf::Node& n = c.m.nodes[ni];
     const glm::dmat4 world = parent * local_matrix(c, ni);
     c.world[ni] = world;
+    const bool moves = parent_moves || (ni < c.animated.size() && c.animated[ni]);
+    if (c.moving.size() != c.m.nodes.size()) c.moving.assign(c.m.nodes.size(), 0);
+    c.moving[ni] = moves;
     if (n.mesh != -1) {
         if (n.mesh < 0 || static_cast<size_t>(n.mesh) >= c.m.meshes.size())
             fail(c, np + "/mesh", "refers to mesh " + std::to_string(n.mesh) + ", but the file has " + str(c.m.meshes.size()));
@@ -737,7 +742,7 @@ void visit(Ctx& c, int node, const glm::dmat4& parent, int depth, const std::str
     }
     if (n.camera != -1) add_camera(c, ni, world);
     add_light(c, ni, world);
-    for (size_t k = 0; k < n.children.size(); ++k) visit(c, n.children[k], world, depth + 1, np + "/children/" + str(k));
+    for (size_t k = 0; k < n.children.size(); ++k) visit(c, n.children[k], world, depth + 1, np + "/children/" + str(k), moves);
     c.on_path[ni] = 0;
 }
 
@@ -986,6 +991,11 @@ struct GltfDocument::Impl {
         scene.warnings = read_warnings;
         Ctx c{model, source, limits, scene, images};
         if (pose) c.state = pose_nodes(c, animations, *pose);
+        c.animated.assign(model.nodes.size(), 0);
+        for (const Animation& a : animations.list)
+            for (const AnimationChannel& ch : a.channels)
+                if (ch.property != AnimatedProperty::weights && ch.node >= 0 && static_cast<size_t>(ch.node) < c.animated.size())
+                    c.animated[static_cast<size_t>(ch.node)] = 1;
         check_extensions(c);
         convert_materials(c);
         traverse_scene(c);

@@ -94,7 +94,7 @@ public:
                 pdf = bs.pdf;
                 delta = bs.delta;
             }
-            Ray next = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance);
+            Ray next = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance, si.time);
             // At the last vertex MIS's BSDF sample is direct lighting's ray, not a bounce.
             if (last && !delta) ++stats_.shadow_rays;
             else ++stats_.bounce_rays;
@@ -277,14 +277,14 @@ private:
                 const float c = glm::dot(si.ns, wi);
                 if (c <= 0.f || glm::dot(si.ng, wi) <= 0.f) continue;
                 ++stats_.shadow_rays;
-                if (!occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, dl.position, si.tri, si.instance), stats_.traversal))
+                if (!occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, dl.position, si.tri, si.instance, si.time), stats_.traversal))
                     Ld += f(wi) * dl.intensity * (c / dist2);
             } else {
                 const glm::vec3 wi = -dl.direction;
                 const float c = glm::dot(si.ns, wi);
                 if (c <= 0.f || glm::dot(si.ng, wi) <= 0.f) continue;
                 ++stats_.shadow_rays;
-                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance), stats_.traversal)) Ld += f(wi) * dl.intensity * c;
+                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance, si.time), stats_.traversal)) Ld += f(wi) * dl.intensity * c;
             }
         }
         const int n = std::max(1, st_.light_rays);
@@ -298,7 +298,7 @@ private:
                 if (glm::dot(wi, si.ng) <= 0.f) continue;
                 const glm::vec3 fd = lambert ? f_lambert : bsdf_split(b, wo_l, wl).diffuse;
                 if (fd == glm::vec3(0.f)) continue;
-                Ray r = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance);
+                Ray r = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance, si.time);
                 ++stats_.shadow_rays;
                 Hit h;
                 glm::vec3 Le;
@@ -317,7 +317,7 @@ private:
             const glm::vec3 fw = f_light(ls.wi, pdf);
             if (fw == glm::vec3(0.f)) return;
             ++stats_.shadow_rays;
-            if (occluded(s_, spawn_ray_between(si.p, si.p_err, si.ng, ls.point, ls.point_err, ls.n, si.tri, si.instance), stats_.traversal)) return;
+            if (occluded(s_, spawn_ray_between(si.p, si.p_err, si.ng, ls.point, ls.point_err, ls.n, si.tri, si.instance, si.time), stats_.traversal)) return;
             const glm::vec3 Le = s_.textured_emission
                                      ? emission_at(s_, s_.materials[s_.tri_shading[ls.prim].material], ls.prim, ls.b1, ls.b2)
                                      : ls.Le;
@@ -367,7 +367,7 @@ private:
                 const glm::vec3 fw = f_light(wi, pdf);
                 if (fw == glm::vec3(0.f)) continue;
                 ++stats_.shadow_rays;
-                if (occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance), stats_.traversal)) continue;
+                if (occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance, si.time), stats_.traversal)) continue;
                 Ld += fw * Le * (c / (pdf * float(n)));
             }
         }
@@ -388,7 +388,7 @@ private:
                 }
                 if (glm::dot(wi, si.ng) <= 0.f || wi.y <= 0.f) continue;
                 ++stats_.shadow_rays;
-                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance), stats_.traversal)) Ld += weight * s_.sky / float(n);
+                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance, si.time), stats_.traversal)) Ld += weight * s_.sky / float(n);
             }
         }
         return Ld;

@@ -24,7 +24,13 @@ inline float illuminance(const glm::vec3& c) { return 0.2126f * c.x + 0.7152f * 
 class alignas(64) TileContext {
 public:
     TileContext(const RenderScene& scene, const RenderSettings& settings, const Camera& camera)
-        : settings_(settings), camera_(camera), integrator_(scene, settings, stats) {}
+        : settings_(settings), camera_(camera), integrator_(scene, settings, stats), motion_(scene.motion.any()) {
+        if (scene.motion.camera) {
+            camera_close_ = make_camera(scene.motion.camera_close, settings.width, settings.height);
+            set_thin_lens(camera_close_, scene.motion.camera_close, settings.lens_radius, settings.focal_distance);
+            moving_camera_ = true;
+        }
+    }
 
     // Takes pixel (x, y), entry `p` of `film`, to `target` samples (uniform), or by one batch
     // (adaptive). Its random streams follow from its place in the image, not in the film.
@@ -56,12 +62,17 @@ public:
             const float jx = j.y, jy = j.x;  // independent: the first number drawn goes to x, as it always did
             const float u = (float(x) + jx) * inv_w, v = 1.f - (float(y) + jy) * inv_h;
             Ray ray;
-            if (camera_.lens_radius > 0.f) {
+            // Within a shutter the sample draws its time (a still draws none, so its numbers
+            // and image stay what they were), and the camera is where that time puts it.
+            const float time = motion_ ? rng.next_float() : 0.f;
+            const Camera& cam = moving_camera_ ? (moved_ = camera_at(camera_, camera_close_, time)) : camera_;
+            if (cam.lens_radius > 0.f) {
                 const glm::vec2 l = rng.next_2d();
-                ray = generate_ray(camera_, u, v, sample_concentric_disk(l.x, l.y));
+                ray = generate_ray(cam, u, v, sample_concentric_disk(l.x, l.y));
             } else {
-                ray = generate_ray(camera_, u, v);  // a pinhole draws no lens sample
+                ray = generate_ray(cam, u, v);  // a pinhole draws no lens sample
             }
+            ray.time = time;
             ++stats.camera_rays;
             glm::vec3 L = integrator_.radiance(ray, rng);
             if (!(std::isfinite(L.x) && std::isfinite(L.y) && std::isfinite(L.z))) {
@@ -89,6 +100,10 @@ private:
     const RenderSettings& settings_;
     const Camera& camera_;
     IntegratorDispatch integrator_;
+    bool motion_ = false;         // the scene moves within a shutter: each sample draws a time
+    bool moving_camera_ = false;  // ... and the camera moves to camera_close_
+    Camera camera_close_;
+    Camera moved_;                // the camera at this sample's time
 };
 
 }  // namespace tessera

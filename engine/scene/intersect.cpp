@@ -17,8 +17,15 @@ namespace {
 template <bool kAnyHit, bool kAlpha, class R, class OnHit>
 bool test_blocks(const RenderScene& scene, const Triangle4Ray& r4, uint32_t first, uint32_t count, R& ray, OnHit&& on_hit) {
     bool found = false;
+    const size_t moving_blocks = scene.motion.tri_blocks_close.size();  // 0 without a shutter
     for (uint32_t b = first; b < first + count; ++b) {
-        const Triangle4& block = scene.tri_blocks[b];
+        Triangle4 moved;
+        const Triangle4* at = &scene.tri_blocks[b];
+        if (b < moving_blocks) {  // deforming within the shutter: the block where the ray's time puts it
+            moved = triangle4_at(*at, scene.motion.tri_blocks_close[b], ray.time);
+            at = &moved;
+        }
+        const Triangle4& block = *at;
         Triangle4Hits h;
         if (scene.triangle_test == TriangleTest::watertight) {
             intersect_triangle4(ray, r4, block, h);
@@ -64,10 +71,17 @@ struct AlphaQuery {
 
 // The ray in a placement's space: the same t along it (the direction keeps its scale), and its
 // origin triangle skipped only in the placement it left.
-Ray to_object(const Instance& in, uint32_t index, const Ray& ray) {
+Ray to_object(const RenderScene& scene, const Instance& in, uint32_t index, const Ray& ray) {
     Ray r = ray;
-    r.o = in.to_object * glm::vec4(ray.o, 1.f);
-    r.d = in.to_object * glm::vec4(ray.d, 0.f);
+    if (!scene.motion.instances.empty() && scene.motion.instance_moves[index]) {
+        glm::mat4x3 to_world, to_object;  // where the ray's time puts the placement
+        instance_maps_at(scene.motion.instances[index], ray.time, to_world, to_object);
+        r.o = to_object * glm::vec4(ray.o, 1.f);
+        r.d = to_object * glm::vec4(ray.d, 0.f);
+    } else {
+        r.o = in.to_object * glm::vec4(ray.o, 1.f);
+        r.d = in.to_object * glm::vec4(ray.d, 0.f);
+    }
     if (ray.origin_instance != index) r.origin_tri = kNoTriangle;
     return r;
 }
@@ -77,7 +91,7 @@ bool closest_instance(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCou
     return bvh_closest_hit(scene.instance_bvh, ray, [&](uint32_t i, Ray& r) {
         const Instance& in = scene.instances[i];
         const Prototype& p = scene.prototypes[in.prototype];
-        Ray local = to_object(in, i, r);
+        Ray local = to_object(scene, in, i, r);
         const Triangle4Ray r4 = make_triangle4_ray(local);
         const bool found = wide_closest_hit(p.wide, local, [&](uint32_t first, uint32_t count, Ray& lr) {
             return test_blocks<false, kAlpha>(scene, r4, p.first_block + first, count, lr,
@@ -95,7 +109,7 @@ bool any_instance(const RenderScene& scene, const Ray& ray, TraversalCounters& c
     return bvh_any_hit(scene.instance_bvh, ray, [&](uint32_t i, const Ray& r) {
         const Instance& in = scene.instances[i];
         const Prototype& p = scene.prototypes[in.prototype];
-        const Ray local = to_object(in, i, r);
+        const Ray local = to_object(scene, in, i, r);
         const Triangle4Ray r4 = make_triangle4_ray(local);
         return wide_any_hit(p.wide, local, [&](uint32_t first, uint32_t count, const Ray& lr) {
             return test_blocks<true, kAlpha>(scene, r4, p.first_block + first, count, lr,
@@ -114,8 +128,9 @@ bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& 
         const Ray traced = ray;  // the filter hashes the ray as given, before tmax is lowered
         const AlphaQuery q{scene, traced};
         const EmbreeHitFilter f = q.filter();
-        if (embree_intersect(*scene.embree, ray, prim, b1, b2, scene.has_alpha ? &f : nullptr)) {
-            hit = Hit{ray.tmax, prim, b1, b2, false, prim};
+        uint32_t instance = kNoInstance;
+        if (embree_intersect(*scene.embree, ray, prim, b1, b2, scene.has_alpha ? &f : nullptr, &instance)) {
+            hit = Hit{ray.tmax, prim, b1, b2, false, prim, instance};
             found = true;
         }
     } else if (scene.flat_triangles) {
@@ -129,7 +144,7 @@ bool intersect(const RenderScene& scene, Ray& ray, Hit& hit, TraversalCounters& 
         };
         found = scene.has_alpha ? closest(std::true_type{}) : closest(std::false_type{});
     }
-    if (!scene.instances.empty())
+    if (!scene.instances.empty() && !scene.embree)
         found |= scene.has_alpha ? closest_instance<true>(scene, ray, hit, counters)
                                  : closest_instance<false>(scene, ray, hit, counters);
     if (!scene.spheres.empty()) {
@@ -156,15 +171,15 @@ bool occluded(const RenderScene& scene, const Ray& ray, TraversalCounters& count
             }, counters))
             return true;
     }
-    if (!scene.instances.empty() &&
-        (scene.has_alpha ? any_instance<true>(scene, ray, counters) : any_instance<false>(scene, ray, counters)))
-        return true;
-    if (!scene.flat_triangles) return false;
     if (scene.embree) {
         const AlphaQuery q{scene, ray};
         const EmbreeHitFilter f = q.filter();
         return embree_occluded(*scene.embree, ray, scene.has_alpha ? &f : nullptr);
     }
+    if (!scene.instances.empty() &&
+        (scene.has_alpha ? any_instance<true>(scene, ray, counters) : any_instance<false>(scene, ray, counters)))
+        return true;
+    if (!scene.flat_triangles) return false;
     const Triangle4Ray r4 = make_triangle4_ray(ray);
     auto any = [&]<bool kAlpha>(std::bool_constant<kAlpha>) {
         return wide_any_hit(scene.tri_wide, ray, [&](uint32_t first, uint32_t count, const Ray& r) {
@@ -179,7 +194,10 @@ namespace {
 // A prototype's surface point, placed: the point as anchor and offset, its error bound grown by
 // the transform's own rounding (pbrt-v4's Transform of a Point3fi), normals by the inverse
 // transpose (to_object's linear part, transposed).
-void to_world(const Instance& in, uint32_t index, SurfaceInteraction& si) {
+void to_world(const RenderScene& scene, const Instance& placed, uint32_t index, SurfaceInteraction& si) {
+    Instance in = placed;
+    if (!scene.motion.instances.empty() && scene.motion.instance_moves[index])
+        instance_maps_at(scene.motion.instances[index], si.time, in.to_world, in.to_object);  // at the ray's time
     const glm::mat3 l(in.to_world);
     const glm::vec3 shift = in.to_world[3];
     const glm::mat3 al(glm::abs(l[0]), glm::abs(l[1]), glm::abs(l[2]));
@@ -204,6 +222,7 @@ void to_world(const Instance& in, uint32_t index, SurfaceInteraction& si) {
 SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hit& hit) {
     SurfaceInteraction si;
     si.t = hit.t;
+    si.time = ray.time;
     if (hit.sphere) {
         const Sphere& s = scene.spheres[hit.prim];
         glm::vec3 rel = ray.o + hit.t * ray.d - s.center;
@@ -219,7 +238,11 @@ SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hi
         si.material = s.material;
         return si;
     }
-    const TriangleVerts t = triangle4_verts(scene.tri_blocks[hit.slot / 4], int(hit.slot % 4));
+    const size_t block = hit.slot / 4;
+    const bool deforming = block < scene.motion.tri_blocks_close.size();
+    const TriangleVerts t = deforming ? triangle4_verts(triangle4_at(scene.tri_blocks[block], scene.motion.tri_blocks_close[block], ray.time),
+                                                        int(hit.slot % 4))
+                                      : triangle4_verts(scene.tri_blocks[block], int(hit.slot % 4));
     const TriangleShading& sh = scene.tri_shading[hit.prim];
     const float b0 = 1.f - hit.b1 - hit.b2;
     // Relative to p0: edges of nearby vertices subtract exactly, so far from the origin p is
@@ -243,12 +266,17 @@ SurfaceInteraction surface_at(const RenderScene& scene, const Ray& ray, const Hi
     const float len = glm::length(ng);
     si.ng = len > 0.f ? ng / len : glm::vec3(0, 1, 0);
     glm::vec3 ns = b0 * scene.normals[sh.n0] + hit.b1 * scene.normals[sh.n1] + hit.b2 * scene.normals[sh.n2];
+    if (deforming) {
+        const LargeVector<glm::vec3>& nc = scene.motion.normals_close;
+        const glm::vec3 closing = b0 * nc[sh.n0] + hit.b1 * nc[sh.n1] + hit.b2 * nc[sh.n2];
+        ns += ray.time * (closing - ns);
+    }
     const float nlen = glm::length(ns);
     ns = nlen > 1e-6f ? ns / nlen : si.ng;
     si.ns = glm::dot(ns, si.ng) < 0.f ? -ns : ns;
     si.material = sh.material;
     si.tri = hit.prim;
-    if (hit.instance != kNoInstance) to_world(scene.instances[hit.instance], hit.instance, si);
+    if (hit.instance != kNoInstance) to_world(scene, scene.instances[hit.instance], hit.instance, si);
     return si;
 }
 

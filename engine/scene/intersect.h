@@ -28,6 +28,7 @@ struct SurfaceInteraction {
     float t;
     uint32_t tri = kNoTriangle;  // the triangle (Hit::prim) p lies on; spawned rays skip it
     uint32_t instance = kNoInstance;  // ... in this placement (a prototype's triangle lies in each)
+    float time = 0.f;                 // within the shutter (the ray's): what spawned rays carry
 };
 
 // Lowers ray.tmax to the hit distance.

@@ -11,6 +11,7 @@
 #include "engine/core/parallel.h"
 #include "engine/geometry/triangle.h"
 #include "engine/scene/instancing.h"
+#include "engine/scene/prototype_cache.h"
 #include "engine/scene/surface_textures.h"
 
 namespace tessera {
@@ -70,6 +71,33 @@ BvhBuildOptions options_for(size_t n, const RenderSceneOptions& o, const char* w
 // their shading records; area-weighted vertex normals where the file gave none (as CS184 does);
 // each emissive mesh becomes an area light. Expands s.bounds by the triangles. The per-triangle
 // passes run on `threads` threads over disjoint ranges, so the result is the same for any count.
+// A mesh's vertex normals, unnormalised, added into `normals`: the file's, or area-weighted
+// face normals where it gave none (as CS184 does), or none (zero: the face normal) for glTF's
+// flat shading.
+void add_vertex_normals(const MeshDesc& mesh, glm::vec3* normals) {
+    // Normals must pair with positions (validate() checks loaded files; a description
+    // built in code that breaks it gets computed normals rather than a misaligned copy).
+    if (!mesh.normals.empty() && mesh.normals.size() == mesh.positions.size()) {
+        std::copy(mesh.normals.begin(), mesh.normals.end(), normals);
+    } else if (!mesh.flat_normals) {
+        for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
+            const glm::vec3 &a = mesh.positions[mesh.indices[i]], &b = mesh.positions[mesh.indices[i + 1]],
+                            &c = mesh.positions[mesh.indices[i + 2]];
+            const glm::vec3 n = glm::cross(b - a, c - a);  // length = 2 × area: the weight
+            for (int j = 0; j < 3; ++j) normals[mesh.indices[i + j]] += n;
+        }
+    }
+}
+
+void normalise(LargeVector<glm::vec3>& normals, int threads) {
+    parallel_ranges(normals.size(), pass_threads(normals.size(), threads), [&](size_t begin, size_t end, int) {
+        for (size_t i = begin; i < end; ++i) {
+            const float len = glm::length(normals[i]);
+            normals[i] = len > 0.f && std::isfinite(len) ? normals[i] / len : glm::vec3(0.f);  // zero: face normal
+        }
+    });
+}
+
 // Meshes from `world_meshes` on are prototypes, in their own space: they add no bounds and no lights.
 LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& meshes, size_t world_meshes,
                                             uint32_t default_material, int threads, RenderScene& s) {
@@ -82,28 +110,8 @@ LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& 
     const size_t ntri = first_tri.back();
 
     s.normals.resize(first_vertex.back(), glm::vec3(0.f));  // zero: use the face normal
-    for (size_t k = 0; k < meshes.size(); ++k) {
-        const MeshDesc& mesh = *meshes[k];
-        glm::vec3* normals = s.normals.data() + first_vertex[k];
-        // Normals must pair with positions (validate() checks loaded files; a description
-        // built in code that breaks it gets computed normals rather than a misaligned copy).
-        if (!mesh.normals.empty() && mesh.normals.size() == mesh.positions.size()) {
-            std::copy(mesh.normals.begin(), mesh.normals.end(), normals);
-        } else if (!mesh.flat_normals) {
-            for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
-                const glm::vec3 &a = mesh.positions[mesh.indices[i]], &b = mesh.positions[mesh.indices[i + 1]],
-                                &c = mesh.positions[mesh.indices[i + 2]];
-                const glm::vec3 n = glm::cross(b - a, c - a);  // length = 2 × area: the weight
-                for (int j = 0; j < 3; ++j) normals[mesh.indices[i + j]] += n;
-            }
-        }
-    }
-    parallel_ranges(s.normals.size(), pass_threads(s.normals.size(), threads), [&](size_t begin, size_t end, int) {
-        for (size_t i = begin; i < end; ++i) {
-            const float len = glm::length(s.normals[i]);
-            s.normals[i] = len > 0.f && std::isfinite(len) ? s.normals[i] / len : glm::vec3(0.f);  // zero: face normal
-        }
-    });
+    for (size_t k = 0; k < meshes.size(); ++k) add_vertex_normals(*meshes[k], s.normals.data() + first_vertex[k]);
+    normalise(s.normals, threads);
 
     std::vector<uint32_t> mesh_light(meshes.size(), kNoLight);
     for (size_t k = 0; k < world_meshes; ++k) {
@@ -153,8 +161,11 @@ LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& 
 // Our tree over `tris` (a span of `all`), collapsed wide, its blocks appended to `blocks`
 // (leaves name them from the first appended). `first_id`: the id of tris[0] in `all`, which
 // lanes name; empty when tris is all of it.
+// `close`: the same triangles at the shutter's closing (empty: they do not move): the tree is
+// built over boxes holding both, and `close_blocks` receives them packed as the blocks are.
 WideBvh build_wide(std::span<const TriangleVerts> tris, std::span<const TriangleVerts> all, std::optional<uint32_t> first_id,
-                   BvhBuildOptions bo, int threads, LargeVector<Triangle4>& blocks, BvhBuildStats& stats, StageClock* clock) {
+                   BvhBuildOptions bo, int threads, LargeVector<Triangle4>& blocks, BvhBuildStats& stats, StageClock* clock,
+                   std::span<const TriangleVerts> close = {}, LargeVector<Triangle4>* close_blocks = nullptr) {
     // SAH: Embree's division of labour. The binary builder splits down to one block, and
     // the collapse merges a subtree back into one leaf (up to max_leaf_size) only where
     // the SAH says a leaf beats one more wide node, so wide nodes fill up with small leaves
@@ -165,13 +176,20 @@ WideBvh build_wide(std::span<const TriangleVerts> tris, std::span<const Triangle
         co = {bo.max_leaf_size, bo.traversal_cost, bo.intersection_cost, bo.leaf_block};
         bo.max_leaf_size = std::min(bo.max_leaf_size, std::max(1, bo.leaf_block));
     }
-    Bvh bvh = build_bvh(tris.size(), [tris](size_t i) { return triangle_bounds(tris[i]); }, bo);
+    Bvh bvh = close.empty() ? build_bvh(tris.size(), [tris](size_t i) { return triangle_bounds(tris[i]); }, bo)
+                            : build_bvh(tris.size(), [tris, close](size_t i) {
+                                  return merge(triangle_bounds(tris[i]), triangle_bounds(close[i]));
+                              }, bo);
     if (clock) clock->lap("bvh build");
     stats = bvh.stats;
     WideBvh wide = collapse_to_wide(bvh, co);
     if (clock) clock->lap("collapse");
     if (first_id)
         for (uint32_t& i : bvh.prim_index) i += *first_id;
+    if (close_blocks) {
+        WideBvh again = wide;  // packing rewrites the leaves: the closing's blocks from the same tree
+        *close_blocks = pack_triangle4_leaves(again, close, bvh.prim_index, threads);
+    }
     LargeVector<Triangle4> packed = pack_triangle4_leaves(wide, all, bvh.prim_index, threads);
     if (blocks.empty()) blocks = std::move(packed);
     else blocks.insert(blocks.end(), packed.begin(), packed.end());
@@ -181,25 +199,33 @@ WideBvh build_wide(std::span<const TriangleVerts> tris, std::span<const Triangle
 
 // The triangles' acceleration structure (ours, or Embree's), with the triangles packed in the
 // order traversal reads them. Lanes name triangles by input index, as tri_shading is kept.
-void build_triangle_accel(std::span<const TriangleVerts> triangles, const RenderSceneOptions& options, RenderScene& s,
-                          StageClock& clock) {
+void build_triangle_accel(std::span<const TriangleVerts> all, std::span<const TriangleVerts> close, const RenderSceneOptions& options,
+                          RenderScene& s, StageClock& clock) {
     const int threads = options.bvh.build_threads;
-    if (triangles.empty()) {
+    const std::span<const TriangleVerts> triangles = all.first(s.flat_triangles);
+    if (triangles.empty() && (options.bvh.type != BvhType::embree || s.instances.empty())) {
         options_for(0, options, "triangles", s.report);
     } else if (options.bvh.type == BvhType::embree) {
-        s.embree = build_embree(triangles, options.embree_quality, s.embree_build_seconds, threads, s.has_alpha);
+        // Embree's instancing: a scene per prototype, an instance geometry per placement.
+        std::vector<EmbreePrototype> prototypes;
+        for (const Prototype& p : s.prototypes) prototypes.push_back({all.subspan(p.first_tri, p.triangles), p.first_tri});
+        std::vector<EmbreePlacement> placements;
+        for (const Instance& in : s.instances) placements.push_back({in.prototype, in.to_world});
+        s.embree = build_embree(triangles, options.embree_quality, s.embree_build_seconds, threads, s.has_alpha, prototypes, placements);
         clock.lap("embree build");
         s.tri_build_seconds = s.embree_build_seconds;
-        s.tri_blocks = pack_triangle4_in_order(triangles, threads);  // where surface_at finds Embree's hits
+        s.tri_blocks = pack_triangle4_in_order(all, threads);  // where surface_at finds Embree's hits
         clock.lap("pack blocks");
         s.report.built.push_back("triangle BVH (Embree " + std::string(options.embree_quality == EmbreeQuality::low ? "low"
                                  : options.embree_quality == EmbreeQuality::high ? "high" : "medium") +
-                                 " quality): " + std::to_string(triangles.size()) + " triangles");
+                                 " quality): " + std::to_string(triangles.size()) + " triangles" +
+                                 (s.instances.empty() ? std::string() : ", and its instancing for the placements"));
     } else {
         const auto tb = std::chrono::steady_clock::now();
         const BvhBuildOptions bo = options_for(triangles.size(), options, "triangles", s.report);
         BvhBuildStats stats;
-        s.tri_wide = build_wide(triangles, triangles, {}, bo, threads, s.tri_blocks, stats, &clock);
+        s.tri_wide = build_wide(triangles, triangles, {}, bo, threads, s.tri_blocks, stats, &clock, close,
+                                close.empty() ? nullptr : &s.motion.tri_blocks_close);
         s.tri_bvh_stats = stats;
         s.tri_build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tb).count();
         s.report.built.push_back("triangle BVH (" + std::string(to_string(options.bvh.type)) + "): " +
@@ -214,13 +240,15 @@ void build_triangle_accel(std::span<const TriangleVerts> triangles, const Render
 // placements' world boxes. A prototype is built once however often it is placed.
 void build_instances(std::span<const TriangleVerts> triangles, const std::vector<const InstanceDesc*>& placements,
                      const std::vector<uint32_t>& prototype_first_tri, const std::vector<uint32_t>& prototype_tris,
-                     const RenderSceneOptions& options, RenderScene& s) {
+                     const RenderSceneOptions& options, RenderScene& s, PrototypeCache* cache,
+                     const std::vector<glm::mat4>& close) {
     if (placements.empty()) {
         s.report.left_out.push_back("instances: none in the scene (one level of BVH)");
         return;
     }
     const int threads = options.bvh.build_threads;
-    size_t stored = 0, placed = 0;
+    const bool embree = options.bvh.type == BvhType::embree;  // Embree builds both levels (build_triangle_accel)
+    size_t stored = 0, placed = 0, reused = 0;
     for (size_t k = 0; k < prototype_first_tri.size(); ++k) {
         Prototype p;
         p.first_tri = prototype_first_tri[k];
@@ -228,33 +256,70 @@ void build_instances(std::span<const TriangleVerts> triangles, const std::vector
         p.first_block = uint32_t(s.tri_blocks.size());
         const std::span<const TriangleVerts> tris = triangles.subspan(p.first_tri, p.triangles);
         for (const TriangleVerts& t : tris) p.bounds.expand(triangle_bounds(t));
-        BvhBuildOptions bo = options.bvh;
-        if (p.triangles < options.min_prims_for_bvh) bo.type = BvhType::none;
-        BvhBuildStats stats;
-        p.wide = build_wide(tris, triangles, p.first_tri, bo, threads, s.tri_blocks, stats, nullptr);
+        if (!embree) {
+            BvhBuildOptions bo = options.bvh;
+            if (p.triangles < options.min_prims_for_bvh) bo.type = BvhType::none;
+            const PrototypeCache::Key key = cache ? PrototypeCache::key_of(tris, bo) : PrototypeCache::Key{};
+            if (PrototypeCache::Entry* e = cache ? cache->find(key) : nullptr) {
+                // The same triangles as in the last build: its tree and blocks, renumbered.
+                e->used = true;
+                ++cache->hits;
+                ++reused;
+                p.wide = e->wide;
+                s.tri_blocks.insert(s.tri_blocks.end(), e->blocks.begin(), e->blocks.end());
+                for (size_t b = p.first_block; b < s.tri_blocks.size(); ++b)
+                    for (int l = 0; l < 4; ++l) s.tri_blocks[b].prim[l] += p.first_tri;
+            } else {
+                BvhBuildStats stats;
+                p.wide = build_wide(tris, triangles, p.first_tri, bo, threads, s.tri_blocks, stats, nullptr);
+                if (cache) {
+                    ++cache->misses;
+                    PrototypeCache::Entry entry{key, p.wide, {}, true};
+                    entry.blocks.assign(s.tri_blocks.begin() + long(p.first_block), s.tri_blocks.end());
+                    for (Triangle4& block : entry.blocks)
+                        for (int l = 0; l < 4; ++l) block.prim[l] -= p.first_tri;
+                    cache->entries.push_back(std::move(entry));
+                }
+            }
+        }
         stored += p.triangles;
         s.prototypes.push_back(std::move(p));
     }
     std::vector<Aabb> bounds;
     bounds.reserve(placements.size());
-    for (const InstanceDesc* in : placements) {
+    // Placements that move within the shutter (`close`: each one's transform at the closing).
+    bool moving = false;
+    for (size_t k = 0; k < close.size(); ++k) moving |= close[k] != placements[k]->to_world;
+    for (size_t k = 0; k < placements.size(); ++k) {
+        const InstanceDesc* in = placements[k];
         const glm::dmat4 m(in->to_world);
         s.instances.push_back({glm::mat4x3(glm::mat4(glm::inverse(m))), glm::mat4x3(in->to_world), in->prototype});
         const Prototype& p = s.prototypes[in->prototype];
-        bounds.push_back(transformed_bounds(p.bounds, in->to_world));
+        if (moving) {
+            const bool moves = close[k] != in->to_world;
+            s.motion.instances.push_back(decompose_motion(in->to_world, close[k]));
+            s.motion.instance_moves.push_back(moves);
+            bounds.push_back(moves ? motion_bounds(s.motion.instances.back(), p.bounds) : transformed_bounds(p.bounds, in->to_world));
+        } else {
+            bounds.push_back(transformed_bounds(p.bounds, in->to_world));
+        }
         s.bounds.expand(bounds.back());
         placed += p.triangles;
     }
-    BvhBuildOptions top = options.bvh;
-    top.leaf_block = 1;  // instances are entered one at a time
-    top.max_leaf_size = 2;
-    if (placements.size() < options.min_prims_for_bvh) top.type = BvhType::none;
-    s.instance_bvh = build_bvh(bounds, top);
-    to_leaf_order(s.instance_bvh, s.instances);
+    if (!embree) {
+        BvhBuildOptions top = options.bvh;
+        top.leaf_block = 1;  // instances are entered one at a time
+        top.max_leaf_size = 2;
+        if (placements.size() < options.min_prims_for_bvh) top.type = BvhType::none;
+        s.instance_bvh = build_bvh(bounds, top);
+        if (moving) to_leaf_order(s.instance_bvh, s.instances, s.motion.instances, s.motion.instance_moves);
+        else to_leaf_order(s.instance_bvh, s.instances);
+    }
     s.report.built.push_back("instances: " + std::to_string(s.instances.size()) + " placements of " +
                              std::to_string(s.prototypes.size()) + " prototype mesh(es), " + std::to_string(stored) +
                              " triangles stored for " + std::to_string(placed) +
-                             " placed (a BVH per prototype under one over the placements)");
+                             " placed (" + (embree ? "Embree's instancing" : "a BVH per prototype under one over the placements") + ")" +
+                             (reused ? ", " + std::to_string(reused) + " prototype tree(s) kept from the previous frame" : ""));
 }
 
 // Spheres always take our own path (with Embree too): a list or our BVH beside its triangles.
@@ -329,14 +394,75 @@ void add_material_textures(const SceneDescription& desc, RenderScene& s) {
     else s.report.built.push_back("alpha tests in intersection (alphaMode MASK and BLEND)");
 }
 
+// A scene at the shutter's closing must be the opening's, moved: the same meshes with the same
+// counts, the same placements of the same prototypes.
+void check_motion_shape(const SceneDescription& a, const SceneDescription& b, const RenderSceneOptions& o) {
+    const SourceLocation where{a.source, 0, ""};
+    if (o.bvh.type == BvhType::embree)
+        throw SceneError(where, "motion blur (a shutter) is traced by our BVH only: bvh \"embree\" cannot take it");
+    if (a.meshes.size() != b.meshes.size() || a.instances.size() != b.instances.size() || a.prototypes.size() != b.prototypes.size() ||
+        a.spheres.size() != b.spheres.size())
+        throw SceneError(where, "the scene's meshes or placements change within the shutter (" + std::to_string(a.meshes.size()) +
+                                    " meshes and " + std::to_string(a.instances.size()) + " placements at the opening, " +
+                                    std::to_string(b.meshes.size()) + " and " + std::to_string(b.instances.size()) +
+                                    " at the closing): motion blur needs the same geometry, moved");
+    for (size_t k = 0; k < a.meshes.size(); ++k)
+        if (a.meshes[k].positions.size() != b.meshes[k].positions.size() || a.meshes[k].indices.size() != b.meshes[k].indices.size())
+            throw SceneError(a.meshes[k].origin, "mesh '" + a.meshes[k].name + "' changes its vertices or faces within the shutter");
+    for (size_t k = 0; k < a.instances.size(); ++k)
+        if (a.instances[k].prototype != b.instances[k].prototype)
+            throw SceneError(a.instances[k].origin, "placement " + std::to_string(k) + " places another mesh at the shutter's closing");
+}
+
+// The world-space triangles at the shutter's closing, in gather_triangles' order, and their
+// vertex normals into s.motion.normals_close. Emitters stay where they are at the opening (light
+// sampling has one position for them), as do the CS184 lamps and emitting placements, which come
+// after the meshes. Empty when no triangle moves.
+LargeVector<TriangleVerts> closing_triangles(const SceneDescription& open, const SceneDescription& close,
+                                             std::span<const TriangleVerts> opening, RenderScene& s) {
+    LargeVector<TriangleVerts> out(opening.begin(), opening.end());
+    LargeVector<glm::vec3> normals = s.normals;
+    bool moved = false;
+    size_t t = 0, v = 0;
+    for (size_t k = 0; k < open.meshes.size(); ++k) {
+        const MeshDesc& a = open.meshes[k];
+        const MeshDesc& b = close.meshes[k];
+        const size_t tris = a.indices.size() / 3;
+        const bool emits = a.material >= 0 && s.materials[size_t(a.material)].emissive();
+        if (!emits && a.positions != b.positions) {
+            for (size_t i = 0; i < tris; ++i)
+                out[t + i] = {b.positions[b.indices[3 * i]], b.positions[b.indices[3 * i + 1]], b.positions[b.indices[3 * i + 2]]};
+            std::fill(normals.begin() + long(v), normals.begin() + long(v + a.positions.size()), glm::vec3(0.f));
+            add_vertex_normals(b, normals.data() + v);
+            for (size_t i = v; i < v + a.positions.size(); ++i) {
+                const float len = glm::length(normals[i]);
+                normals[i] = len > 0.f && std::isfinite(len) ? normals[i] / len : glm::vec3(0.f);
+            }
+            moved = true;
+        }
+        t += tris;
+        v += a.positions.size();
+    }
+    if (!moved) return {};
+    s.motion.normals_close = std::move(normals);
+    return out;
+}
+
+bool same_camera(const CameraDesc& a, const CameraDesc& b) {
+    return a.position == b.position && a.look_at == b.look_at && a.up == b.up && a.vfov_deg == b.vfov_deg &&
+           a.hfov_deg == b.hfov_deg && a.focal_px == b.focal_px;
+}
+
 }  // namespace
 
-RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOptions& options) {
+RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOptions& options, PrototypeCache* cache,
+                               const SceneDescription* close) {
     const auto t0 = std::chrono::steady_clock::now();
     RenderScene s;
     StageClock clock(s.report);
     s.triangle_test = options.triangle_test;
     s.report.warnings = desc.warnings;
+    if (close) check_motion_shape(desc, *close, options);
 
     for (const MaterialDesc& m : desc.materials)
         s.materials.push_back(make_material(m));
@@ -348,8 +474,7 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     report_materials(s.materials, s.report);
 
     // Instances stay instances unless their mesh emits (light sampling needs world-space
-    // triangles) or Embree traces the scene (its instancing is not wired up): those are placed
-    // as world-space meshes.
+    // triangles): those are placed as world-space meshes.
     std::vector<MeshDesc> placed;
     std::vector<const InstanceDesc*> placements;
     std::vector<uint32_t> prototype_slot(desc.prototypes.size(), kNoInstance);  // its index among those kept
@@ -357,7 +482,7 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     for (const InstanceDesc& in : desc.instances) {
         const MeshDesc& proto = desc.prototypes[in.prototype];
         const bool emits = proto.material >= 0 && s.materials[size_t(proto.material)].emissive();
-        if (emits || options.bvh.type == BvhType::embree) {
+        if (emits) {
             placed.push_back(placed_mesh(proto, in.to_world));
             placed.back().origin = in.origin;
             continue;
@@ -368,9 +493,6 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
         }
         placements.push_back(&in);
     }
-    if (!placed.empty() && options.bvh.type == BvhType::embree)
-        s.report.warnings.push_back(std::to_string(placed.size()) + " instance(s) placed as world-space meshes: Embree's "
-                                    "instancing is not wired up (bvh \"sah\" keeps them instanced)");
     std::vector<InstanceDesc> renumbered;  // prototype indices among those kept
     renumbered.reserve(placements.size());
     for (const InstanceDesc* in : placements) {
@@ -409,9 +531,22 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
         s.spheres.push_back({sd.center, sd.radius, sd.material < 0 ? default_material : uint32_t(sd.material)});
 
     const std::span<const TriangleVerts> all(triangles.data(), triangles.size());
-    build_triangle_accel(all.first(s.flat_triangles), options, s, clock);
-    build_instances(all, kept_instances, prototype_first_tri, prototype_tris, options, s);
-    if (!kept_instances.empty()) clock.lap("instances");
+    // Within a shutter: the world-space triangles and the placements at its closing.
+    const LargeVector<TriangleVerts> closing =
+        close ? closing_triangles(desc, *close, all.first(s.flat_triangles), s) : LargeVector<TriangleVerts>{};
+    std::vector<glm::mat4> closing_placements;
+    if (close)
+        for (const InstanceDesc* in : placements) closing_placements.push_back(close->instances[size_t(in - desc.instances.data())].to_world);
+    // Ours: the world-space triangles' blocks first, each prototype's appended. Embree: the
+    // placements first, which its one build then takes in.
+    if (options.bvh.type == BvhType::embree) {
+        build_instances(all, kept_instances, prototype_first_tri, prototype_tris, options, s, cache, closing_placements);
+        build_triangle_accel(all, {}, options, s, clock);
+    } else {
+        build_triangle_accel(all, std::span<const TriangleVerts>(closing.data(), closing.size()), options, s, clock);
+        build_instances(all, kept_instances, prototype_first_tri, prototype_tris, options, s, cache, closing_placements);
+        if (!kept_instances.empty()) clock.lap("instances");
+    }
     std::vector<Aabb> bounds(s.spheres.size());
     for (size_t i = 0; i < s.spheres.size(); ++i) { bounds[i] = sphere_bounds(s.spheres[i]); s.bounds.expand(bounds[i]); }
     build_sphere_accel(bounds, options, s);
@@ -425,7 +560,26 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
                       s.camera.look_at.z, s.camera.vfov_deg);
         s.report.built.push_back(std::string("default camera framing the scene (the scene has none): ") + where);
     }
+    if (close && close->camera && desc.camera) {
+        CameraDesc c;
+        frame_camera(close->camera, s.bounds, c);
+        if (!same_camera(c, s.camera)) {
+            s.motion.camera = true;
+            s.motion.camera_close = c;
+        }
+    }
+    if (close) {
+        size_t moving = 0;
+        for (uint8_t m : s.motion.instance_moves) moving += m;
+        if (s.motion.any())
+            s.report.built.push_back(std::string("motion blur within the shutter: ") + (s.motion.camera ? "the camera, " : "") +
+                                     std::to_string(s.motion.deforming() ? s.flat_triangles : 0) + " world-space triangles (deforming), " +
+                                     std::to_string(moving) + " moving placement(s); emitters and lights held at the opening");
+        else
+            s.report.left_out.push_back("motion blur: nothing moves within the shutter (no time per ray)");
+    }
     clock.lap("camera");
+    if (cache) cache->end_build();
     s.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return s;
 }

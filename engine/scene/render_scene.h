@@ -16,6 +16,7 @@
 #include "engine/material/material.h"
 #include "engine/scene/light_tree.h"
 #include "engine/scene/lights.h"
+#include "engine/scene/motion.h"
 #include "engine/scene/scene_description.h"
 
 namespace tessera {
@@ -97,6 +98,7 @@ struct RenderScene {
     std::vector<Prototype> prototypes;          // meshes placed by instances, each stored and built once
     std::vector<Instance> instances;            // instance_bvh's leaf order
     Bvh instance_bvh;                           // over the instances' world bounds (the top level)
+    SceneMotion motion;                         // within a shutter; none for a still
     std::vector<Sphere> spheres;                // BVH leaf order
     Bvh sphere_bvh;
     std::vector<Material> materials;            // last entry: the default grey
@@ -116,6 +118,15 @@ struct RenderScene {
     size_t triangle_accel_bytes() const;
 };
 
-RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOptions& options);
+struct PrototypeCache;  // engine/scene/prototype_cache.h
+
+// `cache`: prototype trees from the previous build of the same scene (a shot's last frame),
+// reused where the prototype's triangles are the same; updated for the next build.
+// `close`: the same scene at the shutter's closing (`desc` is it at the opening): what moves
+// between the two is blurred (engine/scene/motion.h). It must hold the same meshes with the same
+// vertex and index counts, and the same placements of the same prototypes (SceneError if not);
+// emitters and lights are taken from `desc` (not blurred). Not with Embree.
+RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOptions& options, PrototypeCache* cache = nullptr,
+                               const SceneDescription* close = nullptr);
 
 }  // namespace tessera

@@ -19,6 +19,7 @@
 #include "engine/camera/camera.h"
 #include "engine/core/scene_error.h"
 #include "engine/io/image_io.h"
+#include "engine/io/scene_loader.h"
 #include "engine/render/passes.h"
 #include "engine/render/tile_context.h"
 #include "engine/scene/environment.h"
@@ -411,8 +412,32 @@ struct RenderNode::Impl {
         opt.job_id = t.job;
         opt.resume_frames = true;
         opt.environment = info.settings.environment;  // published by the API node, loaded with the job
+        // The shot's scene, opened once on this node and kept for its next chunks (posing is
+        // const: chunks on several threads share it); another shot replaces it. Prototype
+        // trees are kept frame to frame within a chunk (the shot runner's own cache).
+        std::lock_guard lock(shot_mu);
+        if (kept_shot.job != t.job || kept_shot.source != opt.scene_source || !kept_shot.file) {
+            kept_shot = {};
+            try {
+                kept_shot.file = std::make_shared<const tessera::SceneFile>(opt.scene_source, cfg.load_limits);
+            } catch (const std::exception&) {
+                return opt;  // the shot runner opens it and fails the job with the reason
+            }
+            kept_shot.job = t.job;
+            kept_shot.source = opt.scene_source;
+            ++metrics.shot_opens;
+        }
+        opt.scene_file = kept_shot.file;
         return opt;
     }
+
+    // The last shot's scene on this node (shot_options).
+    struct KeptShot {
+        std::string job, source;
+        std::shared_ptr<const tessera::SceneFile> file;
+    };
+    std::mutex shot_mu;
+    KeptShot kept_shot;
 
     api::RunOutputs shot_outputs(const std::string& id) {
         const fs::path dir = job_results_dir(cfg.data_dir, id);
@@ -472,6 +497,8 @@ struct RenderNode::Impl {
         const api::JobOutcome out = api::run_job(job, shot_options(r, t, *info), shot_outputs(t.job), cb);
         if (out.stopped) return;
         r.eval(kTransition, {}, {keys::prefix, t.job, "succeeded", "running", redis_number(now_s()), "", json_text(out.summary)});
+        std::lock_guard lock(shot_mu);
+        if (kept_shot.job == t.job) kept_shot = {};  // the shot is done: its scene's memory goes back
     }
 
     // The state of a job's run as a tile needs it (see SeenRun).
@@ -673,7 +700,7 @@ struct RenderNode::Impl {
                     const std::string st = r.command({"HGET", keys::job(h.task.job), "state"}).text;
                     if (st != "running" && st != "queued") *h.cancel = true;  // canceled (or gone): stop within a row
                 }
-                const json m = {{"tiles", metrics.tiles.load()}, {"assemblies", metrics.assemblies.load()}, {"frames", metrics.frames.load()},
+                const json m = {{"tiles", metrics.tiles.load()}, {"assemblies", metrics.assemblies.load()}, {"frames", metrics.frames.load()}, {"shot_opens", metrics.shot_opens.load()},
                                 {"starts", metrics.starts.load()}, {"duplicates", metrics.duplicates.load()},
                                 {"reclaimed", metrics.reclaimed.load()}, {"redis_errors", metrics.redis_errors.load()},
                                 {"rays", metrics.rays.load()}, {"render_seconds", double(metrics.render_micros.load()) * 1e-6},

@@ -39,6 +39,7 @@ struct NodeConfig {
 struct NodeMetrics {
     std::atomic<uint64_t> tiles{0}, assemblies{0}, starts{0}, duplicates{0}, reclaimed{0}, redis_errors{0};
     std::atomic<uint64_t> frames{0};  // a shot's frames rendered here (not those kept from an earlier run)
+    std::atomic<uint64_t> shot_opens{0};  // a shot's scene file opened here (once per shot, kept across its chunks)
     std::atomic<uint64_t> rays{0}, render_micros{0};
 };
 

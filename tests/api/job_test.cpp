@@ -119,7 +119,7 @@ TEST(RenderJob, RoundTripsEveryField) {
         "triangle_test":"moller_trumbore","integrator":"normals","sampler":"independent","environment":"sky",
         "lens_radius":0.25,"focal_distance":3.5})");
     json want = body;
-    want.update({{"frames", nullptr}, {"fps", 24.0}, {"chunk", 0}, {"animation", nullptr}});
+    want.update({{"frames", nullptr}, {"fps", 24.0}, {"chunk", 0}, {"animation", nullptr}, {"shutter", nullptr}});
     const json back = to_json(parse_render_job(body));
     EXPECT_EQ(back, want) << back.dump();
     EXPECT_EQ(to_json(std::get<RenderJob>(job_from_json(back))), back);
@@ -169,6 +169,21 @@ TEST(RenderJob, BadShotsAreRefusedNamingTheField) {
     EXPECT_EQ(refused(R"({"scene":"x","frames":[1],"animation":""})"), "/animation");
     EXPECT_EQ(refused(R"({"scene":"x","frames":[1],"animation":-1})"), "/animation");
     EXPECT_EQ(refused(R"({"scene":"x","frames":[1],"reference":"0123456789abcdef"})"), "/reference");
+    // The shutter: {open, close} in frames, open before close, within a frame either way; a shot's only; our BVH's.
+    EXPECT_EQ(pointer_of(json::parse(R"({"scene":"x","frames":[1],"shutter":{"open":-0.25,"close":0.25}})")), "<accepted>");
+    EXPECT_EQ(pointer_of(json::parse(R"({"scene":"x","frames":[1],"shutter":null})")), "<accepted>");
+    EXPECT_EQ(refused(R"({"scene":"x","shutter":{"open":-0.25,"close":0.25}})"), "/shutter");  // a still
+    EXPECT_EQ(refused(R"({"scene":"x","frames":[1],"bvh":"embree","shutter":{"open":0,"close":0.5}})"), "/shutter");
+    EXPECT_EQ(refused(R"({"scene":"x","frames":[1],"shutter":{"open":0.25,"close":0.25}})"), "/shutter/close");
+    EXPECT_EQ(refused(R"({"scene":"x","frames":[1],"shutter":{"open":-2,"close":0.25}})"), "/shutter/open");
+    EXPECT_EQ(refused(R"({"scene":"x","frames":[1],"shutter":{"open":0}})"), "/shutter/close");
+    EXPECT_EQ(refused(R"({"scene":"x","frames":[1],"shutter":{"open":"0","close":1}})"), "/shutter/open");
+    EXPECT_EQ(refused(R"({"scene":"x","frames":[1],"shutter":{"open":0,"close":1,"angle":180}})"), "/shutter/angle");
+    EXPECT_EQ(refused(R"({"scene":"x","frames":[1],"shutter":[0,1]})"), "/shutter");
+    const RenderJob blurred = parse_render_job(json::parse(R"({"scene":"x","frames":[1],"shutter":{"open":-0.5,"close":0}})"));
+    ASSERT_TRUE(blurred.shutter);
+    EXPECT_EQ(blurred.shutter->first, -0.5);
+    EXPECT_EQ(to_json(blurred)["shutter"], json::parse(R"({"open":-0.5,"close":0.0})"));
     JobLimits small;
     small.max_frames = 10;
     EXPECT_THROW(parse_render_job(json::parse(R"({"scene":"x","frames":{"start":1,"end":11}})"), small), InvalidJob);

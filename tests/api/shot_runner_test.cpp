@@ -57,6 +57,21 @@ TEST_F(Shot, AFrameIsTheSameAloneInARangeAndOnAnyThreadCount) {
     EXPECT_EQ(in_range.sample_count, alone.sample_count);
 }
 
+// With a shutter a frame is blurred (the cube and the camera move within it), reports so, and is
+// still the same image alone and in its range; the same frame without one is sharp and differs.
+TEST_F(Shot, AShutterBlursAFrameAndKeepsItReproducible) {
+    const json shutter = {{"shutter", {{"open", -0.5}, {"close", 0.5}}}};
+    const JobOutcome out = run(job(json{{"start", 10}, {"end", 12}}, shutter), "blur_range", 2);
+    run(job(json::array({11}), shutter), "blur_alone", 1);
+    run(job(json::array({11})), "sharp", 2);
+    const Image in_range = frame_image("blur_range", 11), alone = frame_image("blur_alone", 11), sharp = frame_image("sharp", 11);
+    EXPECT_EQ(in_range.rgb, alone.rgb);
+    EXPECT_NE(in_range.rgb, sharp.rgb);
+    const json report = json::parse(std::ifstream(dir_ / "blur_range" / "frames" / "11" / "report.json"));
+    EXPECT_NE(report.dump().find("motion blur within the shutter"), std::string::npos) << report.dump();
+    EXPECT_FALSE(out.stopped);
+}
+
 // Frame n and n + 1 of a scene where nothing moves differ (their seeds differ, so their noise
 // is not the same), yet show the same picture (equal means within the noise); the same frame
 // of another job with the same seed is identical.

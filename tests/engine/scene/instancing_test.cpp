@@ -13,6 +13,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "engine/accel/embree_accel.h"
 #include "engine/geometry/spawn.h"
 #include "engine/render/renderer.h"
 #include "engine/sampling/rng.h"
@@ -76,6 +77,44 @@ TEST(Instancing, RaysMeetWhatTheFlattenedSceneMeets) {
     }
     EXPECT_GT(hits, n / 4);
     EXPECT_GT(mirrored_hits, 100);
+    EXPECT_LE(disagree, n / 2000) << disagree << " rays disagree";
+}
+
+// Embree's instancing (a scene per prototype, an instance geometry per placement) answers the
+// rays our two levels answer: the same placement, triangle and distance.
+TEST(Instancing, EmbreeMeetsWhatOurTwoLevelsMeet) {
+    if (!embree_available()) GTEST_SKIP() << "this build has no Embree (libembree-dev)";
+    const SceneDescription d = instanced_field(25, 2000);
+    RenderSceneOptions eo;
+    eo.bvh.type = BvhType::embree;
+    const RenderScene emb = build_render_scene(d, eo);
+    const RenderScene ours = build_render_scene(d, {});
+    ASSERT_TRUE(emb.embree);
+    ASSERT_EQ(emb.instances.size(), 25u);
+    EXPECT_LT(emb.triangle_count(), 2100u);  // stored once
+    Pcg32 rng(8, 2);
+    TraversalCounters tc;
+    int disagree = 0, hits = 0;
+    const int n = 20000;
+    for (int i = 0; i < n; ++i) {
+        Ray a = field_ray(rng, 7.5f), b = a;
+        Hit ha, hb;
+        const bool ea = intersect(ours, a, ha, tc), eb = intersect(emb, b, hb, tc);
+        EXPECT_EQ(eb, occluded(emb, Ray{b.o, 0.f, b.d, INFINITY}, tc));
+        if (ea != eb) { ++disagree; continue; }
+        if (!ea) continue;
+        ++hits;
+        ASSERT_NEAR(ha.t, hb.t, 1e-4f * std::max(1.f, ha.t)) << i;
+        if (std::abs(ha.t - hb.t) > 1e-6f * std::max(1.f, ha.t)) continue;
+        // Instances are numbered in leaf order by ours, in input order by Embree: compare what
+        // they place and where.
+        const SurfaceInteraction sa = surface_at(ours, a, ha), sb = surface_at(emb, b, hb);
+        EXPECT_LT(glm::length(sa.p - sb.p), 1e-4f * std::max(1.f, ha.t)) << i;
+        EXPECT_GT(glm::dot(sa.ng, sb.ng), 0.9999f) << i;
+        EXPECT_EQ(ha.prim, hb.prim) << i;
+        EXPECT_EQ(ha.instance == kNoInstance, hb.instance == kNoInstance) << i;
+    }
+    EXPECT_GT(hits, n / 4);
     EXPECT_LE(disagree, n / 2000) << disagree << " rays disagree";
 }
 

@@ -176,8 +176,11 @@ TEST_F(RenderNodeFarm, AShotGivesOneProcessFramesBitForBitAndResumes) {
     chunked["frames"] = {{"start", 0}, {"end", 48}, {"step", 12}};
     chunked["chunk"] = 1;
     const uint64_t before = nodes_[0]->metrics().frames + nodes_[1]->metrics().frames;
+    const uint64_t opens_before = nodes_[0]->metrics().shot_opens + nodes_[1]->metrics().shot_opens;
     const std::string id3 = run_on_farm(chunked);
     EXPECT_EQ(nodes_[0]->metrics().frames + nodes_[1]->metrics().frames - before, 5u);
+    // Five chunks and a finish, but each node opens the scene once for the shot at most.
+    EXPECT_LE(nodes_[0]->metrics().shot_opens + nodes_[1]->metrics().shot_opens - opens_before, 2u);
     const fs::path spread = job_results_dir((dir_ / "data").string(), id3);
     for (int n : {0, 24, 48})
         EXPECT_EQ(read_image((spread / ("frames/" + std::to_string(n) + "/image.exr")).string()).rgb,

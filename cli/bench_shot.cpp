@@ -1,0 +1,119 @@
+// `tessera bench shot`: what a shot's frame costs beyond rendering it. A turntable of a
+// displaced sphere (1M triangles by default) on a ground plane, written as a glTF file with a
+// rotation animation, rendered through the one shot runner as a user's job would be; each
+// frame's report gives its posing, scene build, render and write times. The per-frame overhead
+// is the frame's whole time less its render time, over its render time.
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "api/job.h"
+#include "api/job_runner.h"
+#include "engine/io/gltf_writer.h"
+#include "engine/scene/procedural.h"
+#include "cli/bench_common.h"
+#include "cli/command_line.h"
+
+namespace tessera::cli {
+
+using server::parse_args;
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+
+// The turntable: the sphere's node turns once about y in `seconds`, LINEAR keys every quarter
+// turn (stored in keys.bin beside the file).
+std::string write_turntable(const fs::path& dir, uint64_t triangles, double seconds) {
+    SceneDescription s = displaced_sphere(triangles);
+    MeshDesc ground;
+    ground.name = "ground";
+    ground.positions = {{-4, -1.3f, -4}, {4, -1.3f, -4}, {4, -1.3f, 4}, {-4, -1.3f, 4}};
+    ground.indices = {0, 2, 1, 0, 3, 2};
+    ground.material = 0;
+    s.meshes.push_back(ground);
+    CameraDesc cam;
+    cam.position = {0, 1.2f, 4.2f};
+    cam.look_at = {0, 0, 0};
+    cam.vfov_deg = 35;
+    s.camera = cam;
+    json gltf = json::parse(to_gltf(s));
+    std::vector<float> keys;
+    for (int k = 0; k <= 4; ++k) keys.push_back(float(seconds * k / 4));
+    for (int k = 0; k <= 4; ++k) {
+        const double half = 0.5 * (3.14159265358979 / 2) * k;  // a quarter turn per key
+        keys.insert(keys.end(), {0.f, float(std::sin(half)), 0.f, float(std::cos(half))});
+    }
+    std::ofstream(dir / "keys.bin", std::ios::binary).write(reinterpret_cast<const char*>(keys.data()), std::streamsize(keys.size() * 4));
+    const size_t buffer = gltf["buffers"].size(), view = gltf["bufferViews"].size(), accessor = gltf["accessors"].size();
+    gltf["buffers"].push_back({{"byteLength", keys.size() * 4}, {"uri", "keys.bin"}});
+    gltf["bufferViews"].push_back({{"buffer", buffer}, {"byteOffset", 0}, {"byteLength", 5 * 4}});
+    gltf["bufferViews"].push_back({{"buffer", buffer}, {"byteOffset", 5 * 4}, {"byteLength", 5 * 16}});
+    gltf["accessors"].push_back({{"bufferView", view}, {"componentType", 5126}, {"count", 5}, {"type", "SCALAR"},
+                                 {"min", {0.0}}, {"max", {seconds}}});
+    gltf["accessors"].push_back({{"bufferView", view + 1}, {"componentType", 5126}, {"count", 5}, {"type", "VEC4"}});
+    gltf["animations"] = {{{"name", "turntable"},
+                           {"channels", {{{"sampler", 0}, {"target", {{"node", 0}, {"path", "rotation"}}}}}},
+                           {"samplers", {{{"input", accessor}, {"output", accessor + 1}, {"interpolation", "LINEAR"}}}}}};
+    const fs::path file = dir / "turntable.gltf";
+    std::ofstream(file) << gltf.dump();
+    return file.string();
+}
+
+}  // namespace
+
+int bench_shot(int argc, char** argv) {
+    CLI::App app{"A shot's per-frame overhead (posing, scene build, scheduling, writing) against its render time, on a "
+                 "turntable of a large mesh rendered through the shot runner.", "bench shot"};
+    uint64_t triangles = 1'000'000;
+    int frames = 6, width = 640, height = 360, spp = 64;
+    app.add_option("--triangles", triangles, "triangles of the turning mesh")->check(CLI::Range(8, 20000000));
+    app.add_option("--frames", frames, "frames rendered")->check(CLI::Range(2, 1000));
+    app.add_option("--width", width)->check(CLI::Range(8, 4096));
+    app.add_option("--height", height)->check(CLI::Range(8, 4096));
+    app.add_option("--spp", spp)->check(CLI::Range(1, 4096));
+    if (const auto status = parse_args(app, argc, argv)) return *status;
+
+    const fs::path dir = fs::temp_directory_path() / ("tessera_bench_shot_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    const std::string scene = write_turntable(dir, triangles, 4.0);
+    const json body = {{"scene", scene}, {"width", width}, {"height", height}, {"spp", spp}, {"max_depth", 3},
+                       {"frames", {{"start", 0}, {"end", frames - 1}}}};
+    api::RunOptions opt;
+    opt.scene_source = scene;
+    const api::JobOutcome out = api::run_job(api::parse_render_job(body), opt, api::RunOutputs::in_directory((dir / "out").string()));
+    std::printf("Turntable of a %llu-triangle mesh, %d×%d, %d spp, depth 3, %d frames, all threads\n\n"
+                "| frame | pose (s) | scene build (s) | render (s) | write (s) | whole frame (s) | overhead |\n"
+                "|---:|---:|---:|---:|---:|---:|---:|\n", (unsigned long long)triangles, width, height, spp, frames);
+    double over_sum = 0, render_sum = 0;
+    int counted = 0;
+    for (const json& f : out.report["shot"]["frames"]) {
+        const int n = f["frame"];
+        const json report = json::parse(std::ifstream(dir / "out" / "frames" / std::to_string(n) / "report.json"));
+        const json& t = report["timings"];
+        const double whole = f["seconds"], render = t["render_s"];
+        std::printf("| %d | %.3f | %.3f | %.3f | %.3f | %.3f | %.2f%% |\n", n, t["load_s"].get<double>(), t["bvh_s"].get<double>(),
+                    render, t["write_s"].get<double>(), whole, 100.0 * (whole - render) / render);
+        if (n > 0) {  // the first frame also opens the file
+            over_sum += whole - render;
+            render_sum += render;
+            ++counted;
+        }
+    }
+    std::printf("\nopening the file (once): %.3f s; frames after the first: overhead %.2f%% of render time (mean of %d)\n",
+                out.report["timings"].value("open_s", 0.0), 100.0 * over_sum / std::max(1e-9, render_sum), counted);
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+    return 0;
+}
+
+}  // namespace tessera::cli

@@ -1,0 +1,42 @@
+#pragma once
+// Prototype trees kept from one build of a scene to the next (a shot's frames): a placement that
+// moves changes no prototype, so its BVH is reused rather than built again; a mesh that deforms
+// (skinned, morphed) has other triangles and is built anew. Keyed by the triangles themselves
+// (two independent 64-bit hashes of their coordinates) and the build options; entries the last
+// build did not use are dropped, so the cache holds at most one scene's prototypes.
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "engine/accel/bvh.h"
+#include "engine/accel/wide_bvh.h"
+#include "engine/core/large_vector.h"
+#include "engine/geometry/triangle.h"
+#include "engine/geometry/triangle4.h"
+
+namespace tessera {
+
+struct PrototypeCache {
+    struct Key {
+        uint64_t h1 = 0, h2 = 0;
+        size_t triangles = 0;
+        BvhType type = BvhType::sah;
+        int max_leaf = 0;
+        bool operator==(const Key&) const = default;
+    };
+    struct Entry {
+        Key key;
+        WideBvh wide;                    // leaves name blocks from 0
+        LargeVector<Triangle4> blocks;   // lanes name triangles from 0
+        bool used = false;
+    };
+    std::vector<Entry> entries;
+    size_t hits = 0, misses = 0;  // over the cache's life
+
+    static Key key_of(std::span<const TriangleVerts> tris, const BvhBuildOptions& options);
+    Entry* find(const Key& key);
+    // Drops what the build just finished did not use, and clears the marks for the next one.
+    void end_build();
+};
+
+}  // namespace tessera
