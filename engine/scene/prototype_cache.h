@@ -10,6 +10,7 @@
 
 #include "engine/accel/bvh.h"
 #include "engine/accel/wide_bvh.h"
+#include "engine/geometry/aabb.h"
 #include "engine/core/large_vector.h"
 #include "engine/geometry/triangle.h"
 #include "engine/geometry/triangle4.h"
@@ -28,6 +29,7 @@ struct PrototypeCache {
         Key key;
         WideBvh wide;                    // leaves name blocks from 0
         LargeVector<Triangle4> blocks;   // lanes name triangles from 0
+        Aabb bounds;                     // of the triangles
         bool used = false;
     };
     std::vector<Entry> entries;

@@ -255,12 +255,15 @@ void build_instances(std::span<const TriangleVerts> triangles, const std::vector
         p.triangles = prototype_tris[k];
         p.first_block = uint32_t(s.tri_blocks.size());
         const std::span<const TriangleVerts> tris = triangles.subspan(p.first_tri, p.triangles);
-        for (const TriangleVerts& t : tris) p.bounds.expand(triangle_bounds(t));
+        BvhBuildOptions bo = options.bvh;
+        if (p.triangles < options.min_prims_for_bvh) bo.type = BvhType::none;
+        const PrototypeCache::Key key = cache && !embree ? PrototypeCache::key_of(tris, bo) : PrototypeCache::Key{};
+        PrototypeCache::Entry* hit = cache && !embree ? cache->find(key) : nullptr;
+        if (hit) p.bounds = hit->bounds;
+        else
+            for (const TriangleVerts& t : tris) p.bounds.expand(triangle_bounds(t));
         if (!embree) {
-            BvhBuildOptions bo = options.bvh;
-            if (p.triangles < options.min_prims_for_bvh) bo.type = BvhType::none;
-            const PrototypeCache::Key key = cache ? PrototypeCache::key_of(tris, bo) : PrototypeCache::Key{};
-            if (PrototypeCache::Entry* e = cache ? cache->find(key) : nullptr) {
+            if (PrototypeCache::Entry* e = hit) {
                 // The same triangles as in the last build: its tree and blocks, renumbered.
                 e->used = true;
                 ++cache->hits;
@@ -274,7 +277,7 @@ void build_instances(std::span<const TriangleVerts> triangles, const std::vector
                 p.wide = build_wide(tris, triangles, p.first_tri, bo, threads, s.tri_blocks, stats, nullptr);
                 if (cache) {
                     ++cache->misses;
-                    PrototypeCache::Entry entry{key, p.wide, {}, true};
+                    PrototypeCache::Entry entry{key, p.wide, {}, p.bounds, true};
                     entry.blocks.assign(s.tri_blocks.begin() + long(p.first_block), s.tri_blocks.end());
                     for (Triangle4& block : entry.blocks)
                         for (int l = 0; l < 4; ++l) block.prim[l] -= p.first_tri;
