@@ -67,10 +67,6 @@ BvhBuildOptions options_for(size_t n, const RenderSceneOptions& o, const char* w
     return b;
 }
 
-// Triangles of every mesh in one list, in input order (which the shading records keep), with
-// their shading records; area-weighted vertex normals where the file gave none (as CS184 does);
-// each emissive mesh becomes an area light. Expands s.bounds by the triangles. The per-triangle
-// passes run on `threads` threads over disjoint ranges, so the result is the same for any count.
 // A mesh's vertex normals, unnormalised, added into `normals`: the file's, or area-weighted
 // face normals where it gave none (as CS184 does), or none (zero: the face normal) for glTF's
 // flat shading.
@@ -98,6 +94,10 @@ void normalise(LargeVector<glm::vec3>& normals, int threads) {
     });
 }
 
+// Triangles of every mesh in one list, in input order (which the shading records keep), with
+// their shading records; area-weighted vertex normals where the file gave none (as CS184 does);
+// each emissive mesh becomes an area light. Expands s.bounds by the triangles. The per-triangle
+// passes run on `threads` threads over disjoint ranges, so the result is the same for any count.
 // Meshes from `world_meshes` on are prototypes, in their own space: they add no bounds and no lights.
 LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& meshes, size_t world_meshes,
                                             uint32_t default_material, int threads, RenderScene& s) {
