@@ -85,8 +85,8 @@ void add_vertex_normals(const MeshDesc& mesh, glm::vec3* normals) {
     }
 }
 
-void normalise(LargeVector<glm::vec3>& normals, int threads) {
-    parallel_ranges(normals.size(), pass_threads(normals.size(), threads), [&](size_t begin, size_t end, int) {
+void normalise(glm::vec3* normals, size_t n, int threads) {
+    parallel_ranges(n, pass_threads(n, threads), [&](size_t begin, size_t end, int) {
         for (size_t i = begin; i < end; ++i) {
             const float len = glm::length(normals[i]);
             normals[i] = len > 0.f && std::isfinite(len) ? normals[i] / len : glm::vec3(0.f);  // zero: face normal
@@ -111,7 +111,7 @@ LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& 
 
     s.normals.resize(first_vertex.back(), glm::vec3(0.f));  // zero: use the face normal
     for (size_t k = 0; k < meshes.size(); ++k) add_vertex_normals(*meshes[k], s.normals.data() + first_vertex[k]);
-    normalise(s.normals, threads);
+    normalise(s.normals.data(), s.normals.size(), threads);
 
     std::vector<uint32_t> mesh_light(meshes.size(), kNoLight);
     for (size_t k = 0; k < world_meshes; ++k) {
@@ -437,10 +437,7 @@ LargeVector<TriangleVerts> closing_triangles(const SceneDescription& open, const
                 out[t + i] = {b.positions[b.indices[3 * i]], b.positions[b.indices[3 * i + 1]], b.positions[b.indices[3 * i + 2]]};
             std::fill(normals.begin() + long(v), normals.begin() + long(v + a.positions.size()), glm::vec3(0.f));
             add_vertex_normals(b, normals.data() + v);
-            for (size_t i = v; i < v + a.positions.size(); ++i) {
-                const float len = glm::length(normals[i]);
-                normals[i] = len > 0.f && std::isfinite(len) ? normals[i] / len : glm::vec3(0.f);
-            }
+            normalise(normals.data() + v, a.positions.size(), 1);
             moved = true;
         }
         t += tris;
