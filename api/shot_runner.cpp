@@ -21,22 +21,6 @@
 namespace tessera::api {
 namespace {
 
-// Emitters and lights where `moment` has them (a frame's own time), in `scene` of the same shape
-// (its shutter's opening): the engine does not blur them (render_scene.h).
-void hold_emitters(SceneDescription& scene, const SceneDescription& moment) {
-    auto emits = [&](int material) { return material >= 0 && size_t(material) < scene.materials.size() && scene.materials[size_t(material)].emits(); };
-    if (scene.meshes.size() == moment.meshes.size())
-        for (size_t k = 0; k < scene.meshes.size(); ++k)
-            if (emits(scene.meshes[k].material) && scene.meshes[k].positions.size() == moment.meshes[k].positions.size()) {
-                scene.meshes[k].positions = moment.meshes[k].positions;
-                scene.meshes[k].normals = moment.meshes[k].normals;
-            }
-    if (scene.instances.size() == moment.instances.size())
-        for (size_t k = 0; k < scene.instances.size(); ++k)
-            if (emits(scene.prototypes[scene.instances[k].prototype].material)) scene.instances[k].to_world = moment.instances[k].to_world;
-    scene.lights = moment.lights;
-}
-
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
@@ -203,15 +187,13 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
         SceneDescription desc = file.at(ScenePose{time_s, job.animation});
         if (!desc.camera && held_camera) desc.camera = held_camera;
         // Motion blur: the scene at the shutter's opening and closing; the engine blurs what
-        // moves between them and holds emitters and lights where the opening has them, which
-        // is made the frame's own moment.
+        // moves between them, emitters and lights included.
         std::optional<SceneDescription> closing;
         if (job.shutter) {
             SceneDescription opening = file.at(ScenePose{(double(n) + job.shutter->first) / job.fps, job.animation});
             closing = file.at(ScenePose{(double(n) + job.shutter->second) / job.fps, job.animation});
             if (!opening.camera && held_camera) opening.camera = held_camera;
             if (!closing->camera && held_camera) closing->camera = held_camera;
-            hold_emitters(opening, desc);
             desc = std::move(opening);
         }
         const auto t_posed = Clock::now();

@@ -7,7 +7,9 @@
 //      on one thread; the difference per tile is the farm's overhead (queue, film transfer,
 //      assembly);
 //   3. scaling: CBbunny as one process with 2 threads against two render nodes with 1 thread each
-//      (same image, checked bit for bit; wall time; efficiency).
+//      (same image, checked bit for bit; wall time; efficiency);
+//   4. a shot: a 120-frame turntable the same way (every frame checked bit for bit; how often
+//      each node opened the scene; efficiency).
 // Farm nodes here are RenderNode objects in this process, each with its own Redis connections
 // and threads, so the bench needs no orchestration; the fault tests run them as processes.
 #include "build_paths.h"
@@ -29,6 +31,7 @@
 
 #include "api/job_runner.h"
 #include "cli/bench_common.h"
+#include "cli/bench_turntable.h"
 #include "engine/io/image_io.h"
 #include "engine/render/film.h"
 #include "server/store/cluster_keys.h"
@@ -141,7 +144,9 @@ struct Farm {
             const api::JobStatus s = service.status(id);
             if (s.state == api::JobState::succeeded) return {since(t0), id};
             if (api::is_final(s.state)) throw std::runtime_error("bench job " + id + " " + api::to_json(s).dump());
-            std::this_thread::sleep_for(std::chrono::milliseconds(2));
+            // Polling takes the cores the nodes render on (a shot's status reads every frame's
+            // state): every 2 ms for short jobs, at most 1% of the time so far for long ones.
+            std::this_thread::sleep_for(std::chrono::duration<double>(std::clamp(0.01 * since(t0), 0.002, 0.1)));
         }
     }
 };
@@ -173,13 +178,73 @@ bool same_pixels(const std::string& a, const std::string& b) {
     return x.rgb.size() == y.rgb.size() && std::memcmp(x.rgb.data(), y.rgb.data(), x.rgb.size() * sizeof(float)) == 0;
 }
 
+// 4. A shot (the turntable of `bench shot`) rendered by one process with 2 threads and by two
+// render nodes with 1 thread each, the farm choosing its chunks as a user's job would: wall time
+// from start to the shot's last file (contact sheet, preview), every frame compared bit for bit.
+int bench_shot_scaling(const server::RedisUrl& url, const std::string& url_text, const fs::path& dir, int frames, uint64_t triangles,
+                       int width, int height, int spp) {
+    if (frames <= 0) return 0;
+    std::printf("\n## 4. A %d-frame shot: two render nodes x 1 thread against one process x 2 threads\n\n", frames);
+    const fs::path scene_dir = dir / "shot_scene";
+    fs::create_directories(scene_dir);
+    const std::string scene = write_turntable(scene_dir, triangles, frames / 24.0);
+    std::printf("A turntable of a %llu-triangle mesh (`tessera bench shot`'s), %dx%d, %d spp, max_depth 3, frames 1-%d, the "
+                "farm's chunks chosen by the farm; wall time from start to the shot's last file.\n\n",
+                (unsigned long long)triangles, width, height, spp, frames);
+    Redis r(url);
+    r.command({"FLUSHALL"});
+    server::ServiceConfig cfg = farm_config(url_text, dir / "shot_farm", "");
+    cfg.scene_dirs = {scene_dir.string()};
+    Farm farm(cfg, 2, url);
+    std::string name;
+    for (const auto& e : farm.service.catalog().entries())
+        if (fs::path(e.path).filename() == "turntable.gltf") name = e.name;
+    if (name.empty()) throw std::runtime_error("bench cluster: the shot's scene is not in the farm's catalog");
+    const json job = {{"scene", name}, {"width", width}, {"height", height}, {"spp", spp}, {"max_depth", 3},
+                      {"frames", {{"start", 1}, {"end", frames}}}};
+    const double one = run_one(job, scene, 2, dir / "shot_one");
+    const auto [farm_s, id] = farm.run(job);
+    const fs::path results = server::job_results_dir(cfg.data_dir, id);
+    int differ = 0;
+    for (int n = 1; n <= frames; ++n) {
+        const std::string f = "frames/" + std::to_string(n) + "/image.exr";
+        if (!same_pixels((dir / "shot_one" / f).string(), (results / f).string())) ++differ;
+    }
+    const json report = json::parse(std::ifstream(results / "report.json"));
+    // Where the time went: each frame's whole time and its render within it, summed.
+    auto sums = [&](const fs::path& root) {
+        double whole = 0, render = 0;
+        for (int n = 1; n <= frames; ++n) {
+            const json f = json::parse(std::ifstream(root / "frames" / std::to_string(n) / "report.json"));
+            whole += f["timings"].value("total_s", 0.0);
+            render += f["timings"].value("render_s", 0.0);
+        }
+        return std::make_pair(whole, render);
+    };
+    const auto [one_whole, one_render] = sums(dir / "shot_one");
+    const auto [farm_whole, farm_render] = sums(results);
+    std::printf("| run | wall s | frames' own time, summed (s) | their render, summed (s) |\n|---|---|---|---|\n"
+                "| one process, 2 threads | %.3f | %.3f | %.3f |\n| two render nodes, 1 thread each | %.3f | %.3f | %.3f |\n",
+                one, one_whole, one_render, farm_s, farm_whole, farm_render);
+    std::printf("\nefficiency (one process / farm, same cores): %.3f\n", one / farm_s);
+    std::printf("frames the same bit for bit: %d of %d\n", frames - differ, frames);
+    for (const auto& node : farm.nodes)
+        std::printf("%s: %llu frames, scene opened %llu time(s)\n", node->name().c_str(),
+                    (unsigned long long)node->metrics().frames.load(), (unsigned long long)node->metrics().shot_opens.load());
+    if (report.contains("shot") && report["shot"].contains("chunk"))
+        std::printf("chunk chosen: %s frames\n", report["shot"]["chunk"].dump().c_str());
+    return differ == 0 ? 0 : 1;
+}
+
 }  // namespace
 
 int bench_cluster(int argc, char** argv) {
     double seconds = 2;
     int clients = 2, reps = 2, spp = 64, depth = 5, width = 480, height = 360;
     std::string scene = "sky/CBbunny", cs184 = default_cs184_dir();
-    bool skip_scaling = false;
+    bool skip_scaling = false, shot_only = false;
+    int shot_frames = 120, shot_width = 320, shot_height = 180, shot_spp = 16;
+    uint64_t shot_triangles = 100'000;
     std::string fsync = "everysec";
     CLI::App app{"A render farm on this machine: tile hand-offs through one Redis, the end-to-end overhead per tile, and "
                  "two render nodes against one process with the same cores.", "bench cluster"};
@@ -194,6 +259,12 @@ int bench_cluster(int argc, char** argv) {
     app.add_option("--height", height)->check(CLI::Range(8, 8192));
     app.add_option("--cs184", cs184, "the CS184 scene folder")->type_name("DIR");
     app.add_flag("--no-scaling", skip_scaling, "only the hand-off and overhead tables");
+    app.add_flag("--shot-only", shot_only, "only the shot (section 4)");
+    app.add_option("--shot-frames", shot_frames, "frames of the shot (0: no shot)")->check(CLI::Range(0, 10000));
+    app.add_option("--shot-triangles", shot_triangles, "triangles of the shot's turning mesh")->check(CLI::Range(8, 20000000));
+    app.add_option("--shot-width", shot_width)->check(CLI::Range(8, 4096));
+    app.add_option("--shot-height", shot_height)->check(CLI::Range(8, 4096));
+    app.add_option("--shot-spp", shot_spp)->check(CLI::Range(1, 4096));
     app.add_option("--appendfsync", fsync, "Redis's AOF fsync policy for this run (off: no AOF), to price durability")
         ->check(CLI::IsMember({"everysec", "always", "no", "off"}));
     if (const auto status = server::parse_args(app, argc, argv)) return *status;
@@ -216,6 +287,12 @@ int bench_cluster(int argc, char** argv) {
     std::printf("# tessera bench cluster (%u hardware threads; redis-server %s)\n\n", cores,
                 fsync == "off" ? "without AOF" : ("with appendonly yes, appendfsync " + fsync).c_str());
 
+    auto shot = [&] {
+        const int rc = bench_shot_scaling(url, url_text, dir, shot_frames, shot_triangles, shot_width, shot_height, shot_spp);
+        fs::remove_all(dir);
+        return rc;
+    };
+    if (shot_only) return shot();
     std::printf("## 1. Tile hand-offs through one Redis (render does nothing)\n\n");
     std::printf("Tiles added a pass at a time, read 32 at a time (XREADGROUP), each stored by the commit script, which\n"
                 "acknowledges and deletes its task in the same call; %.1f s each. A job that stops on spp ships each tile's\n"
@@ -258,12 +335,15 @@ int bench_cluster(int argc, char** argv) {
         }
     }
 
-    if (skip_scaling) return 0;
+    if (skip_scaling) {
+        fs::remove_all(dir);
+        return 0;
+    }
     const fs::path scene_path = fs::path(cs184) / (scene + ".dae");
     std::printf("\n## 3. Two render nodes x 1 thread against one process x 2 threads\n\n");
     if (!fs::exists(scene_path)) {
         std::printf("skipped: %s is absent (set TESSERA_CS184_DIR or --cs184)\n", scene_path.c_str());
-        return 0;
+        return shot();
     }
     std::printf("%s %dx%d, %d spp, max_depth %d, tiles 32x32; wall time from start to written results; %d runs each, "
                 "alternating; medians.\n\n", scene.c_str(), width, height, spp, depth, reps);
@@ -296,8 +376,7 @@ int bench_cluster(int argc, char** argv) {
         for (const auto& n : report["nodes"])
             std::printf("node %s: %d tiles (%.0f%%), %.2f s in tiles\n", n["node"].get<std::string>().c_str(), n["tiles"].get<int>(),
                         n["share"].get<double>() * 100.0, n["seconds"].get<double>());
-    fs::remove_all(dir);
-    return same ? 0 : 1;
+    return shot() == 0 && same ? 0 : 1;
 }
 
 }  // namespace tessera::cli

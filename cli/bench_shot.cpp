@@ -6,21 +6,18 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
-#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include "api/job.h"
 #include "api/job_runner.h"
-#include "engine/io/gltf_writer.h"
-#include "engine/scene/procedural.h"
 #include "cli/bench_common.h"
+#include "cli/bench_turntable.h"
 #include "cli/command_line.h"
 
 namespace tessera::cli {
@@ -28,48 +25,6 @@ namespace tessera::cli {
 using server::parse_args;
 using nlohmann::json;
 namespace fs = std::filesystem;
-
-namespace {
-
-// The turntable: the sphere's node turns once about y in `seconds`, LINEAR keys every quarter
-// turn (stored in keys.bin beside the file).
-std::string write_turntable(const fs::path& dir, uint64_t triangles, double seconds) {
-    SceneDescription s = displaced_sphere(triangles);
-    MeshDesc ground;
-    ground.name = "ground";
-    ground.positions = {{-4, -1.3f, -4}, {4, -1.3f, -4}, {4, -1.3f, 4}, {-4, -1.3f, 4}};
-    ground.indices = {0, 2, 1, 0, 3, 2};
-    ground.material = 0;
-    s.meshes.push_back(ground);
-    CameraDesc cam;
-    cam.position = {0, 1.2f, 4.2f};
-    cam.look_at = {0, 0, 0};
-    cam.vfov_deg = 35;
-    s.camera = cam;
-    json gltf = json::parse(to_gltf(s));
-    std::vector<float> keys;
-    for (int k = 0; k <= 4; ++k) keys.push_back(float(seconds * k / 4));
-    for (int k = 0; k <= 4; ++k) {
-        const double half = 0.5 * (3.14159265358979 / 2) * k;  // a quarter turn per key
-        keys.insert(keys.end(), {0.f, float(std::sin(half)), 0.f, float(std::cos(half))});
-    }
-    std::ofstream(dir / "keys.bin", std::ios::binary).write(reinterpret_cast<const char*>(keys.data()), std::streamsize(keys.size() * 4));
-    const size_t buffer = gltf["buffers"].size(), view = gltf["bufferViews"].size(), accessor = gltf["accessors"].size();
-    gltf["buffers"].push_back({{"byteLength", keys.size() * 4}, {"uri", "keys.bin"}});
-    gltf["bufferViews"].push_back({{"buffer", buffer}, {"byteOffset", 0}, {"byteLength", 5 * 4}});
-    gltf["bufferViews"].push_back({{"buffer", buffer}, {"byteOffset", 5 * 4}, {"byteLength", 5 * 16}});
-    gltf["accessors"].push_back({{"bufferView", view}, {"componentType", 5126}, {"count", 5}, {"type", "SCALAR"},
-                                 {"min", {0.0}}, {"max", {seconds}}});
-    gltf["accessors"].push_back({{"bufferView", view + 1}, {"componentType", 5126}, {"count", 5}, {"type", "VEC4"}});
-    gltf["animations"] = {{{"name", "turntable"},
-                           {"channels", {{{"sampler", 0}, {"target", {{"node", 0}, {"path", "rotation"}}}}}},
-                           {"samplers", {{{"input", accessor}, {"output", accessor + 1}, {"interpolation", "LINEAR"}}}}}};
-    const fs::path file = dir / "turntable.gltf";
-    std::ofstream(file) << gltf.dump();
-    return file.string();
-}
-
-}  // namespace
 
 int bench_shot(int argc, char** argv) {
     CLI::App app{"A shot's per-frame overhead (posing, scene build, scheduling, writing) against its render time, on a "

@@ -176,7 +176,7 @@ std::string to_gltf(const SceneDescription& scene, int sphere_subdivisions) {
     j["materials"] = materials;
     j["accessors"] = accessors;
     j["bufferViews"] = views;
-    j["buffers"] = {{{"byteLength", buf.size()}, {"uri", "data:application/octet-stream;base64," + base64(buf)}}};
+    j["buffers"] = {{{"byteLength", buf.size()}, {"uri", gltf_data_uri(buf)}}};
     return j.dump(1);
 }
 
@@ -185,6 +185,10 @@ void write_gltf(const std::string& path, const SceneDescription& scene, int sphe
     if (!out) throw std::runtime_error(path + ": cannot open for writing");
     out << to_gltf(scene, sphere_subdivisions);
     if (!out) throw std::runtime_error(path + ": write failed");
+}
+
+std::string gltf_data_uri(const std::vector<unsigned char>& bytes) {
+    return "data:application/octet-stream;base64," + base64(bytes);
 }
 
 }  // namespace tessera

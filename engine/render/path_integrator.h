@@ -233,12 +233,12 @@ private:
         const float pdf_bp = continuation_pdf(b, wo_l, frame.to_local(wp));
         float pdf_l;
         if (by_tree_) {
-            const LightTriangle& lt = s_.light_triangles[lti];
+            const float area = light_triangle_at(s_, lti, hs.time).area;
             const float cos_l = std::abs(glm::dot(hs.ng, wp));
-            pdf_l = cos_l > 0.f ? light_tree_pmf(s_.light_tree, from.p, from.ns, lti) * dist * dist / (cos_l * lt.area) : 0.f;
+            pdf_l = cos_l > 0.f && area > 0.f ? light_tree_pmf(s_.light_tree, from.p, from.ns, lti) * dist * dist / (cos_l * area) : 0.f;
         } else {
             const AreaLight& light = s_.area_lights[s_.light_triangles[lti].light];
-            pdf_l = area_light_pdf(light, hs.ng, wp, dist) * (by_power_ ? light.power_pmf : 1.f);
+            pdf_l = area_light_pdf(s_, lti, hs.ng, wp, dist, hs.time) * (by_power_ ? light.power_pmf : 1.f);
         }
         return Le * bsdf_mis_weight(pdf_bp, pdf_l);
     }
@@ -269,7 +269,8 @@ private:
         };
         glm::vec3 Ld(0.f);
         // Delta lights have one deterministic direction: one shadow ray each, in every strategy.
-        for (const DeltaLight& dl : s_.delta_lights) {
+        for (size_t k = 0; k < s_.delta_lights.size(); ++k) {
+            const DeltaLight dl = delta_light_at(s_, k, si.time);
             if (dl.kind == DeltaKind::point) {
                 const glm::vec3 d = dl.position - si.p;
                 const float dist2 = glm::dot(d, d);
@@ -325,7 +326,7 @@ private:
         };
         auto light_sample = [&](const AreaLight& light, float pick) {
             LightSample ls;
-            if (sample_area_light(s_, light, si.anchor, si.local, rng, ls)) shade(ls, pick);
+            if (sample_area_light(s_, light, si.anchor, si.local, rng, ls, si.time)) shade(ls, pick);
         };
         if (by_tree) {
             for (int i = 0; i < n; ++i) {
@@ -340,7 +341,7 @@ private:
                 if (!sample_light_tree(s_.light_tree, si.p, si.ns, u, lt, pmf)) continue;
                 if (one_point) uv.x = u;
                 LightSample ls;
-                if (sample_light_triangle(s_, lt, uv, si.anchor, si.local, ls)) shade(ls, pmf);
+                if (sample_light_triangle(s_, lt, uv, si.anchor, si.local, ls, si.time)) shade(ls, pmf);
             }
         } else if (by_power) {
             for (int i = 0; i < n; ++i) {

@@ -30,6 +30,12 @@ struct Builder {
     std::vector<glm::vec3> centroid;
     std::vector<LightTreeNode>& nodes;  // the binary tree, depth first
 
+    bool moves(uint32_t i) const {
+        if (s.motion.light_triangles_close.empty()) return false;
+        const LightTriangle &a = s.light_triangles[i], &c = s.motion.light_triangles_close[i];
+        return a.p0 != c.p0 || a.e1 != c.e1 || a.e2 != c.e2;
+    }
+
     // Builds the node for order[lo, hi) at the end of `nodes`.
     void build(uint32_t lo, uint32_t hi) {
         const uint32_t at = uint32_t(nodes.size());
@@ -46,6 +52,15 @@ struct Builder {
             n.bounds.expand(lt.p0 + lt.e2);
             n.axis = lt.n;
             n.cos_o = 1.f;
+            if (moves(i)) {
+                // Within a shutter: its box holds it at the opening and the closing (so, being
+                // convex, at every time between), and its normal may turn any way between them.
+                const LightTriangle& c = s.motion.light_triangles_close[i];
+                n.bounds.expand(c.p0);
+                n.bounds.expand(c.p0 + c.e1);
+                n.bounds.expand(c.p0 + c.e2);
+                n.cos_o = -1.f;
+            }
             n.two_sided = al.double_sided;
             const float lum = 0.2126f * al.radiance.x + 0.7152f * al.radiance.y + 0.0722f * al.radiance.z;
             n.power = lum * lt.area * (al.double_sided ? 2.f : 1.f);
@@ -74,7 +89,9 @@ struct Builder {
         glm::vec3 sum(0.f);
         for (uint32_t k = lo; k < hi; ++k) sum += s.light_triangles[order[k]].n;
         const float len = glm::length(sum);
-        if (len > 1e-3f * float(hi - lo)) {
+        bool moving = false;
+        for (uint32_t k = lo; k < hi && !moving; ++k) moving = moves(order[k]);
+        if (len > 1e-3f * float(hi - lo) && !moving) {
             n.axis = sum / len;
             float c = 1.f;
             for (uint32_t k = lo; k < hi; ++k) c = std::min(c, glm::dot(n.axis, s.light_triangles[order[k]].n));

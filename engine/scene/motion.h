@@ -3,8 +3,10 @@
 // and each camera ray's time in [0, 1] between them. The camera and rigid placements move by
 // their transforms, interpolated (translation and the symmetric stretch linearly, rotation by
 // slerp: a turning placement turns, it does not shrink through the chord); world-space
-// vertices (deforming meshes) move linearly from their position at the opening to the one at
-// the closing. Bounds cover the whole motion.
+// vertices (deforming meshes, and emitters, which are all in world space) move linearly from
+// their position at the opening to the one at the closing, and light sampling follows the
+// emitters (engine/render/light_sampler.h); point lights move linearly, directional lights
+// turn. Bounds cover the whole motion.
 #include <cstdint>
 #include <vector>
 
@@ -15,6 +17,7 @@
 #include "engine/core/large_vector.h"
 #include "engine/geometry/aabb.h"
 #include "engine/geometry/triangle4.h"
+#include "engine/scene/lights.h"
 
 namespace tessera {
 
@@ -54,8 +57,14 @@ struct SceneMotion {
     LargeVector<glm::vec3> normals_close;      // with them: the vertex normals at the closing
     std::vector<InstanceMotion> instances;     // non-empty: per placement (instance order)
     std::vector<uint8_t> instance_moves;       // per placement: its transform differs at the closing
+    // Emitters: the light triangles at the closing (light_triangles' order; their cdf and light
+    // as at the opening), non-empty when one moves; the delta lights at the closing, non-empty
+    // when one moves.
+    std::vector<LightTriangle> light_triangles_close;
+    std::vector<DeltaLight> delta_lights_close;
     bool deforming() const { return !tri_blocks_close.empty(); }
-    bool any() const { return camera || deforming() || !instances.empty(); }
+    bool emitters() const { return !light_triangles_close.empty() || !delta_lights_close.empty(); }
+    bool any() const { return camera || deforming() || !instances.empty() || emitters(); }
 };
 
 }  // namespace tessera

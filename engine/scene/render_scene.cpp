@@ -417,22 +417,20 @@ void check_motion_shape(const SceneDescription& a, const SceneDescription& b, co
             throw SceneError(a.instances[k].origin, "placement " + std::to_string(k) + " places another mesh at the shutter's closing");
 }
 
-// The world-space triangles at the shutter's closing, in gather_triangles' order, and their
-// vertex normals into s.motion.normals_close. Emitters stay where they are at the opening (light
-// sampling has one position for them), as do the CS184 lamps and emitting placements, which come
-// after the meshes. Empty when no triangle moves.
+// The world-space triangles at the shutter's closing, in gather_triangles' order (the meshes,
+// `lamps`, then the emitting placements `placed`, indices into the instances), and their vertex
+// normals into s.motion.normals_close. The CS184 lamps do not move (their files do not animate).
+// Empty when no triangle moves.
 LargeVector<TriangleVerts> closing_triangles(const SceneDescription& open, const SceneDescription& close,
+                                             const std::vector<MeshDesc>& lamps, const std::vector<size_t>& placed,
                                              std::span<const TriangleVerts> opening, RenderScene& s) {
     LargeVector<TriangleVerts> out(opening.begin(), opening.end());
     LargeVector<glm::vec3> normals = s.normals;
     bool moved = false;
     size_t t = 0, v = 0;
-    for (size_t k = 0; k < open.meshes.size(); ++k) {
-        const MeshDesc& a = open.meshes[k];
-        const MeshDesc& b = close.meshes[k];
+    auto move = [&](const MeshDesc& a, const MeshDesc& b) {
         const size_t tris = a.indices.size() / 3;
-        const bool emits = a.material >= 0 && s.materials[size_t(a.material)].emissive();
-        if (!emits && a.positions != b.positions) {
+        if (a.positions != b.positions) {
             for (size_t i = 0; i < tris; ++i)
                 out[t + i] = {b.positions[b.indices[3 * i]], b.positions[b.indices[3 * i + 1]], b.positions[b.indices[3 * i + 2]]};
             std::fill(normals.begin() + long(v), normals.begin() + long(v + a.positions.size()), glm::vec3(0.f));
@@ -442,10 +440,55 @@ LargeVector<TriangleVerts> closing_triangles(const SceneDescription& open, const
         }
         t += tris;
         v += a.positions.size();
+    };
+    for (size_t k = 0; k < open.meshes.size(); ++k) move(open.meshes[k], close.meshes[k]);
+    for (const MeshDesc& lamp : lamps) move(lamp, lamp);
+    for (size_t k : placed) {
+        const MeshDesc& proto = open.prototypes[open.instances[k].prototype];
+        move(placed_mesh(proto, open.instances[k].to_world), placed_mesh(proto, close.instances[k].to_world));
     }
     if (!moved) return {};
     s.motion.normals_close = std::move(normals);
     return out;
+}
+
+// The light triangles where `closing` (closing_triangles) puts them, into s.motion when one moves.
+void close_light_triangles(std::span<const TriangleVerts> closing, RenderScene& s) {
+    std::vector<LightTriangle> out = s.light_triangles;
+    bool moved = false;
+    for (LightTriangle& lt : out) {
+        const TriangleVerts& c = closing[lt.prim];
+        const glm::vec3 e1 = c.p1 - c.p0, e2 = c.p2 - c.p0, n = glm::cross(e1, e2);
+        if (c.p0 == lt.p0 && e1 == lt.e1 && e2 == lt.e2) continue;
+        const float len = glm::length(n);
+        lt.p0 = c.p0;
+        lt.e1 = e1;
+        lt.e2 = e2;
+        lt.area = 0.5f * len;
+        if (len > 0.f) lt.n = n / len;  // degenerate at the closing: it cannot be sampled there (light_triangle_at)
+        moved = true;
+    }
+    if (moved) s.motion.light_triangles_close = std::move(out);
+}
+
+// The delta lights at the closing, into s.motion when one moves; the same lights must be there.
+void close_delta_lights(const SceneDescription& open, const SceneDescription& close, RenderScene& s) {
+    RenderScene closing;
+    add_delta_lights(close, closing);
+    if (closing.delta_lights.size() != s.delta_lights.size())
+        throw SceneError(SourceLocation{open.source, 0, ""}, "the scene's lights change within the shutter (" +
+                                                                  std::to_string(s.delta_lights.size()) + " at the opening, " +
+                                                                  std::to_string(closing.delta_lights.size()) + " at the closing)");
+    for (size_t k = 0; k < s.delta_lights.size(); ++k) {
+        const DeltaLight &a = s.delta_lights[k], &b = closing.delta_lights[k];
+        if (a.kind != b.kind)
+            throw SceneError(SourceLocation{open.source, 0, ""}, "light " + std::to_string(k) + " changes its kind within the shutter");
+        if (a.position != b.position || a.direction != b.direction) {
+            for (size_t j = 0; j < s.delta_lights.size(); ++j) closing.delta_lights[j].intensity = s.delta_lights[j].intensity;
+            s.motion.delta_lights_close = std::move(closing.delta_lights);
+            return;
+        }
+    }
 }
 
 bool same_camera(const CameraDesc& a, const CameraDesc& b) {
@@ -476,6 +519,7 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     // Instances stay instances unless their mesh emits (light sampling needs world-space
     // triangles): those are placed as world-space meshes.
     std::vector<MeshDesc> placed;
+    std::vector<size_t> placed_from;  // the instances `placed` holds
     std::vector<const InstanceDesc*> placements;
     std::vector<uint32_t> prototype_slot(desc.prototypes.size(), kNoInstance);  // its index among those kept
     std::vector<const MeshDesc*> kept_prototypes;
@@ -485,6 +529,7 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
         if (emits) {
             placed.push_back(placed_mesh(proto, in.to_world));
             placed.back().origin = in.origin;
+            placed_from.push_back(size_t(&in - desc.instances.data()));
             continue;
         }
         if (prototype_slot[in.prototype] == kNoInstance) {
@@ -519,6 +564,12 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
         next += n;
     }
     clock.lap("gather");
+    const std::span<const TriangleVerts> all(triangles.data(), triangles.size());
+    // Within a shutter: the world-space triangles, the emitters and the placements at its closing.
+    const LargeVector<TriangleVerts> closing =
+        close ? closing_triangles(desc, *close, lamps, placed_from, all.first(s.flat_triangles), s) : LargeVector<TriangleVerts>{};
+    if (!closing.empty()) close_light_triangles(std::span<const TriangleVerts>(closing.data(), closing.size()), s);
+    if (close) close_delta_lights(desc, *close, s);
     build_power_table(s.area_lights);
     if (s.light_triangles.size() > 1) {
         s.light_tree = build_light_tree(s);
@@ -530,10 +581,6 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     for (const SphereDesc& sd : desc.spheres)
         s.spheres.push_back({sd.center, sd.radius, sd.material < 0 ? default_material : uint32_t(sd.material)});
 
-    const std::span<const TriangleVerts> all(triangles.data(), triangles.size());
-    // Within a shutter: the world-space triangles and the placements at its closing.
-    const LargeVector<TriangleVerts> closing =
-        close ? closing_triangles(desc, *close, all.first(s.flat_triangles), s) : LargeVector<TriangleVerts>{};
     std::vector<glm::mat4> closing_placements;
     if (close)
         for (const InstanceDesc* in : placements) closing_placements.push_back(close->instances[size_t(in - desc.instances.data())].to_world);
@@ -574,7 +621,9 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
         if (s.motion.any())
             s.report.built.push_back(std::string("motion blur within the shutter: ") + (s.motion.camera ? "the camera, " : "") +
                                      std::to_string(s.motion.deforming() ? s.flat_triangles : 0) + " world-space triangles (deforming), " +
-                                     std::to_string(moving) + " moving placement(s); emitters and lights held at the opening");
+                                     std::to_string(moving) + " moving placement(s), " +
+                                     std::to_string(s.motion.light_triangles_close.empty() ? 0 : s.light_triangles.size()) +
+                                     " light triangles and " + std::to_string(s.motion.delta_lights_close.size()) + " delta lights (moving)");
         else
             s.report.left_out.push_back("motion blur: nothing moves within the shutter (no time per ray)");
     }

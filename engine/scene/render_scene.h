@@ -124,8 +124,8 @@ struct PrototypeCache;  // engine/scene/prototype_cache.h
 // reused where the prototype's triangles are the same; updated for the next build.
 // `close`: the same scene at the shutter's closing (`desc` is it at the opening): what moves
 // between the two is blurred (engine/scene/motion.h). It must hold the same meshes with the same
-// vertex and index counts, and the same placements of the same prototypes (SceneError if not);
-// emitters and lights are taken from `desc` (not blurred). Not with Embree.
+// vertex and index counts, the same placements of the same prototypes and the same lights
+// (SceneError if not). Not with Embree.
 RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOptions& options, PrototypeCache* cache = nullptr,
                                const SceneDescription* close = nullptr);
 

@@ -8,11 +8,19 @@ namespace tessera::server {
 size_t chunk_frames(double open_s, double frame_s, size_t frames_left, size_t nodes, size_t requested) {
     if (requested > 0) return requested;
     if (frames_left == 0) return 1;
-    const double frame = std::max(frame_s, 1e-4);
-    const double amortised = std::ceil(20.0 * std::max(open_s, 0.0) / frame);
-    const size_t spread = (frames_left + std::max<size_t>(nodes, 1) - 1) / std::max<size_t>(nodes, 1);
-    const double want = std::min(std::isfinite(amortised) ? amortised : double(frames_left), double(spread));
-    return std::max<size_t>(1, size_t(want));
+    nodes = std::max<size_t>(nodes, 1);
+    const double frame = std::max(frame_s, 1e-4), start = std::max(open_s, 0.0);
+    // A chunk of c frames loses start/(c·frame) of its time to starting, and the shot's end
+    // leaves nodes idle for about half a chunk each, c·nodes/(2·frames) of the whole: the sum
+    // is least at c = √(2·frames·start / (nodes·frame)).
+    const double best = std::ceil(std::sqrt(2.0 * double(frames_left) * start / (double(nodes) * frame)));
+    const size_t spread = (frames_left + nodes - 1) / nodes;
+    size_t chunk = std::clamp<size_t>(std::isfinite(best) ? size_t(std::min(best, double(frames_left))) : frames_left, 1, spread);
+    // As many chunks as a whole number of rounds over the nodes, evened out: equal nodes then
+    // finish together.
+    size_t chunks = (frames_left + chunk - 1) / chunk;
+    chunks = (chunks + nodes - 1) / nodes * nodes;
+    return std::max<size_t>(1, (frames_left + chunks - 1) / chunks);
 }
 
 std::vector<std::pair<size_t, size_t>> plan_chunks(size_t first, size_t end, size_t chunk) {

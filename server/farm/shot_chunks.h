@@ -7,10 +7,11 @@
 
 namespace tessera::server {
 
-// Frames per chunk: `requested` when the job sets one; otherwise enough that opening the scene
-// again for a chunk (`open_s`, measured on the first frame) costs at most a twentieth of the
-// chunk's rendering (`frame_s` a frame), and few enough that each of `nodes` live nodes gets a
-// chunk of the `frames_left`. At least 1.
+// Frames per chunk: `requested` when the job sets one; otherwise the size that balances what
+// starting a chunk costs (`open_s`, opening the scene as measured on the first frame: a bound,
+// since a node keeps the scene across a shot's chunks and starts each with its trees to build)
+// against the nodes left idle at the shot's end (`frame_s` a frame, `nodes` live), evened out
+// to whole rounds of chunks over the nodes. Every node gets work; at least 1.
 size_t chunk_frames(double open_s, double frame_s, size_t frames_left, size_t nodes, size_t requested);
 
 // The shot's frame indices [first, end) cut into chunks of `chunk`: (first index, count) each.

@@ -121,7 +121,7 @@ TEST(LightSampler, PicksTrianglesByArea) {
     const int n = 200000;
     int large = 0;
     for (int i = 0; i < n; ++i) {
-        LightSample ls;
+        LightSample ls{};
         sample_area_light(rs, rs.area_lights[0], glm::vec3(0.5f, 0.f, 0.5f), rng, ls);
         large += ls.point.x >= 2.f;
     }

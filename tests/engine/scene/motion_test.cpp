@@ -2,7 +2,9 @@
 // intersect.cpp and tile_context.h): a placement's decomposed transform gives back its opening
 // and closing and turns (not shrinks) in between; motion bounds hold the placed box at every
 // time; and the image over a shutter is the mean of stills at uniformly spaced times across it
-// (moving placements, deforming meshes, a moving camera), block by block within the noise. A
+// (moving placements, deforming meshes, a moving camera, moving and growing emitters and a
+// moving point light, by every light selection), block by block and over the whole image within
+// the noise. A
 // scene that does not move within its shutter renders what the still renders, bit for bit.
 #include "engine/scene/motion.h"
 
@@ -88,21 +90,26 @@ RenderSettings small(int spp) {
 
 // The blurred image against the mean of `k` stills at times (i + 0.5) / k, per 6 × 3 block of
 // pixels: the difference of the block means within 4.5 of its standard error (both sides' noise).
+// The whole image's light too (its energy): the sums differ by less than 4.5 standard errors,
+// taken from the blocks' spread.
 void expect_blur_is_mean_of_stills(const SceneDescription& open, const SceneDescription& close,
-                                   const std::function<SceneDescription(float)>& at, int spp, int k) {
+                                   const std::function<SceneDescription(float)>& at, int spp, int k,
+                                   LightSelection selection = LightSelection::automatic) {
     const RenderScene moving = build_render_scene(open, {}, nullptr, &close);
     ASSERT_TRUE(moving.motion.any());
     RenderSettings st = small(spp * k);
+    st.light_selection = selection;
     const RenderResult blur = render(moving, st);
-    std::vector<double> mean(blur.image.rgb.size(), 0.0), var(blur.image.rgb.size(), 0.0);
     std::vector<std::vector<float>> stills;
     for (int i = 0; i < k; ++i) {
         RenderSettings s1 = small(spp);
+        s1.light_selection = selection;
         s1.seed = uint64_t(100 + i);
         stills.push_back(render(build_render_scene(at((float(i) + 0.5f) / float(k)), {}), s1).image.rgb);
     }
     const int bw = 8, bh = 9;  // blocks of pixels
     int checked = 0;
+    double sum_a = 0, sum_b = 0, var_sum = 0;
     for (int by = 0; by < st.height; by += bh)
         for (int bx = 0; bx < st.width; bx += bw) {
             double a = 0, b = 0, a2 = 0, b2 = 0;
@@ -127,8 +134,12 @@ void expect_blur_is_mean_of_stills(const SceneDescription& open, const SceneDesc
             const double se = std::sqrt((va + vb) / n);
             EXPECT_NEAR(a / n, b / n, 4.5 * se + 1e-4) << "block at " << bx << "," << by;
             ++checked;
+            sum_a += a;
+            sum_b += b;
+            var_sum += (va + vb) * n;
         }
     EXPECT_GT(checked, 10);
+    EXPECT_NEAR(sum_a, sum_b, 4.5 * std::sqrt(var_sum) + 1e-3) << "the whole image's light";
 }
 
 TEST(Motion, MovingPlacementsBlurToTheMeanOfStills) {
@@ -190,14 +201,74 @@ TEST(Motion, AShutterOverAStillSceneRendersTheStill) {
     EXPECT_EQ(render(still, small(4)).image.rgb, render(shut, small(4)).image.rgb);
 }
 
-TEST(Motion, EmittersAreHeldAtTheOpening) {
-    SceneDescription open = cornell_box();
-    SceneDescription close = open;
-    for (MeshDesc& m : close.meshes)
-        if (m.material >= 0 && close.materials[size_t(m.material)].emits())
-            for (glm::vec3& p : m.positions) p.x += 0.3f;
+// The Cornell box's lamp (an emitting mesh) slides and a point light crosses the room: both are
+// sampled where the path's time puts them, so the blur is the mean of stills and the light
+// they send is the stills' (a lamp sampled where it was at the opening, or with the opening's
+// density, would light the wrong wall or lose light), by every way of picking lights.
+SceneDescription cornell_with_moving_lights(float time) {
+    SceneDescription d = cornell_box();
+    for (MeshDesc& m : d.meshes)
+        if (m.material >= 0 && d.materials[size_t(m.material)].emits())
+            for (glm::vec3& p : m.positions) p += time * glm::vec3(0.3f, 0.f, -0.2f);
+    LightDesc point;
+    point.kind = LightKind::point;
+    point.radiance = glm::vec3(0.3f);
+    const Aabb box = scene_bounds(d);
+    point.position = box.lo + (box.hi - box.lo) * glm::vec3(0.2f + 0.6f * time, 0.7f, 0.5f);
+    d.lights.push_back(point);
+    return d;
+}
+
+TEST(Motion, MovingEmittersAndLightsBlurToTheMeanOfStills) {
+    const SceneDescription open = cornell_with_moving_lights(0.f), close = cornell_with_moving_lights(1.f);
     const RenderScene s = build_render_scene(open, {}, nullptr, &close);
-    EXPECT_FALSE(s.motion.any());  // only the lamp moved, and it is held
+    EXPECT_TRUE(s.motion.emitters());
+    EXPECT_FALSE(s.motion.light_triangles_close.empty());
+    EXPECT_EQ(s.motion.delta_lights_close.size(), 1u);
+    for (LightSelection sel : {LightSelection::all, LightSelection::power, LightSelection::tree}) {
+        SCOPED_TRACE(int(sel));
+        expect_blur_is_mean_of_stills(open, close, cornell_with_moving_lights, 8, 8, sel);
+    }
+}
+
+// An emitting placement (placed in world space) that moves and grows: its triangles' area
+// changes within the shutter, so a sample's density must be the area at the path's time.
+TEST(Motion, AGrowingEmittingPlacementBlursToTheMeanOfStills) {
+    auto at = [](float time) {
+        SceneDescription d = cornell_box();
+        for (size_t k = 0; k < d.meshes.size(); ++k)
+            if (d.meshes[k].material >= 0 && d.materials[size_t(d.meshes[k].material)].emits()) {
+                MeshDesc lamp = d.meshes[k];
+                glm::vec3 c(0.f);
+                for (const glm::vec3& p : lamp.positions) c += p / float(lamp.positions.size());
+                for (glm::vec3& p : lamp.positions) p -= c;
+                d.prototypes.push_back(lamp);
+                InstanceDesc in;
+                in.prototype = uint32_t(d.prototypes.size() - 1);
+                in.to_world = glm::translate(glm::mat4(1.f), c + time * glm::vec3(-0.25f, 0.f, 0.1f)) *
+                              glm::scale(glm::mat4(1.f), glm::vec3(1.f + 0.8f * time, 1.f, 1.f + 0.4f * time));
+                d.instances.push_back(in);
+                d.meshes.erase(d.meshes.begin() + long(k));
+                break;
+            }
+        return d;
+    };
+    const SceneDescription open = at(0.f), close = at(1.f);
+    ASSERT_EQ(open.instances.size(), 1u);
+    const RenderScene s = build_render_scene(open, {}, nullptr, &close);
+    ASSERT_FALSE(s.motion.light_triangles_close.empty());
+    EXPECT_GT(s.motion.light_triangles_close[0].area, 1.3f * s.light_triangles[0].area);
+    for (LightSelection sel : {LightSelection::all, LightSelection::tree}) {
+        SCOPED_TRACE(int(sel));
+        expect_blur_is_mean_of_stills(open, close, at, 8, 8, sel);
+    }
+}
+
+TEST(Motion, LightsThatComeOrGoWithinTheShutterAreRefused) {
+    const SceneDescription open = cornell_with_moving_lights(0.f);
+    SceneDescription close = open;
+    close.lights.pop_back();
+    EXPECT_THROW(build_render_scene(open, {}, nullptr, &close), SceneError);
 }
 
 TEST(Motion, AClosingOfAnotherShapeIsRefused) {

@@ -11,11 +11,14 @@ TEST(ShotChunks, AJobsOwnChunkWins) {
     EXPECT_EQ(chunk_frames(5.0, 0.01, 1000, 4, 7), 7u);
 }
 
-// Opening the scene again costs at most a twentieth of a chunk: 0.5 s to open and 0.1 s a
-// frame make chunks of 100 frames, unless that would leave nodes idle.
-TEST(ShotChunks, OpeningIsAmortisedButEveryNodeGetsWork) {
-    EXPECT_EQ(chunk_frames(0.5, 0.1, 10'000, 4, 0), 100u);
-    EXPECT_EQ(chunk_frames(0.5, 0.1, 120, 4, 0), 30u);   // 120 frames over 4 nodes
+// Starting a chunk against idle nodes at the end: 0.5 s to start and 0.1 s a frame over 10,000
+// frames on 4 nodes is best at √(2·10,000·0.5 / (4·0.1)) ≈ 159 frames, evened to 64 chunks of
+// 157 (16 rounds); over 120 frames, 18 evened to 8 chunks of 15.
+TEST(ShotChunks, StartingIsAmortisedButEveryNodeGetsWork) {
+    EXPECT_EQ(chunk_frames(0.5, 0.1, 10'000, 4, 0), 157u);
+    EXPECT_EQ(chunk_frames(0.5, 0.1, 120, 4, 0), 15u);
+    EXPECT_EQ(chunk_frames(0.05, 0.3, 119, 2, 0), 5u);   // √(2·119·0.05 / 0.6) ≈ 4.5: 24 chunks, 12 rounds
+    EXPECT_EQ(chunk_frames(0.5, 0.1, 120, 1, 0), 30u);   // 35 evened to 4 chunks of 30
     EXPECT_EQ(chunk_frames(0.001, 10.0, 120, 4, 0), 1u);  // cheap to open, slow to render: one frame a task
     EXPECT_EQ(chunk_frames(0.5, 0.0, 50, 2, 0), 25u);     // a frame too fast to time
     EXPECT_EQ(chunk_frames(0.5, 0.1, 0, 4, 0), 1u);
