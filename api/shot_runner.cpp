@@ -124,6 +124,17 @@ std::string frame_path(const std::string& pattern, int frame) {
     return pattern.substr(0, first) + padded + pattern.substr(last);
 }
 
+// A deforming mesh's tree (RenderSceneOptions::world_tree): built at every kRefitGroup-th
+// frame number and refitted for the frames up to the next, so that a frame's tree, and so its
+// image, depends on its number alone (the same rendered alone, in any range, or by any node),
+// and a refitted tree is at most kRefitGroup − 1 frames from the pose it was built for. A frame
+// whose group's first frame this run has not built builds it first (a chunk starting within a
+// group; sparse frames). Measured with `tessera bench shot --deform` (docs/benchmarks.md).
+namespace {
+constexpr int kRefitGroup = 8;
+int refit_anchor(int frame) { return frame >= 0 ? frame - frame % kRefitGroup : -((-frame + kRefitGroup - 1) / kRefitGroup) * kRefitGroup; }
+}  // namespace
+
 JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutputs& out, const RunCallbacks& cb) {
     const auto t_start = Clock::now();
     const std::vector<int> frames = job.frames->frames();
@@ -147,6 +158,26 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
             if (frame_camera(std::nullopt, bounds, cam)) held_camera = cam;
         }
     }
+
+    // Frame n posed: at its moment, or at its shutter's opening and closing (motion blur: the
+    // engine blurs what moves between them, emitters and lights included).
+    struct Posed {
+        SceneDescription desc;
+        std::optional<SceneDescription> closing;
+    };
+    auto pose = [&](int n) {
+        Posed p;
+        if (job.shutter) {
+            p.desc = file.at(ScenePose{(double(n) + job.shutter->first) / job.fps, job.animation});
+            p.closing = file.at(ScenePose{(double(n) + job.shutter->second) / job.fps, job.animation});
+            if (!p.closing->camera && held_camera) p.closing->camera = held_camera;
+        } else {
+            p.desc = file.at(ScenePose{double(n) / job.fps, job.animation});
+        }
+        if (!p.desc.camera && held_camera) p.desc.camera = held_camera;
+        return p;
+    };
+    std::optional<int> kept_anchor;  // the frame whose world tree the cache keeps
 
     RunOptions frame_opt = opt;
     frame_opt.prepare = nullptr;  // each frame is posed anew; the cache holds stills
@@ -184,20 +215,27 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
                 continue;
             }
         }
-        SceneDescription desc = file.at(ScenePose{time_s, job.animation});
-        if (!desc.camera && held_camera) desc.camera = held_camera;
-        // Motion blur: the scene at the shutter's opening and closing; the engine blurs what
-        // moves between them, emitters and lights included.
-        std::optional<SceneDescription> closing;
-        if (job.shutter) {
-            SceneDescription opening = file.at(ScenePose{(double(n) + job.shutter->first) / job.fps, job.animation});
-            closing = file.at(ScenePose{(double(n) + job.shutter->second) / job.fps, job.animation});
-            if (!opening.camera && held_camera) opening.camera = held_camera;
-            if (!closing->camera && held_camera) closing->camera = held_camera;
-            desc = std::move(opening);
-        }
+        Posed posed = pose(frames[i]);
         const auto t_posed = Clock::now();
-        const RenderScene scene = build_render_scene(desc, job.scene_options, &prototypes, closing ? &*closing : nullptr);
+        RenderSceneOptions scene_options = job.scene_options;
+        if (scene_options.world_tree == RenderSceneOptions::WorldTree::automatic) {
+            const int anchor = refit_anchor(frames[i]);
+            if (anchor == frames[i]) {
+                scene_options.world_tree = RenderSceneOptions::WorldTree::keep;
+            } else {
+                if (kept_anchor != anchor || !prototypes.world) {
+                    // This run starts within a group: its first frame's tree, built as that
+                    // frame builds it.
+                    RenderSceneOptions keep = job.scene_options;
+                    keep.world_tree = RenderSceneOptions::WorldTree::keep;
+                    const Posed a = pose(anchor);
+                    build_render_scene(a.desc, keep, &prototypes, a.closing ? &*a.closing : nullptr);
+                }
+                scene_options.world_tree = RenderSceneOptions::WorldTree::refit;
+            }
+            kept_anchor = anchor;
+        }
+        const RenderScene scene = build_render_scene(posed.desc, scene_options, &prototypes, posed.closing ? &*posed.closing : nullptr);
         const double pose_s = seconds_between(t0, t_posed) + (i == 0 ? open_s : 0.0);
         const double build_s = seconds_between(t_posed, Clock::now());
 

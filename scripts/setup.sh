@@ -50,11 +50,11 @@ if [ "$build_only" = 0 ]; then
   command -v npm > /dev/null || missing+=(npm)
   # The web page's test drives Debian's Chromium (tests/web).
   dpkg-query -W -f='${Status}' chromium 2>/dev/null | grep -q 'install ok installed' || missing+=(chromium)
-  # A shot's preview video (preview.mp4, H.264) is encoded by Debian's ffmpeg: an encoder is not
-  # ours to write. Without it a shot is rendered all the same and its report says the preview
-  # was left out.
-  dpkg-query -W -f='${Status}' ffmpeg 2>/dev/null | grep -q 'install ok installed' || missing+=(ffmpeg)
 fi
+# A shot's preview video (preview.mp4, H.264) is encoded by Debian's ffmpeg: an encoder is not
+# ours to write. Without it a shot is rendered all the same and its report says the preview was
+# left out. Also with --build: the container image's run stage takes it from the build stage.
+dpkg-query -W -f='${Status}' ffmpeg 2>/dev/null | grep -q 'install ok installed' || missing+=(ffmpeg)
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#packages[@]} packages already installed"

@@ -64,6 +64,21 @@ LargeVector<Triangle4> pack_triangle4_leaves(WideBvh& bvh, std::span<const Trian
     return out;
 }
 
+LargeVector<Triangle4> repack_triangle4(std::span<const uint32_t> lanes, std::span<const TriangleVerts> tris, int threads) {
+    LargeVector<Triangle4> out(lanes.size() / 4);
+    parallel_ranges(out.size(), pass_threads(out.size(), threads, 4096), [&](size_t begin, size_t end, int) {
+        for (size_t b = begin; b < end; ++b)
+            for (int l = 0; l < 4; ++l) {
+                const uint32_t i = lanes[4 * b + size_t(l)];
+                const glm::vec3* v[3] = {&tris[i].p0, &tris[i].p1, &tris[i].p2};
+                for (int k = 0; k < 3; ++k)
+                    for (int a = 0; a < 3; ++a) out[b].p[k][a][l] = (*v[k])[a];
+                out[b].prim[l] = i;
+            }
+    });
+    return out;
+}
+
 LargeVector<Triangle4> pack_triangle4_in_order(std::span<const TriangleVerts> tris, int threads) {
     const uint32_t n = uint32_t(tris.size());
     LargeVector<Triangle4> out(blocks_for(n));

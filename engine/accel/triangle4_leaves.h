@@ -17,6 +17,11 @@ namespace tessera {
 LargeVector<Triangle4> pack_triangle4_leaves(WideBvh& bvh, std::span<const TriangleVerts> tris,
                                              std::span<const uint32_t> prim_index, int threads = 0);
 
+// `lanes`' triangles (four per block, as the prim ids of blocks packed before) from `tris`:
+// the blocks an earlier packing made, with the triangles' vertices as they are now (a
+// deformed mesh whose tree is refitted, refit_wide).
+LargeVector<Triangle4> repack_triangle4(std::span<const uint32_t> lanes, std::span<const TriangleVerts> tris, int threads = 0);
+
 // Blocks in plain order, triangle i in block i / 4, lane i % 4 (for Embree's scenes, whose
 // hits name triangles by input index).
 LargeVector<Triangle4> pack_triangle4_in_order(std::span<const TriangleVerts> tris, int threads = 0);

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "engine/geometry/triangle4.h"
+
 namespace tessera {
 namespace {
 
@@ -120,6 +122,43 @@ WideBvhStats wide_bvh_stats(const WideBvh& bvh) {
         }
     st.fill = double(slots) / double(st.inner_nodes * kBvhWidth);
     return st;
+}
+
+namespace {
+
+void expand_blocks(Aabb& box, std::span<const Triangle4> blocks, uint32_t first, uint32_t count) {
+    for (uint32_t b = first; b < first + count; ++b)
+        for (int v = 0; v < 3; ++v)
+            for (int l = 0; l < 4; ++l) box.expand(triangle4_vertex(blocks[b], v, l));
+}
+
+// Node n's slots from its children, returning their union.
+Aabb refit_node(WideBvh& bvh, uint32_t n, std::span<const Triangle4> blocks, std::span<const Triangle4> close) {
+    Aabb all;
+    for (int c = 0; c < kBvhWidth; ++c) {
+        WideNode& node = bvh.nodes[n];
+        if (!(node.bounds[0][c] <= node.bounds[3][c])) continue;  // an empty slot stays empty
+        Aabb box;
+        if (node.count[c]) {
+            expand_blocks(box, blocks, node.child[c], node.count[c]);
+            if (!close.empty()) expand_blocks(box, close, node.child[c], node.count[c]);
+        } else {
+            box = refit_node(bvh, node.child[c], blocks, close);
+        }
+        WideNode& again = bvh.nodes[n];
+        for (int a = 0; a < 3; ++a) {
+            again.bounds[a][c] = box.lo[a];
+            again.bounds[3 + a][c] = box.hi[a];
+        }
+        all.expand(box);
+    }
+    return all;
+}
+
+}  // namespace
+
+void refit_wide(WideBvh& bvh, std::span<const Triangle4> blocks, std::span<const Triangle4> close) {
+    if (!bvh.nodes.empty()) refit_node(bvh, 0, blocks, close);
 }
 
 }  // namespace tessera

@@ -5,6 +5,7 @@
 // 8-lane test), four otherwise (SSE or scalar). (Wald et al., "Getting rid of packets", 2008;
 // Embree's BVH4 and BVH8.)
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "engine/accel/bvh.h"
@@ -65,5 +66,12 @@ struct WideCollapseOptions {
 // until it has kBvhWidth children; then each child that is a binary subtree of at most
 // max_leaf primitives becomes one leaf where the SAH says so.
 WideBvh collapse_to_wide(const Bvh& bvh, const WideCollapseOptions& options = {});
+
+// Refits a packed tree (leaves name blocks) to its blocks' vertices as they are now: every box
+// recomputed from the leaves up, the structure kept (Kopta et al. 2012, "Fast, effective BVH
+// updates for animated scenes": cheap, but the tree was chosen for the old positions). With
+// `close` (the same blocks at a shutter's closing), boxes hold both.
+struct Triangle4;
+void refit_wide(WideBvh& bvh, std::span<const Triangle4> blocks, std::span<const Triangle4> close = {});
 
 }  // namespace tessera

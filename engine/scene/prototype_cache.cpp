@@ -26,13 +26,16 @@ uint64_t finish(uint64_t h) {
 
 PrototypeCache::Key PrototypeCache::key_of(std::span<const TriangleVerts> tris, const BvhBuildOptions& options) {
     static_assert(sizeof(TriangleVerts) == 36);
+    return key_of_bytes(tris.data(), tris.size() * sizeof(TriangleVerts), tris.size(), options);
+}
+
+PrototypeCache::Key PrototypeCache::key_of_bytes(const void* data, size_t n, size_t count, const BvhBuildOptions& options) {
     Key k;
-    k.triangles = tris.size();
+    k.triangles = count;
     k.type = options.type;
     k.max_leaf = options.max_leaf_size;
-    // Two independent streams over the coordinates' bits, eight bytes at a time.
-    const auto* bytes = reinterpret_cast<const unsigned char*>(tris.data());
-    const size_t n = tris.size() * sizeof(TriangleVerts);
+    // Two independent streams over the bits, eight bytes at a time.
+    const auto* bytes = static_cast<const unsigned char*>(data);
     uint64_t h1 = 0x243f6a8885a308d3ull ^ n, h2 = 0x13198a2e03707344ull ^ (n * 0x9e3779b97f4a7c15ull);
     size_t i = 0;
     for (; i + 8 <= n; i += 8) {
@@ -61,6 +64,8 @@ PrototypeCache::Entry* PrototypeCache::find(const Key& key) {
 void PrototypeCache::end_build() {
     entries.erase(std::remove_if(entries.begin(), entries.end(), [](const Entry& e) { return !e.used; }), entries.end());
     for (Entry& e : entries) e.used = false;
+    if (world && !world->used) world.reset();
+    if (world) world->used = false;
 }
 
 }  // namespace tessera

@@ -199,8 +199,10 @@ WideBvh build_wide(std::span<const TriangleVerts> tris, std::span<const Triangle
 
 // The triangles' acceleration structure (ours, or Embree's), with the triangles packed in the
 // order traversal reads them. Lanes name triangles by input index, as tri_shading is kept.
+// `cache` with options.world_tree refit: the last build's world tree, refitted where this
+// build's world-space triangles are the same meshes (their topology), moved.
 void build_triangle_accel(std::span<const TriangleVerts> all, std::span<const TriangleVerts> close, const RenderSceneOptions& options,
-                          RenderScene& s, StageClock& clock) {
+                          RenderScene& s, StageClock& clock, PrototypeCache* cache) {
     const int threads = options.bvh.build_threads;
     const std::span<const TriangleVerts> triangles = all.first(s.flat_triangles);
     if (triangles.empty() && (options.bvh.type != BvhType::embree || s.instances.empty())) {
@@ -223,16 +225,60 @@ void build_triangle_accel(std::span<const TriangleVerts> all, std::span<const Tr
     } else {
         const auto tb = std::chrono::steady_clock::now();
         const BvhBuildOptions bo = options_for(triangles.size(), options, "triangles", s.report);
+        using WorldTree = RenderSceneOptions::WorldTree;
+        const bool refit = cache && options.world_tree == WorldTree::refit, keep = cache && options.world_tree == WorldTree::keep;
+        static_assert(sizeof(TriangleShading) == 20);
+        const PrototypeCache::Key topology =
+            refit || keep ? PrototypeCache::key_of_bytes(s.tri_shading.data(), triangles.size() * sizeof(TriangleShading), triangles.size(), bo)
+                          : PrototypeCache::Key{};
+        std::string refit_refused;
+        if (refit && cache->world && cache->world->key == topology) {
+            // The same meshes as the kept tree's: that tree over their vertices as they are now,
+            // unless they have moved so far that its SAH cost has grown past the bound (then a
+            // build costs less than the slower rays would).
+            PrototypeCache::World& w = *cache->world;
+            w.used = true;
+            WideBvh refitted = w.wide;
+            LargeVector<Triangle4> blocks = repack_triangle4(w.lanes, triangles, threads);
+            LargeVector<Triangle4> close_blocks = close.empty() ? LargeVector<Triangle4>{} : repack_triangle4(w.lanes, close, threads);
+            refit_wide(refitted, blocks, close_blocks);
+            const double sah = wide_bvh_stats(refitted).sah;
+            char costs[128];
+            std::snprintf(costs, sizeof costs, "SAH cost %.4f, %.4f as built", sah, w.built_sah);
+            if (sah <= w.built_sah * (1.0 + options.refit_max_sah_growth)) {
+                ++cache->world_refits;
+                s.tri_wide = std::move(refitted);
+                s.tri_bvh_stats = w.stats;
+                s.tri_blocks = std::move(blocks);
+                s.motion.tri_blocks_close = std::move(close_blocks);
+                s.tri_build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tb).count();
+                clock.lap("bvh refit");
+                s.report.built.push_back("triangle BVH refitted: the kept tree over " + std::to_string(triangles.size()) +
+                                         " moved triangles (" + costs + ")");
+                return;
+            }
+            clock.lap("bvh refit tried");
+            refit_refused = std::string(", the kept tree's refit refused (") + costs + ", over the bound)";
+        }
         BvhBuildStats stats;
         s.tri_wide = build_wide(triangles, triangles, {}, bo, threads, s.tri_blocks, stats, &clock, close,
                                 close.empty() ? nullptr : &s.motion.tri_blocks_close);
         s.tri_bvh_stats = stats;
         s.tri_build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tb).count();
+        if (keep) {
+            PrototypeCache::World w{topology, s.tri_wide, std::vector<uint32_t>(s.tri_blocks.size() * 4),
+                                    wide_bvh_stats(s.tri_wide).sah, stats, true};
+            for (size_t b = 0; b < s.tri_blocks.size(); ++b)
+                for (int l = 0; l < 4; ++l) w.lanes[4 * b + size_t(l)] = s.tri_blocks[b].prim[l];
+            cache->world = std::move(w);
+            ++cache->world_builds;
+        }
         s.report.built.push_back("triangle BVH (" + std::string(to_string(options.bvh.type)) + "): " +
                                  std::to_string(triangles.size()) + " triangles in " +
                                  std::to_string(s.tri_blocks.size()) + " blocks of four, " +
                                  std::to_string(s.tri_bvh_stats.node_count) + " binary nodes collapsed to " +
-                                 std::to_string(s.tri_wide.nodes.size()) + " " + std::to_string(kBvhWidth) + "-wide nodes");
+                                 std::to_string(s.tri_wide.nodes.size()) + " " + std::to_string(kBvhWidth) + "-wide nodes" +
+                                 refit_refused);
     }
 }
 
@@ -588,9 +634,9 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
     // placements first, which its one build then takes in.
     if (options.bvh.type == BvhType::embree) {
         build_instances(all, kept_instances, prototype_first_tri, prototype_tris, options, s, cache, closing_placements);
-        build_triangle_accel(all, {}, options, s, clock);
+        build_triangle_accel(all, {}, options, s, clock, nullptr);
     } else {
-        build_triangle_accel(all, std::span<const TriangleVerts>(closing.data(), closing.size()), options, s, clock);
+        build_triangle_accel(all, std::span<const TriangleVerts>(closing.data(), closing.size()), options, s, clock, cache);
         build_instances(all, kept_instances, prototype_first_tri, prototype_tris, options, s, cache, closing_placements);
         if (!kept_instances.empty()) clock.lap("instances");
     }

@@ -69,6 +69,16 @@ struct RenderSceneOptions {
     // primitive goes without a BVH.
     size_t min_prims_for_bvh = 2;
     EmbreeQuality embree_quality = EmbreeQuality::medium;  // with bvh.type == embree
+    // From frame to frame of a shot (with a PrototypeCache), the world-space triangles' tree:
+    // `rebuild` builds it and keeps nothing; `keep` builds it and keeps it in the cache;
+    // `refit` refits the kept one where this build's triangles are the same meshes (their
+    // topology), moved (a skinned or morphed mesh; refit_wide), and else builds it as `rebuild`
+    // does. `automatic` is `rebuild` here; the shot runner chooses per frame (shot_runner.cpp).
+    enum class WorldTree { automatic, rebuild, keep, refit };
+    WorldTree world_tree = WorldTree::automatic;
+    // A refit is refused (the tree built instead) where its SAH cost exceeds the kept tree's as
+    // built by more than this fraction: measured with `tessera bench shot --deform`.
+    double refit_max_sah_growth = 0.10;
 };
 
 struct RenderScene {

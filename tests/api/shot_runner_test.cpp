@@ -18,6 +18,7 @@
 #include "engine/io/image_io.h"
 #include "engine/render/image.h"
 #include "tests/scratch_dir.h"
+#include "tests/test_paths.h"
 
 namespace tessera::api {
 namespace {
@@ -55,6 +56,34 @@ TEST_F(Shot, AFrameIsTheSameAloneInARangeAndOnAnyThreadCount) {
     ASSERT_EQ(in_range.rgb.size(), size_t(24 * 18 * 3));
     EXPECT_EQ(in_range.rgb, alone.rgb);
     EXPECT_EQ(in_range.sample_count, alone.sample_count);
+}
+
+// A skinned mesh deforms every frame: its tree is built at every 8th frame and refitted between
+// (shot_runner.cpp), from the frame number alone, so a frame within a group is the same image
+// rendered in a range that built the group's first frame and alone (which builds it first).
+TEST_F(Shot, ADeformingFrameIsTheSameAloneAndInItsRange) {
+    const auto dir = test::gltf_anim_dir();
+    if (!dir) {
+        if (test::shared_required()) FAIL() << "the animated glTF samples (../shared/scenes/gltf-anim) are missing";
+        GTEST_SKIP() << "the animated glTF samples (../shared/scenes/gltf-anim) are absent";
+    }
+    auto skinned = [&](const json& frames) {
+        RenderJob j = job(frames);
+        j.scene = *dir + "/RiggedSimple.gltf";
+        return j;
+    };
+    run(skinned(json{{"start", 6}, {"end", 11}}), "range", 2);
+    run(skinned(json::array({11})), "alone", 1);
+    run(skinned(json::array({10, 13})), "sparse", 2);
+    EXPECT_EQ(frame_image("range", 11).rgb, frame_image("alone", 11).rgb);
+    EXPECT_EQ(frame_image("range", 10).rgb, frame_image("sparse", 10).rgb);
+    EXPECT_NE(frame_image("range", 10).rgb, frame_image("range", 11).rgb);
+    for (const char* run_dir : {"range", "alone"}) {
+        const json report = json::parse(std::ifstream(dir_ / run_dir / "frames" / "11" / "report.json"));
+        EXPECT_NE(report["scene"]["built"].dump().find("triangle BVH refitted"), std::string::npos) << run_dir << report["scene"]["built"].dump();
+    }
+    const json at_eight = json::parse(std::ifstream(dir_ / "range" / "frames" / "8" / "report.json"));
+    EXPECT_EQ(at_eight["scene"]["built"].dump().find("refitted"), std::string::npos);
 }
 
 // With a shutter a frame is blurred (the cube and the camera move within it), reports so, and is

@@ -106,6 +106,13 @@ api -o "$podman_conf_dir/image.exr" "http://127.0.0.1:$port/v1/jobs/$id/image.ex
 [ "$(od -An -N4 -tx1 "$podman_conf_dir/image.png" | tr -d ' ')" = 89504e47 ] || fail "image.png is not a PNG"
 [ "$(od -An -N4 -tx1 "$podman_conf_dir/image.exr" | tr -d ' ')" = 762f3101 ] || fail "image.exr is not an EXR"
 
+# A shot: numbered frames and its preview video, encoded by the image's ffmpeg.
+render_job '{"scene": "cornell_shot", "width": 64, "height": 48, "spp": 2, "max_depth": 2, "frames": {"start": 1, "end": 6}}'
+api -o "$podman_conf_dir/preview.mp4" "http://127.0.0.1:$port/v1/jobs/$id/preview.mp4"
+[ "$(od -An -j4 -N4 -c "$podman_conf_dir/preview.mp4" | tr -d ' ')" = ftyp ] || fail "the shot's preview.mp4 is not an MP4: $(head -c 300 "$podman_conf_dir/preview.mp4")"
+api -o "$podman_conf_dir/frame.exr" "http://127.0.0.1:$port/v1/jobs/$id/frames/6/image.exr"
+[ "$(od -An -N4 -tx1 "$podman_conf_dir/frame.exr" | tr -d ' ')" = 762f3101 ] || fail "frame 6's image.exr is not an EXR"
+
 echo "== SIGTERM, then a new container on the same volume"
 podman stop -t 30 "$name" > /dev/null 2>&1
 status=$(podman inspect --format '{{.State.ExitCode}}' "$name")
