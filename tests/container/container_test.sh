@@ -2,15 +2,17 @@
 # container_test.sh: the image as a user gets it, with a real container engine (Debian's
 # podman). Builds docker/Dockerfile (on a debian:12 base made here from Debian's packages),
 # checks its size, starts it with a token on a loopback port and waits for health, renders a
-# job with curl and fetches its PNG and EXR, checks the server runs as a user other than root
-# and serves its web page,
+# job with curl and fetches its PNG and EXR, renders a shot and fetches its preview video (the
+# image's ffmpeg) and a frame, checks the server runs as a user other than root and serves its
+# web page,
 # stops it with SIGTERM (exit status 0), starts a new container on the same volume and finds
 # the job and its image there. Then docker/compose.yaml with podman-compose: Redis, an API
 # node and two render nodes from the same image; a job submitted to the API node is rendered
 # by the render nodes.
 #
 # Skips (77) where podman is not installed, unless TESSERA_REQUIRE_CONTAINER=1 (CI). The
-# image's size bound is TESSERA_IMAGE_MAX_MB (600). TESSERA_CONTAINER_IMAGE names an image
+# image's size bound is TESSERA_IMAGE_MAX_MB (650: the image measured 535 MB before it carried
+# ffmpeg for shots' previews, 597 MB with it). TESSERA_CONTAINER_IMAGE names an image
 # built before, to test it without building.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
@@ -57,7 +59,7 @@ fi
 size=$(podman image inspect --format '{{.Size}}' "$tag")
 size_mb=$((size / 1000000))
 echo "built in $(( $(date +%s) - t0 )) s: $size_mb MB"
-[ "$size_mb" -le "${TESSERA_IMAGE_MAX_MB:-600}" ] || fail "the image is $size_mb MB, over ${TESSERA_IMAGE_MAX_MB:-600} MB"
+[ "$size_mb" -le "${TESSERA_IMAGE_MAX_MB:-650}" ] || fail "the image is $size_mb MB, over ${TESSERA_IMAGE_MAX_MB:-650} MB"
 
 start_container() {
   # podman's complaints that it cannot reach systemd for health-check timers go to a file.
@@ -107,11 +109,13 @@ api -o "$podman_conf_dir/image.exr" "http://127.0.0.1:$port/v1/jobs/$id/image.ex
 [ "$(od -An -N4 -tx1 "$podman_conf_dir/image.exr" | tr -d ' ')" = 762f3101 ] || fail "image.exr is not an EXR"
 
 # A shot: numbered frames and its preview video, encoded by the image's ffmpeg.
+still_id=$id
 render_job '{"scene": "cornell_shot", "width": 64, "height": 48, "spp": 2, "max_depth": 2, "frames": {"start": 1, "end": 6}}'
 api -o "$podman_conf_dir/preview.mp4" "http://127.0.0.1:$port/v1/jobs/$id/preview.mp4"
 [ "$(od -An -j4 -N4 -c "$podman_conf_dir/preview.mp4" | tr -d ' ')" = ftyp ] || fail "the shot's preview.mp4 is not an MP4: $(head -c 300 "$podman_conf_dir/preview.mp4")"
 api -o "$podman_conf_dir/frame.exr" "http://127.0.0.1:$port/v1/jobs/$id/frames/6/image.exr"
 [ "$(od -An -N4 -tx1 "$podman_conf_dir/frame.exr" | tr -d ' ')" = 762f3101 ] || fail "frame 6's image.exr is not an EXR"
+id=$still_id
 
 echo "== SIGTERM, then a new container on the same volume"
 podman stop -t 30 "$name" > /dev/null 2>&1
