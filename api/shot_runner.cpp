@@ -218,18 +218,24 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
         Posed posed = pose(frames[i]);
         const auto t_posed = Clock::now();
         RenderSceneOptions scene_options = job.scene_options;
-        if (scene_options.world_tree == RenderSceneOptions::WorldTree::automatic) {
+        if (scene_options.world_tree == RenderSceneOptions::WorldTree::automatic && scene_options.bvh.type != BvhType::embree) {
             const int anchor = refit_anchor(frames[i]);
             if (anchor == frames[i]) {
                 scene_options.world_tree = RenderSceneOptions::WorldTree::keep;
             } else {
-                if (kept_anchor != anchor || !prototypes.world) {
+                if (kept_anchor != anchor) {
                     // This run starts within a group: its first frame's tree, built as that
-                    // frame builds it.
+                    // frame builds it (none where that frame has no world-space triangles or
+                    // cannot be built: then each frame of the group is built as a still is).
+                    prototypes.world.reset();
                     RenderSceneOptions keep = job.scene_options;
                     keep.world_tree = RenderSceneOptions::WorldTree::keep;
-                    const Posed a = pose(anchor);
-                    build_render_scene(a.desc, keep, &prototypes, a.closing ? &*a.closing : nullptr);
+                    try {
+                        const Posed a = pose(anchor);
+                        build_render_scene(a.desc, keep, &prototypes, a.closing ? &*a.closing : nullptr);
+                    } catch (const std::exception&) {
+                        prototypes.world.reset();
+                    }
                 }
                 scene_options.world_tree = RenderSceneOptions::WorldTree::refit;
             }

@@ -200,7 +200,8 @@ WideBvh build_wide(std::span<const TriangleVerts> tris, std::span<const Triangle
 // The triangles' acceleration structure (ours, or Embree's), with the triangles packed in the
 // order traversal reads them. Lanes name triangles by input index, as tri_shading is kept.
 // `cache` with options.world_tree refit: the last build's world tree, refitted where this
-// build's world-space triangles are the same meshes (their topology), moved.
+// build's world-space triangles are the same meshes (their topology), moved, and kept for the
+// next build either way.
 void build_triangle_accel(std::span<const TriangleVerts> all, std::span<const TriangleVerts> close, const RenderSceneOptions& options,
                           RenderScene& s, StageClock& clock, PrototypeCache* cache) {
     const int threads = options.bvh.build_threads;
@@ -232,12 +233,14 @@ void build_triangle_accel(std::span<const TriangleVerts> all, std::span<const Tr
             refit || keep ? PrototypeCache::key_of_bytes(s.tri_shading.data(), triangles.size() * sizeof(TriangleShading), triangles.size(), bo)
                           : PrototypeCache::Key{};
         std::string refit_refused;
+        // Kept for the next frames whether or not this one can use it: what a frame is built
+        // from depends on the kept tree's frame alone, not on the frames before it.
+        if (refit && cache->world) cache->world->used = true;
         if (refit && cache->world && cache->world->key == topology) {
             // The same meshes as the kept tree's: that tree over their vertices as they are now,
             // unless they have moved so far that its SAH cost has grown past the bound (then a
             // build costs less than the slower rays would).
             PrototypeCache::World& w = *cache->world;
-            w.used = true;
             WideBvh refitted = w.wide;
             LargeVector<Triangle4> blocks = repack_triangle4(w.lanes, triangles, threads);
             LargeVector<Triangle4> close_blocks = close.empty() ? LargeVector<Triangle4>{} : repack_triangle4(w.lanes, close, threads);

@@ -72,8 +72,8 @@ struct RenderSceneOptions {
     // From frame to frame of a shot (with a PrototypeCache), the world-space triangles' tree:
     // `rebuild` builds it and keeps nothing; `keep` builds it and keeps it in the cache;
     // `refit` refits the kept one where this build's triangles are the same meshes (their
-    // topology), moved (a skinned or morphed mesh; refit_wide), and else builds it as `rebuild`
-    // does. `automatic` is `rebuild` here; the shot runner chooses per frame (shot_runner.cpp).
+    // topology), moved (a skinned or morphed mesh; refit_wide), and else builds it without
+    // keeping it; the kept one stays for the next build either way. `automatic` is `rebuild` here; the shot runner chooses per frame (shot_runner.cpp).
     enum class WorldTree { automatic, rebuild, keep, refit };
     WorldTree world_tree = WorldTree::automatic;
     // A refit is refused (the tree built instead) where its SAH cost exceeds the kept tree's as

@@ -158,11 +158,14 @@ TEST(PrototypeCache, ARefittedWorldTreeMeetsWhatAFreshBuildMeets) {
     EXPECT_TRUE(refused);
     EXPECT_TRUE(cache.world.has_value());  // still the kept tree, for the next frames
     build_render_scene(twisted(0.f), keep, &cache);
-    // Other meshes (another count of triangles) are built anew and not kept (the kept tree,
-    // unused, is dropped); the default keeps no tree.
+    // Other meshes (another count of triangles) are built anew and not kept; the kept tree
+    // stays for the next build (what a frame is built from depends on the kept tree's frame
+    // alone). A build that neither keeps nor refits drops it; the default keeps no tree.
     build_render_scene(cornell_box(), refit, &cache);
     EXPECT_EQ(cache.world_builds, 2u);
     EXPECT_EQ(cache.world_refits, 2u);
+    EXPECT_TRUE(cache.world.has_value());
+    build_render_scene(cornell_box(), {}, &cache);
     EXPECT_FALSE(cache.world.has_value());
     PrototypeCache plain;
     build_render_scene(moved, {}, &plain);
