@@ -97,6 +97,10 @@ json check_value(const Field<Job>& f, const json& v, const ParseContext& ctx) {
                 throw InvalidJob(ptr, ptr + " must be the id of a finished job (16 hex digits) or null");
             return v;
         }
+        case FieldKind::boolean: {
+            if (!v.is_boolean()) throw InvalidJob(ptr, ptr + " must be true or false, not " + describe_type(v));
+            return v;
+        }
         case FieldKind::object: return v;
     }
     return v;

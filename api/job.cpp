@@ -68,6 +68,9 @@ RenderJob parse_render_job(const json& body, const JobLimits& limits) {
         throw InvalidJob("/shutter", "a shutter blurs a shot's motion: it needs frames (a still is the scene at rest)");
     if (job.shutter && job.scene_options.bvh.type == BvhType::embree)
         throw InvalidJob("/shutter", "motion blur is traced by our BVH only: leave out shutter or bvh \"embree\"");
+    if (job.render.integrator == Integrator::normals && (job.render.aovs || job.render.denoise))
+        throw InvalidJob(job.render.denoise ? "/denoise" : "/passes",
+                         "passes and denoising follow light paths: integrator \"normals\" traces none (leave them out or use \"path\")");
     if (job.frames && job.frames->count() > size_t(limits.max_frames))
         throw InvalidJob("/frames", "a shot of " + std::to_string(job.frames->count()) + " frames is over the limit of " +
                                         std::to_string(limits.max_frames));

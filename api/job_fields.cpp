@@ -6,6 +6,7 @@
 #include <limits>
 #include <type_traits>
 
+#include "api/json_text.h"
 #include "engine/accel/embree_accel.h"
 
 namespace tessera::api {
@@ -243,6 +244,32 @@ json get_frames(const RenderJob& j) {
     return {{"start", j.frames->start}, {"end", j.frames->end}, {"step", j.frames->step}};
 }
 
+// "passes": a list of distinct AOV names (engine/render/aov.h).
+void set_passes(RenderJob& j, const json& v, const ParseContext& ctx) {
+    const std::string& p = ctx.pointer;
+    std::string names;
+    for (const AovInfo& i : kAovInfo) names += (names.empty() ? "" : ", ") + std::string(i.name);
+    if (!v.is_array()) throw InvalidJob(p, p + " must be a list of pass names (" + names + ")");
+    if (v.size() > kAovInfo.size()) throw InvalidJob(p, p + " lists " + std::to_string(v.size()) + " passes; there are " + std::to_string(kAovInfo.size()));
+    AovSet set = 0;
+    for (size_t i = 0; i < v.size(); ++i) {
+        const std::string at = p + "/" + std::to_string(i);
+        Aov a;
+        if (!v[i].is_string() || !aov_named(v[i].get_ref<const std::string&>(), a))
+            throw InvalidJob(at, at + " must be one of " + names + ", got " + json_text(v[i]));
+        if (has_aov(set, a)) throw InvalidJob(at, p + " lists " + json_text(v[i]) + " twice");
+        set |= aov_bit(a);
+    }
+    j.render.aovs = set;
+}
+
+json get_passes(const RenderJob& j) { return aov_names(j.render.aovs); }
+
+template <class Job, auto... Path>
+void set_bool(Job& j, const json& v, const ParseContext&) {
+    at<Path...>(j) = v.get<bool>();
+}
+
 // "animation": a name, an index (a number or its digits), or null for every animation at once.
 void set_animation(RenderJob& j, const json& v, const ParseContext& ctx) {
     if (v.is_null()) j.animation.clear();
@@ -361,6 +388,31 @@ const Field<RenderJob> kRenderFields[] = {
         "--time-limit", Limit::time_limit)),
     not_per_config(number<RenderJob, &RenderJob::render, &RenderSettings::target_error>(
         "target_error", 0, 1e6, "0", "Stop at this relative MSE; 0: none.", "--target-error")),
+    [] {
+        Field<RenderJob> f = field<RenderJob>(
+            "passes", FieldKind::object,
+            "Render passes (AOVs) for compositing, written beside the image as one multilayer OpenEXR (passes.exr) and each "
+            "alone: albedo, normal, depth, position, object_id, material_id, the light split emission, environment, "
+            "diffuse_direct, diffuse_indirect, glossy_direct, glossy_indirect (which sum to the image), and variance.",
+            "[]");
+        f.cli = "--passes";
+        f.set = &set_passes;
+        f.get = &get_passes;
+        f.per_config = false;
+        return f;
+    }(),
+    [] {
+        Field<RenderJob> f = field<RenderJob>(
+            "denoise", FieldKind::boolean,
+            "Denoise after every pass (denoised.exr and denoised.png beside the image) and report the denoised image's "
+            "estimated error; target_error then applies to the denoised image.",
+            "false");
+        f.cli = "--denoise";
+        f.set = &set_bool<RenderJob, &RenderJob::render, &RenderSettings::denoise>;
+        f.get = &get_member<RenderJob, &RenderJob::render, &RenderSettings::denoise>;
+        f.per_config = false;
+        return f;
+    }(),
     [] {
         Field<RenderJob> f = field<RenderJob>("reference", FieldKind::job_id, "A finished job whose image the error is measured against.",
                            "null");

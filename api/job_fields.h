@@ -21,6 +21,7 @@ enum class FieldKind {
     choice,   // one of `choices`
     job_id,   // 16 lowercase hex digits, or null
     object,   // a nested object or list, parsed by the field itself
+    boolean,  // true or false
 };
 
 // The maxima that the server's limits set (JobLimits); `none` keeps the field's own.

@@ -136,12 +136,38 @@ JobOutcome write_render(const FinishedRender& done, const RunOptions& opt, const
         if (!out.png.empty()) write_png(out.png, result.image, out.tone, meta);
         if (!out.exr.empty()) write_exr(out.exr, result.image, meta);
         if (!out.rate_png.empty()) write_rate_png(out.rate_png, result.image, done.settings.spp, meta);
+        if (!result.aovs.empty()) {
+            if (!out.passes_exr.empty()) write_layers_exr(out.passes_exr, result.image, result.aovs, meta);
+            if (!out.passes_dir.empty()) {
+                std::filesystem::create_directories(out.passes_dir);
+                for (const AovPlane& a : result.aovs)
+                    write_aov_exr((std::filesystem::path(out.passes_dir) / (std::string(aov_info(a.aov).name) + ".exr")).string(),
+                                  result.image.width, result.image.height, a, meta);
+            }
+        }
+        if (result.denoised) {
+            if (!out.denoised_exr.empty()) write_exr(out.denoised_exr, result.denoised->image, meta);
+            if (!out.denoised_png.empty()) write_png(out.denoised_png, result.denoised->image, out.tone, meta);
+        }
         write_text(out.convergence_csv, convergence_csv(result.curve));
         if (!out.convergence_svg.empty()) {
             const std::string who = opt.job_id.empty() ? std::string("Render") : "Job " + opt.job_id;
-            write_text(out.convergence_svg,
-                       convergence_svg({result.curve}, {job.reference.empty() ? "estimated (half buffers)" : "against job " + job.reference},
-                                       who + ": error against time (" + job.scene + ")"));
+            std::vector<ConvergenceCurve> curves{result.curve};
+            std::vector<std::string> labels{job.reference.empty() ? "estimated (half buffers)" : "against job " + job.reference};
+            // A denoising job's second series: its denoised image at each pass.
+            ConvergenceCurve denoised;
+            for (const ConvergencePoint& p : result.curve.points) {
+                if (p.denoised_est_rel_mse < 0) continue;
+                ConvergencePoint q = p;
+                q.rel_mse = p.denoised_rel_mse;
+                q.est_rel_mse = p.denoised_est_rel_mse;
+                denoised.points.push_back(q);
+            }
+            if (!denoised.points.empty()) {
+                curves.push_back(denoised);
+                labels.push_back(job.reference.empty() ? "denoised, estimated (independent halves)" : "denoised, against job " + job.reference);
+            }
+            write_text(out.convergence_svg, convergence_svg(curves, labels, who + ": error against time (" + job.scene + ")"));
         }
     } catch (const std::exception& e) {
         // Whatever the image library says, the user is told it was the writing of results that failed.
@@ -222,7 +248,9 @@ JobOutcome render_prepared(const RenderJob& job, const RenderSettings& render_se
             std::shared_ptr<Image>& img = pass_images[v.index % 2];
             if (!img || img.use_count() > 1) img = std::make_shared<Image>();
             v.film.resolve_into(*img);
-            cb.pass(PassSnapshot{v.index, v.spp, v.point, img});
+            std::shared_ptr<const Image> denoised;
+            if (v.denoised) denoised = std::shared_ptr<const Image>(v.denoised, &v.denoised->image);
+            cb.pass(PassSnapshot{v.index, v.spp, v.point, img, denoised});
         };
     if (opt.environment) settings.environment = opt.environment;
     else if (!opt.environment_file.empty()) settings.environment = load_environment(opt.environment_file);
@@ -268,6 +296,10 @@ RunOutputs RunOutputs::in_directory(const std::string& dir) {
     o.convergence_csv = (d / "convergence.csv").string();
     o.convergence_svg = (d / "convergence.svg").string();
     o.report_json = (d / "report.json").string();
+    o.passes_exr = (d / "passes.exr").string();
+    o.passes_dir = (d / "passes").string();
+    o.denoised_exr = (d / "denoised.exr").string();
+    o.denoised_png = (d / "denoised.png").string();
     o.contact_sheet_png = (d / "contact_sheet.png").string();
     o.preview_mp4 = (d / "preview.mp4").string();
     o.frame = [dir](int frame) { return in_directory((std::filesystem::path(dir) / "frames" / std::to_string(frame)).string()); };

@@ -77,6 +77,9 @@ struct RunOptions {
 // Where the results go; an empty path is not written.
 struct RunOutputs {
     std::string png, exr, rate_png, convergence_csv, convergence_svg, report_json;
+    // The job's passes: all in one multilayer EXR, and each alone as <passes_dir>/<name>.exr;
+    // the denoised image (a job that denoises).
+    std::string passes_exr, passes_dir, denoised_exr, denoised_png;
     ToneCurve tone = ToneCurve::srgb;
     std::string directory;          // in_directory's folder, made again before writing if it went away
     // A shot's: frame n's outputs (in_directory: frames/<n>/ under the same names), and the
@@ -94,6 +97,7 @@ struct PassSnapshot {
     int spp = 0;          // the pass's per-pixel sample target
     ConvergencePoint point;
     std::shared_ptr<const Image> image;  // linear RGB with per-pixel sample counts
+    std::shared_ptr<const Image> denoised;  // the pass's denoised image (a job that denoises; none below 2 spp)
 };
 
 // A shot's frame, finished and written.

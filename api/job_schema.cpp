@@ -42,6 +42,9 @@ json property(const Field<Job>& f, const JobLimits& limits) {
         case FieldKind::object:
             p["type"] = "object";
             break;
+        case FieldKind::boolean:
+            p["type"] = "boolean";
+            break;
     }
     if (f.nullable) p["nullable"] = true;
     if (!f.default_json.empty()) p["default"] = json::parse(f.default_json);

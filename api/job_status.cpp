@@ -50,7 +50,8 @@ json measured(double v) { return v >= 0 ? json(v) : json(nullptr); }
 
 json to_json(const PassSummary& p) {
     return {{"index", p.index}, {"spp", p.spp}, {"spp_mean", p.spp_mean}, {"seconds", p.seconds},
-            {"est_rel_mse", measured(p.est_rel_mse)}, {"rel_mse", measured(p.rel_mse)}};
+            {"est_rel_mse", measured(p.est_rel_mse)}, {"rel_mse", measured(p.rel_mse)},
+            {"denoised_est_rel_mse", measured(p.denoised_est_rel_mse)}};
 }
 
 json to_json(const ShotProgress& p) {

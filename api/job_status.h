@@ -33,6 +33,7 @@ struct PassSummary {
     int spp = 0;                // the pass's per-pixel sample target
     double spp_mean = 0, seconds = 0;
     double est_rel_mse = -1, rel_mse = -1;  // negative: not measured
+    double denoised_est_rel_mse = -1;      // a denoising job's denoised image's estimate
 };
 nlohmann::json to_json(const PassSummary& p);
 

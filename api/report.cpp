@@ -49,6 +49,12 @@ json to_json(const ConvergencePoint& p) {
         jp["mse"] = p.mse;
         jp["mae"] = p.mae;
     }
+    // A denoising render's second series: the denoised image's error.
+    if (p.denoised_est_rel_mse >= 0) {
+        jp["denoised_est_rel_mse"] = p.denoised_est_rel_mse;
+        if (p.denoised_rel_mse >= 0) jp["denoised_rel_mse"] = p.denoised_rel_mse;
+        jp["denoise_seconds"] = p.denoise_seconds;
+    }
     return jp;
 }
 
@@ -61,6 +67,9 @@ ConvergencePoint convergence_point_from_json(const json& j) {
     p.rel_mse = measured("rel_mse");
     p.mse = measured("mse");
     p.mae = measured("mae");
+    p.denoised_est_rel_mse = measured("denoised_est_rel_mse");
+    p.denoised_rel_mse = measured("denoised_rel_mse");
+    p.denoise_seconds = std::max(0.0, measured("denoise_seconds"));
     return p;
 }
 

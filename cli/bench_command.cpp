@@ -247,6 +247,7 @@ const Kind kKinds[] = {
     {"instances", bench_instances, "instancing: memory of many placements against one, time against the flattened scene"},
     {"shot", bench_shot, "a shot's per-frame overhead (pose, build, write) against its render time"},
     {"materials", bench_materials, "the energy each BSDF keeps, and the CS184 material scenes with their time"},
+    {"denoise", bench_denoise, "the denoiser: true and estimated error of noisy and denoised images, its time, the time saved"},
 };
 
 }  // namespace

@@ -42,5 +42,6 @@ int bench_cluster(int argc, char** argv);
 int bench_materials(int argc, char** argv);
 int bench_instances(int argc, char** argv);
 int bench_shot(int argc, char** argv);
+int bench_denoise(int argc, char** argv);
 
 }  // namespace tessera::cli

@@ -54,6 +54,7 @@ void JobFlags::add_to(CLI::App& app, const std::string& group) {
         switch (f.kind) {
             case api::FieldKind::integer: g.option->type_name("N"); break;
             case api::FieldKind::number: g.option->type_name("X"); break;
+            case api::FieldKind::boolean: g.option->type_name("true|false"); break;
             case api::FieldKind::choice: {
                 std::string choices;
                 for (std::string_view c : f.choices) choices += (choices.empty() ? "" : "|") + std::string(c);
@@ -84,11 +85,22 @@ nlohmann::json JobFlags::given() const {
                 body[std::string(f.name)] = d;
             } else if (f.name == "frames") {
                 body["frames"] = frames_json(v);
+            } else if (f.kind == api::FieldKind::boolean) {
+                if (v != "true" && v != "false") throw std::invalid_argument(flag + " needs true or false, got '" + v + "'");
+                body[std::string(f.name)] = v == "true";
+            } else if (f.name == "passes") {
+                nlohmann::json list = nlohmann::json::array();
+                for (size_t at = 0; at <= v.size();) {
+                    const size_t comma = std::min(v.find(',', at), v.size());
+                    if (comma > at) list.push_back(v.substr(at, comma - at));
+                    at = comma + 1;
+                }
+                body["passes"] = list;
             } else {
                 body[std::string(f.name)] = v;
             }
         } catch (const std::invalid_argument& e) {
-            if (f.name == "frames") throw;
+            if (f.name == "frames" || f.kind == api::FieldKind::boolean) throw;
             throw std::invalid_argument(flag + (f.kind == api::FieldKind::integer ? " needs a whole number" : " needs a number") +
                                         ", got '" + v + "'");
         } catch (const std::exception&) {

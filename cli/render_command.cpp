@@ -72,6 +72,13 @@ void print_report(const api::RenderReport& r, const std::string& output) {
     std::printf("wrote %s\n", output.c_str());
 }
 
+// Beside the image NAME.ext: NAME_passes.exr (the job's passes), NAME_denoised.ext.
+void add_extras(const api::RenderJob& job, const std::filesystem::path& p, api::RunOutputs& o) {
+    const std::filesystem::path stem = p.parent_path() / p.stem();
+    if (job.render.aovs) o.passes_exr = stem.string() + "_passes.exr";
+    if (job.render.denoise) (p.extension() == ".png" ? o.denoised_png : o.denoised_exr) = stem.string() + "_denoised" + p.extension().string();
+}
+
 // A shot: each frame to the -f pattern (out_####.exr: the frame number in place of the '#'s),
 // then a contact sheet beside them.
 int render_shot(const api::RenderJob& job, const api::RunOptions& options, const std::string& pattern, ToneCurve tone) {
@@ -82,10 +89,9 @@ int render_shot(const api::RenderJob& job, const api::RunOptions& options, const
         api::RunOutputs o;
         const std::string path = api::frame_path(pattern, frame);
         (ext == ".png" ? o.png : o.exr) = path;
-        if (job.render.adaptive) {
-            const std::filesystem::path p(path);
-            o.rate_png = (p.parent_path() / (p.stem().string() + "_rate.png")).string();
-        }
+        const std::filesystem::path p(path);
+        if (job.render.adaptive) o.rate_png = (p.parent_path() / (p.stem().string() + "_rate.png")).string();
+        add_extras(job, p, o);
         return o;
     };
     std::string sheet = api::frame_path(pattern, 0);
@@ -234,6 +240,7 @@ int render_command(int argc, char** argv) {
     (ext == ".png" ? outputs.png : outputs.exr) = output;
     outputs.tone = tone;
     if (job.render.adaptive) outputs.rate_png = (out_path.parent_path() / (out_path.stem().string() + "_rate.png")).string();
+    add_extras(job, out_path, outputs);
     api::JobOutcome outcome;
     try {
         outcome = api::run_job(job, options, outputs);
@@ -242,6 +249,12 @@ int render_command(int argc, char** argv) {
     }
     for (const auto& w : outcome.render->scene_build.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     if (!outputs.rate_png.empty()) std::printf("sample-rate map: %s\n", outputs.rate_png.c_str());
+    if (!outputs.passes_exr.empty()) std::printf("passes: %s\n", outputs.passes_exr.c_str());
+    for (const auto& p : outcome.render->curve.points)
+        if (&p == &outcome.render->curve.points.back() && p.denoised_est_rel_mse >= 0)
+            std::printf("denoised: %s (estimated relMSE %.4g, noisy %.4g; denoising took %.3f s)\n",
+                        (outputs.denoised_png.empty() ? outputs.denoised_exr : outputs.denoised_png).c_str(), p.denoised_est_rel_mse,
+                        p.est_rel_mse, p.denoise_seconds);
     print_report(*outcome.render, output);
     return 0;
 }

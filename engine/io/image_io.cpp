@@ -93,6 +93,32 @@ void exr_out(const std::string& path, const Image& image, const Metadata& meta, 
     write(path, spec, OIIO::TypeDesc::FLOAT, data.data(), meta, memory);
 }
 
+void layers_out(const std::string& path, int width, int height, const Image* image, const std::vector<AovPlane>& aovs,
+                const Metadata& meta) {
+    std::vector<std::string> names;
+    if (image) names = {"R", "G", "B", "samples"};
+    for (const AovPlane& a : aovs)
+        for (const std::string& c : aov_channel_names(a.aov)) names.push_back(c);
+    const size_t n = size_t(width) * height, nc = names.size();
+    std::vector<float> data(n * nc);
+    for (size_t i = 0; i < n; ++i) {
+        float* px = &data[i * nc];
+        if (image) {
+            for (int k = 0; k < 3; ++k) *px++ = image->rgb[i * 3 + k];
+            *px++ = image->sample_count.empty() ? 0.f : image->sample_count[i];
+        }
+        for (const AovPlane& a : aovs)
+            for (int k = 0; k < a.components; ++k) *px++ = a.values[i * size_t(a.components) + size_t(k)];
+    }
+    OIIO::ImageSpec spec(width, height, int(nc), OIIO::TypeDesc::FLOAT);
+    spec.channelnames = names;
+    spec.alpha_channel = -1;
+    spec.z_channel = -1;
+    spec.attribute("oiio:ColorSpace", "Linear");
+    spec.attribute("compression", "zip");
+    write(path, spec, OIIO::TypeDesc::FLOAT, data.data(), meta);
+}
+
 void rate_out(const std::string& path, const Image& image, int max_spp, const Metadata& meta, std::vector<unsigned char>* memory) {
     const auto px = rate_colors8(image, max_spp);
     OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
@@ -134,6 +160,48 @@ void write_image(const std::string& path, const Image& image, const Metadata& me
 
 void write_rate_png(const std::string& path, const Image& image, int max_spp, const Metadata& meta) {
     rate_out(path, image, max_spp, meta, nullptr);
+}
+
+std::vector<std::string> aov_channel_names(Aov aov) {
+    const AovInfo& info = aov_info(aov);
+    std::vector<std::string> names;
+    const std::string suffixes = info.suffixes;
+    if (suffixes.empty()) names.emplace_back(info.layer);
+    for (char c : suffixes) names.push_back(std::string(info.layer) + "." + c);
+    return names;
+}
+
+void write_layers_exr(const std::string& path, const Image& image, const std::vector<AovPlane>& aovs, const Metadata& meta) {
+    layers_out(path, image.width, image.height, &image, aovs, meta);
+}
+
+void write_aov_exr(const std::string& path, int width, int height, const AovPlane& aov, const Metadata& meta) {
+    layers_out(path, width, height, nullptr, {aov}, meta);
+}
+
+ChannelImage read_channels(const std::string& path) {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) throw std::runtime_error(path + ": " + OIIO::geterror());
+    const OIIO::ImageSpec& spec = in->spec();
+    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels < 1 || spec.nchannels > 256 || int64_t(spec.width) * spec.height > (1ll << 26))
+        throw std::runtime_error(path + ": not an image of a sensible size");
+    ChannelImage c;
+    c.width = spec.width;
+    c.height = spec.height;
+    c.names = spec.channelnames;
+    c.data.resize(size_t(spec.width) * spec.height * size_t(spec.nchannels));
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, c.data.data())) throw std::runtime_error(path + ": " + in->geterror());
+    in->close();
+    return c;
+}
+
+std::vector<float> ChannelImage::channel(const std::string& name) const {
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end()) throw std::runtime_error("no channel " + name);
+    const size_t k = size_t(it - names.begin()), nc = names.size(), n = size_t(width) * size_t(height);
+    std::vector<float> v(n);
+    for (size_t i = 0; i < n; ++i) v[i] = data[i * nc + k];
+    return v;
 }
 
 Image read_image(const std::string& path) {

@@ -24,7 +24,8 @@ const char* to_string(StopReason r) {
 ErrorSums error_sums(const Film& film, const Image* reference) {
     ErrorSums e;
     e.pixels = film.sum.size();
-    e.half_buffer = !film.sum_half.empty();
+    e.half_buffer = !film.sum_half.empty() || !film.sum_odd.empty();
+    const bool split = !film.sum_odd.empty();
     e.reference = reference != nullptr;
     constexpr double eps = 0.01;
     for (size_t i = 0; i < film.sum.size(); ++i) {
@@ -33,7 +34,16 @@ ErrorSums error_sums(const Film& film, const Image* reference) {
         e.spp += c;
         if (count == 0) continue;
         const glm::dvec3 mean = film.sum[i] / c;
-        if (e.half_buffer && count >= 2) {
+        if (split && count >= 2) {
+            // Independent halves (even and odd samples, scrambled apart): their difference gives
+            // the variance of the mean with no stratification to correct for.
+            const double na = double((count + 1) / 2), nb = double(count / 2);
+            const glm::dvec3 a = (film.sum[i] - film.sum_odd[i]) / na, b = film.sum_odd[i] / nb;
+            double outer = 0;
+            for (int k = 0; k < 3; ++k) outer += (a[k] - b[k]) * (a[k] - b[k]) * (na * nb / (c * c)) / (mean[k] * mean[k] + eps);
+            e.est += outer;
+            ++e.est_pixels;
+        } else if (e.half_buffer && count >= 2) {
             const uint32_t h = 1u << (31 - __builtin_clz(count - 1));  // the largest power of two below c
             const double w = double(h) * double(count - h) / (c * c);
             const glm::dvec3 a = film.sum_half[i] / double(h), b = (film.sum[i] - film.sum_half[i]) / double(count - h);
@@ -72,6 +82,16 @@ ErrorSums error_sums(const Film& film, const Image* reference) {
         }
     }
     return e;
+}
+
+double relative_mse(const Image& image, const Image& reference) {
+    if (image.rgb.size() != reference.rgb.size() || image.rgb.empty()) return -1;
+    double rel = 0;
+    for (size_t i = 0; i < image.rgb.size(); ++i) {
+        const double r = reference.rgb[i], d = double(image.rgb[i]) - r;
+        rel += d * d / (r * r + 0.01);
+    }
+    return rel / double(image.rgb.size());
 }
 
 void ErrorSums::add(const ErrorSums& o) {
@@ -142,14 +162,22 @@ ConvergencePoint measure_error(const Film& film, const Image* reference) { retur
 
 std::string convergence_csv(const ConvergenceCurve& c) {
     std::ostringstream o;
-    o << "seconds,spp_mean,rel_mse,mse,mae,est_rel_mse\n";
+    // A denoising render's curve has its denoised image's error in three more columns.
+    const bool denoised = std::any_of(c.points.begin(), c.points.end(), [](const ConvergencePoint& p) { return p.denoised_est_rel_mse >= 0; });
+    o << "seconds,spp_mean,rel_mse,mse,mae,est_rel_mse" << (denoised ? ",denoised_rel_mse,denoised_est_rel_mse,denoise_seconds" : "") << "\n";
     auto v = [&](double x) { if (x >= 0) o << x; };
     for (const auto& p : c.points) {
         o << p.seconds << "," << p.spp_mean << ",";
         v(p.rel_mse); o << ",";
         v(p.mse); o << ",";
         v(p.mae); o << ",";
-        v(p.est_rel_mse); o << "\n";
+        v(p.est_rel_mse);
+        if (denoised) {
+            o << ",";
+            v(p.denoised_rel_mse); o << ",";
+            v(p.denoised_est_rel_mse); o << "," << p.denoise_seconds;
+        }
+        o << "\n";
     }
     return o.str();
 }

@@ -28,6 +28,10 @@ struct ConvergencePoint {
     // 4-32 spp on the Cornell box, against 0.8-1.3x two levels apart). α is held to [1, 3]:
     // independent samples give α = 1 and no change, smooth 2-D integrands Owen scrambling's N^-3.
     double est_rel_mse = -1;
+    // The denoised image's (engine/render/denoise.h), when the render denoises: against the
+    // reference, and estimated from its two independent halves (denoise.h).
+    double denoised_rel_mse = -1, denoised_est_rel_mse = -1;
+    double denoise_seconds = 0;
 };
 
 enum class StopReason { spp, converged, time_limit, target_error, canceled };
@@ -53,6 +57,9 @@ struct ErrorSums {
 };
 // Of a film covering the image or one tile of it (`reference` covers the whole image).
 ErrorSums error_sums(const Film& film, const Image* reference);
+
+// relMSE of `image` against `reference` (same size), as ConvergencePoint::rel_mse defines it.
+double relative_mse(const Image& image, const Image& reference);
 
 // How much the halves' difference overstates the error when the error falls as N^-α, for
 // halves of h and c − h samples (c/h = split): 1 at α = 1, 1/(2^α − 1) at split 2.

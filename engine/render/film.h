@@ -8,6 +8,7 @@
 
 #include <glm/glm.hpp>
 
+#include "engine/render/aov.h"
 #include "engine/render/image.h"
 
 namespace tessera {
@@ -40,12 +41,23 @@ struct Film {
     // power of two below its count (see convergence.h). They depend only on the count, never on
     // how passes, tiles or nodes split the samples.
     std::vector<glm::dvec3> sum_half, sum_quarter, sum_eighth;
+    // A denoising render's: the sum of its odd samples (1, 3, 5, …), drawn from a scramble of
+    // their own, so that even and odd samples are two independent estimates (denoise.h).
+    std::vector<glm::dvec3> sum_odd;
     std::vector<uint32_t> count;       // samples taken
     std::vector<RunningStats> stats;   // illuminance statistics (adaptive only)
     std::vector<uint8_t> done;         // adaptive: converged
+    // The AOVs a render asked for (and the denoiser reads): layout.stride doubles per pixel.
+    AovLayout aov_layout;
+    std::vector<double> aov;
 
-    Film(int w, int h, bool half_buffer, bool adaptive)
-        : width(w), height(h), sum(size_t(w) * h, glm::dvec3(0.0)), count(size_t(w) * h, 0) {
+    Film(int w, int h, bool half_buffer, bool adaptive, AovSet aovs = 0)
+        : width(w), height(h), sum(size_t(w) * h, glm::dvec3(0.0)), count(size_t(w) * h, 0), aov_layout(aovs) {
+        if (aovs & kSplitHalves) sum_odd.assign(size_t(w) * h, glm::dvec3(0.0));
+        if (aov_layout.stride > 0) {
+            aov.resize(size_t(w) * h * size_t(aov_layout.stride));
+            for (size_t p = 0; p < size_t(w) * h; ++p) clear_aovs(aov_layout, &aov[p * size_t(aov_layout.stride)]);
+        }
         if (half_buffer) {
             sum_half.assign(size_t(w) * h, glm::dvec3(0.0));
             sum_quarter.assign(size_t(w) * h, glm::dvec3(0.0));
@@ -54,8 +66,8 @@ struct Film {
         if (adaptive) { stats.resize(size_t(w) * h); done.assign(size_t(w) * h, 0); }
     }
     // A film of one tile's pixels, for a render node that renders one tile at a time.
-    static Film tile(int x0, int y0, int w, int h, bool half_buffer, bool adaptive) {
-        Film f(w, h, half_buffer, adaptive);
+    static Film tile(int x0, int y0, int w, int h, bool half_buffer, bool adaptive, AovSet aovs = 0) {
+        Film f(w, h, half_buffer, adaptive, aovs);
         f.x0 = x0;
         f.y0 = y0;
         return f;
@@ -63,8 +75,18 @@ struct Film {
     void describe(std::vector<std::string>& built, std::vector<std::string>& left_out) const {
         built.push_back("film: sum and sample count per pixel");
         (sum_half.empty() ? left_out : built).push_back("half-sample buffers (error estimate)");
+        if (!sum_odd.empty()) built.push_back("odd samples apart, from an independent scramble (the denoiser's two halves)");
         (stats.empty() ? left_out : built).push_back("per-pixel variance statistics (adaptive sampling)");
+        if (aov_layout.stride > 0) {
+            std::string names;
+            for (const std::string& n : aov_names(aov_layout.set)) names += (names.empty() ? "" : ", ") + n;
+            built.push_back("AOVs: " + names);
+        } else {
+            left_out.push_back("AOVs (none asked for)");
+        }
     }
+    // The AOVs of `which` (kept ones only) as planes of floats, resolved from their sums.
+    std::vector<AovPlane> resolve_aovs(AovSet which) const;
     Image resolve() const {
         Image img(width, height);
         resolve_into(img);

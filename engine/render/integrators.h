@@ -8,10 +8,12 @@ namespace tessera {
 class NormalsIntegrator {
 public:
     NormalsIntegrator(const RenderScene& scene, RenderStats& stats) : s_(scene), stats_(stats) {}
-    glm::vec3 radiance(Ray ray, Sampler&) {
+    glm::vec3 radiance(Ray ray, Sampler&, SampleAovs* aovs) {
         Hit hit;
         if (!intersect(s_, ray, hit, stats_.traversal)) return glm::vec3(0.f);
-        return 0.5f * surface_at(s_, ray, hit).ns + 0.5f;
+        const SurfaceInteraction si = surface_at(s_, ray, hit);
+        if (aovs) record_first_hit(s_, ray, hit, si, *aovs);
+        return 0.5f * si.ns + 0.5f;
     }
 
 private:
@@ -23,8 +25,8 @@ class IntegratorDispatch {
 public:
     IntegratorDispatch(const RenderScene& scene, const RenderSettings& settings, RenderStats& stats)
         : kind_(settings.integrator), normals_(scene, stats), path_(scene, settings, stats) {}
-    glm::vec3 radiance(const Ray& ray, Sampler& rng) {
-        return kind_ == Integrator::normals ? normals_.radiance(ray, rng) : path_.radiance(ray, rng);
+    glm::vec3 radiance(const Ray& ray, Sampler& rng, SampleAovs* aovs = nullptr) {
+        return kind_ == Integrator::normals ? normals_.radiance(ray, rng, aovs) : path_.radiance(ray, rng, aovs);
     }
 
 private:

@@ -19,15 +19,18 @@ std::vector<TileRect> make_tiles(int width, int height, int size) {
 PassPlan plan_passes(const RenderSettings& settings, bool has_reference, bool observed) {
     PassPlan p;
     p.adaptive = settings.adaptive.has_value();
-    p.measuring = settings.estimate_error || settings.target_error > 0 || observed || has_reference;
+    p.measuring = settings.estimate_error || settings.target_error > 0 || observed || has_reference || settings.denoise;
     // Passes of doubling spp only when something is measured or a time limit may cut the
     // render short; otherwise one pass (nothing to report in between).
     p.progressive = p.measuring || settings.time_limit_s > 0;
-    p.half_buffer = settings.estimate_error || (settings.target_error > 0 && !has_reference);
+    // A denoising render estimates its noisy error from its two independent halves instead.
+    p.half_buffer = (settings.estimate_error || (settings.target_error > 0 && !has_reference)) && !settings.denoise;
+    p.aovs = settings.aovs | (settings.denoise ? kDenoiseAovs : 0);
     p.max_passes = p.adaptive ? (settings.spp + std::max(1, settings.adaptive->batch) - 1) / std::max(1, settings.adaptive->batch) + 1
                               : 64;
     p.tiles = make_tiles(settings.width, settings.height, settings.tile_size);
-    p.whole_tiles = !p.adaptive && settings.target_error <= 0 && settings.time_limit_s <= 0;
+    // The denoiser reads the whole image after every pass.
+    p.whole_tiles = !p.adaptive && settings.target_error <= 0 && settings.time_limit_s <= 0 && !settings.denoise;
     if (!p.adaptive)
         for (int t = 0, k = 0; k < p.max_passes; ++k) {
             t = pass_target(settings, p, t);
@@ -48,7 +51,9 @@ std::optional<StopReason> stop_after_pass(const RenderSettings& settings, const 
                                           int target, const ConvergencePoint& point, bool out_of_time, bool canceled) {
     if (canceled) return StopReason::canceled;
     if (out_of_time) return StopReason::time_limit;
-    const double err = point.rel_mse >= 0 ? point.rel_mse : point.est_rel_mse;
+    // A denoising render is good enough when its denoised image is.
+    const double err = settings.denoise ? (point.denoised_rel_mse >= 0 ? point.denoised_rel_mse : point.denoised_est_rel_mse)
+                                        : (point.rel_mse >= 0 ? point.rel_mse : point.est_rel_mse);
     if (settings.target_error > 0 && err >= 0 && err <= settings.target_error) return StopReason::target_error;
     const bool all_done = !plan.adaptive ? target >= settings.spp
                                          : std::all_of(film.done.begin(), film.done.end(), [](uint8_t d) { return d != 0; });
@@ -63,6 +68,14 @@ PassEnd end_pass(const RenderSettings& settings, const PassPlan& plan, const Fil
     PassEnd e;
     if (plan.measuring) e.point = measure_error(film, reference);
     else e.point.spp_mean = double(samples) / (double(settings.width) * settings.height);
+    if (settings.denoise) {
+        if (auto d = denoise(film, settings.threads)) {
+            e.point.denoised_est_rel_mse = d->est_rel_mse;
+            e.point.denoise_seconds = d->seconds;
+            if (reference) e.point.denoised_rel_mse = relative_mse(d->image, *reference);
+            e.denoised = std::make_shared<const Denoised>(std::move(*d));
+        }
+    }
     e.point.seconds = seconds;
     e.stop = stop_after_pass(settings, plan, film, target, e.point, out_of_time, canceled);
     if (!e.stop && pass + 1 >= plan.max_passes) e.stop = StopReason::spp;
@@ -107,6 +120,8 @@ ConvergenceCurve whole_tile_curve(const PassPlan& plan, const std::vector<std::v
 void describe_render(const RenderScene& scene, const RenderSettings& settings, const Film& film,
                      std::vector<std::string>& built, std::vector<std::string>& left_out) {
     film.describe(built, left_out);
+    if (settings.denoise) built.push_back("denoiser: feature regression over 3 window sizes, chosen per pixel by the error its two independent halves give (after every pass)");
+    else left_out.push_back("denoiser (not asked for)");
     if (settings.integrator == Integrator::path) {
         (settings.max_depth > 1 ? built : left_out)
             .push_back(settings.max_depth > 1 ? "indirect bounces up to depth " + std::to_string(settings.max_depth)
@@ -164,6 +179,11 @@ void copy_entry(const Film& from, size_t i, Film& to, size_t j) {
     if (!to.stats.empty() && !from.stats.empty()) {
         to.stats[j] = from.stats[i];
         to.done[j] = from.done[i];
+    }
+    if (!to.sum_odd.empty() && !from.sum_odd.empty()) to.sum_odd[j] = from.sum_odd[i];
+    if (to.aov_layout.set == from.aov_layout.set && to.aov_layout.stride > 0) {
+        const size_t n = size_t(to.aov_layout.stride);
+        std::copy_n(&from.aov[i * n], n, &to.aov[j * n]);
     }
 }
 

@@ -7,12 +7,14 @@
 // A pixel's film entries depend only on its samples, taken in order from its own random streams,
 // so where the pass boundaries fall never changes the sums.
 #include <functional>
+#include <memory>
 #include <optional>
 #include <cstdint>
 #include <string>
 #include <vector>
 
 #include "engine/render/convergence.h"
+#include "engine/render/denoise.h"
 #include "engine/render/film.h"
 #include "engine/render/render_settings.h"
 
@@ -46,6 +48,7 @@ struct PassPlan {
     // a pixel's samples are added in the same order.
     bool whole_tiles = false;
     std::vector<int> targets;  // the uniform pass targets, 1, 2, 4, …, spp (one: spp)
+    AovSet aovs = 0;           // the film's AOVs: the job's and what the denoiser reads
 };
 
 PassPlan plan_passes(const RenderSettings& settings, bool has_reference, bool observed);
@@ -58,6 +61,7 @@ std::optional<StopReason> stop_after_pass(const RenderSettings& settings, const 
 // The end of a pass, wherever its tiles were rendered: its error point and what follows.
 struct PassEnd {
     ConvergencePoint point;
+    std::shared_ptr<const Denoised> denoised;  // the pass's denoised image, when the render denoises
     std::optional<StopReason> stop;  // nothing: pass + 1 follows, at next_target
     int next_target = 0;
 };

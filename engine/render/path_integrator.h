@@ -12,6 +12,7 @@
 #include <cmath>
 
 #include "engine/geometry/spawn.h"
+#include "engine/render/aov.h"
 #include "engine/render/light_sampler.h"
 #include "engine/render/renderer.h"
 #include "engine/sampling/sampler.h"
@@ -21,6 +22,41 @@
 #include "engine/scene/surface_textures.h"
 
 namespace tessera {
+
+// The reflectance the albedo AOV shows for a BSDF (texture applied): the base colour of
+// diffuse, Phong and glTF materials, a conductor's reflectance at normal incidence. Perfect
+// specular BSDFs have none of their own: the AOV looks through them.
+inline glm::vec3 aov_albedo(const Bsdf& b) {
+    if (b.kind == BsdfKind::conductor) {
+        const glm::vec3 e = b.eta, k = b.k;
+        return b.albedo * (((e - 1.f) * (e - 1.f) + k * k) / ((e + 1.f) * (e + 1.f) + k * k));
+    }
+    return b.albedo;
+}
+
+// Per channel, the share of f that is the glossy lobe's (all of it where f is zero).
+inline glm::vec3 glossy_share(const BsdfSplit& p) {
+    const glm::vec3 t = p.diffuse + p.glossy;
+    return {t.x > 0.f ? p.glossy.x / t.x : 1.f, t.y > 0.f ? p.glossy.y / t.y : 1.f, t.z > 0.f ? p.glossy.z / t.z : 1.f};
+}
+
+// The geometric AOVs of a camera ray's first hit (its BSDF's albedo and shading normal are
+// refined where textures apply, in the integrator).
+inline void record_first_hit(const RenderScene& s, const Ray& ray, const Hit& hit, const SurfaceInteraction& si, SampleAovs& a) {
+    a.depth = hit.t * glm::length(ray.d);
+    a.position = si.p;
+    a.normal = si.ns;
+    a.material = si.material + 1;
+    const size_t meshes = s.mesh_first_tri.empty() ? 0 : s.mesh_first_tri.size() - 1;
+    if (hit.sphere) {
+        a.object = uint32_t(meshes + hit.prim + 1);
+    } else {
+        const auto it = std::upper_bound(s.mesh_first_tri.begin(), s.mesh_first_tri.end(), hit.prim);
+        a.object = uint32_t(it - s.mesh_first_tri.begin());
+    }
+    const Bsdf& b = s.materials[si.material].bsdf;
+    a.albedo = bsdf_is_delta(b) ? glm::vec3(0.f) : aov_albedo(b);
+}
 
 class PathIntegrator {
 public:
@@ -32,15 +68,37 @@ public:
           by_tree_(selection_ == LightSelection::tree && !scene.light_tree.empty()),
           light_samples_(float(std::max(1, settings.light_rays))) {}
 
-    glm::vec3 radiance(Ray ray, Sampler& rng) {
+    // `aovs`, when given, receives the sample's AOVs: the first hit's geometry and the light
+    // split of L (emission and environment seen directly, then the first vertex's direct light and
+    // everything after it, each shared between its diffuse and glossy lobes), which sums to L.
+    glm::vec3 radiance(Ray ray, Sampler& rng, SampleAovs* aovs = nullptr) {
         Hit hit;
-        if (!intersect(s_, ray, hit, stats_.traversal)) return include(0) ? background(glm::normalize(ray.d)) : glm::vec3(0.f);
+        if (!intersect(s_, ray, hit, stats_.traversal)) {
+            const glm::vec3 bg = include(0) ? background(glm::normalize(ray.d)) : glm::vec3(0.f);
+            if (aovs) aovs->environment = bg;
+            return bg;
+        }
         SurfaceInteraction si = surface_at(s_, ray, hit);
+        if (aovs) record_first_hit(s_, ray, hit, si, *aovs);
         glm::vec3 wo = -glm::normalize(ray.d);
         glm::vec3 L = include(0) ? emitted(si, hit, wo) : glm::vec3(0.f);
+        if (aovs) aovs->emission = L;
         glm::vec3 beta(1.f);
         Bsdf textured;  // a textured material's BSDF at the current vertex
+        // The light split (aovs only): L when the first vertex's light is all in, its direct
+        // light by lobe, and the glossy share of the emission its continuation finds and of
+        // everything after it.
+        glm::vec3 L_first(0.f), cont_glossy(0.f), found_glossy(0.f);
+        bool first_done = false;
+        DirectSplit split;
+        // The albedo AOV looks through perfect specular vertices: their weights so far.
+        glm::vec3 albedo_through(1.f);
+        bool albedo_pending = false;
         for (int depth = 1; depth <= st_.max_depth; ++depth) {
+            if (aovs && depth == 2) {
+                L_first = L;
+                first_done = true;
+            }
             const Material& mat = s_.materials[si.material];
             const Bsdf* bsdf = &mat.bsdf;
             if (mat.textures != kNoTextures && !hit.sphere) {
@@ -48,6 +106,15 @@ public:
                 textured = mat.bsdf;
                 apply_textures(s_, s_.material_textures[mat.textures], hit.prim, hit.b1, hit.b2, textured, si.ns, si.ng, hit.instance);
                 bsdf = &textured;
+            }
+            if (aovs && (depth == 1 || albedo_pending)) {
+                if (depth == 1) aovs->normal = si.ns;
+                if (bsdf_is_delta(*bsdf)) {
+                    albedo_pending = true;
+                } else {
+                    aovs->albedo = albedo_through * aov_albedo(*bsdf);
+                    albedo_pending = false;
+                }
             }
             const bool back = face(si, wo);
             const Bsdf& b = *bsdf;
@@ -66,7 +133,7 @@ public:
             // Whether the continuation is this vertex's MIS BSDF sample (lights it could find).
             const bool mis_here = part != MisPart::none && include(depth) && (!s_.area_lights.empty() || env_);
             if (!only_delta) {
-                if (include(depth)) L += beta * direct(si, b, frame, wo_l, part, rng);
+                if (include(depth)) L += beta * direct(si, b, frame, wo_l, part, rng, aovs && depth == 1 ? &split : nullptr);
                 if (last && !has_delta && !mis_here) break;
             }
             // Roulette before the continuation unless it is the MIS BSDF sample: then after its
@@ -93,6 +160,14 @@ public:
                 weight = bs.weight;
                 pdf = bs.pdf;
                 delta = bs.delta;
+                if (aovs && depth == 1) {
+                    cont_glossy = delta ? glm::vec3(1.f) : glossy_share(bsdf_split(b, wo_l, bs.wi));
+                    found_glossy = part == MisPart::glossy && !delta ? glm::vec3(1.f) : cont_glossy;
+                }
+            }
+            if (aovs && albedo_pending) {
+                if (delta) albedo_through *= weight;
+                else albedo_pending = false;  // a specular vertex's rough part: no albedo to look through to
             }
             Ray next = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance, si.time);
             // At the last vertex MIS's BSDF sample is direct lighting's ray, not a bounce.
@@ -126,6 +201,16 @@ public:
             if (last) break;
             if (mis_here && !roulette(beta, rng)) break;
             wo = -wi;
+        }
+        if (aovs) {
+            if (albedo_pending) aovs->albedo = albedo_through;  // the path ended behind specular vertices
+            const glm::vec3 at_first = first_done ? L_first : L;
+            const glm::vec3 found = at_first - aovs->emission - split.diffuse - split.glossy;
+            aovs->glossy_direct = split.glossy + found * found_glossy;
+            aovs->diffuse_direct = at_first - aovs->emission - aovs->glossy_direct;
+            const glm::vec3 after = L - at_first;
+            aovs->glossy_indirect = after * cont_glossy;
+            aovs->diffuse_indirect = after - aovs->glossy_indirect;
         }
         return L;
     }
@@ -206,6 +291,11 @@ private:
         return pdf > 0.f ? bsdf_split(b, wo_l, wl).glossy * (wl.z / pdf) : glm::vec3(0.f);
     }
 
+    // Direct light at the first vertex by lobe, for the light split.
+    struct DirectSplit {
+        glm::vec3 diffuse{0.f}, glossy{0.f};
+    };
+
     // Russian roulette on the path's throughput; false ends the path.
     bool roulette(glm::vec3& beta, Sampler& rng) const {
         if (st_.russian_roulette <= 0.f) return true;
@@ -251,7 +341,7 @@ private:
     // samples are weighted here against the continuation, which radiance() weighs in turn as
     // the BSDF sample. A Lambertian BSDF keeps its constant f without a call per sample.
     glm::vec3 direct(const SurfaceInteraction& si, const Bsdf& b, const Frame& frame, const glm::vec3& wo_l, MisPart part,
-                     Sampler& rng) {
+                     Sampler& rng, DirectSplit* split = nullptr) {
         if (!s_.has_lights() && !env_) return glm::vec3(0.f);
         const bool lambert = b.kind == BsdfKind::lambertian;
         const glm::vec3 f_lambert = b.albedo * kInvPi;
@@ -268,6 +358,21 @@ private:
             return hemisphere ? p.glossy * w : p.diffuse + p.glossy * w;
         };
         glm::vec3 Ld(0.f);
+        // The glossy lobe's part of Ld (split only): f_light's glossy part toward a light sample.
+        glm::vec3 Lg(0.f);
+        auto g_light = [&](const glm::vec3& wi, float pdf) -> glm::vec3 {
+            if (lambert) return glm::vec3(0.f);
+            const glm::vec3 wl = frame.to_local(wi);
+            const float w = part == MisPart::none ? 1.f : light_mis_weight(pdf, continuation_pdf(b, wo_l, wl));
+            return bsdf_split(b, wo_l, wl).glossy * w;
+        };
+        auto done = [&] {
+            if (split) {
+                split->glossy = Lg;
+                split->diffuse = Ld - Lg;
+            }
+            return Ld;
+        };
         // Delta lights have one deterministic direction: one shadow ray each, in every strategy.
         for (size_t k = 0; k < s_.delta_lights.size(); ++k) {
             const DeltaLight dl = delta_light_at(s_, k, si.time);
@@ -278,14 +383,19 @@ private:
                 const float c = glm::dot(si.ns, wi);
                 if (c <= 0.f || glm::dot(si.ng, wi) <= 0.f) continue;
                 ++stats_.shadow_rays;
-                if (!occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, dl.position, si.tri, si.instance, si.time), stats_.traversal))
+                if (!occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, dl.position, si.tri, si.instance, si.time), stats_.traversal)) {
                     Ld += f(wi) * dl.intensity * (c / dist2);
+                    if (split && !lambert) Lg += bsdf_split(b, wo_l, frame.to_local(wi)).glossy * dl.intensity * (c / dist2);
+                }
             } else {
                 const glm::vec3 wi = -dl.direction;
                 const float c = glm::dot(si.ns, wi);
                 if (c <= 0.f || glm::dot(si.ng, wi) <= 0.f) continue;
                 ++stats_.shadow_rays;
-                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance, si.time), stats_.traversal)) Ld += f(wi) * dl.intensity * c;
+                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance, si.time), stats_.traversal)) {
+                    Ld += f(wi) * dl.intensity * c;
+                    if (split && !lambert) Lg += bsdf_split(b, wo_l, frame.to_local(wi)).glossy * dl.intensity * c;
+                }
             }
         }
         const int n = std::max(1, st_.light_rays);
@@ -307,7 +417,7 @@ private:
                 else Le = background(wi);
                 Ld += fd * Le * (glm::dot(si.ns, wi) / (uniform_hemisphere_pdf() * float(count)));
             }
-            if (part == MisPart::none) return Ld;
+            if (part == MisPart::none) return done();
         }
         const bool by_power = by_power_, by_tree = by_tree_;
         // A light sample, its light chosen with probability `pick`.
@@ -323,6 +433,7 @@ private:
                                      ? emission_at(s_, s_.materials[s_.tri_shading[ls.prim].material], ls.prim, ls.b1, ls.b2)
                                      : ls.Le;
             Ld += fw * Le * (c / (pdf * float(n)));
+            if (split) Lg += g_light(ls.wi, pdf) * Le * (c / (pdf * float(n)));
         };
         auto light_sample = [&](const AreaLight& light, float pick) {
             LightSample ls;
@@ -370,13 +481,14 @@ private:
                 ++stats_.shadow_rays;
                 if (occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance, si.time), stats_.traversal)) continue;
                 Ld += fw * Le * (c / (pdf * float(n)));
+                if (split) Lg += g_light(wi, pdf) * Le * (c / (pdf * float(n)));
             }
         }
         if (s_.has_sky) {
             // The sky is sampled with the BSDF: f·L·cos/pdf is the sample's weight times L
             // (for the Lambertian lobe, its albedo). A delta lobe's share is its continuation's.
             for (int i = 0; i < n; ++i) {
-                glm::vec3 wi, weight;
+                glm::vec3 wi, weight, share(0.f);
                 if (lambert) {
                     const glm::vec2 u = rng.next_2d();
                     wi = frame.to_world(sample_cosine_hemisphere(u.x, u.y));
@@ -386,13 +498,17 @@ private:
                     if (!sample(b, false, wo_l, rng, bs) || bs.delta || bs.wi.z <= 0.f) continue;
                     wi = frame.to_world(bs.wi);
                     weight = bs.weight;
+                    if (split) share = glossy_share(bsdf_split(b, wo_l, bs.wi));
                 }
                 if (glm::dot(wi, si.ng) <= 0.f || wi.y <= 0.f) continue;
                 ++stats_.shadow_rays;
-                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance, si.time), stats_.traversal)) Ld += weight * s_.sky / float(n);
+                if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance, si.time), stats_.traversal)) {
+                    Ld += weight * s_.sky / float(n);
+                    Lg += share * weight * s_.sky / float(n);
+                }
             }
         }
-        return Ld;
+        return done();
     }
 
     const RenderScene& s_;

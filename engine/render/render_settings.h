@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 
+#include "engine/render/aov.h"
 #include "engine/sampling/sampler.h"
 
 namespace tessera {
@@ -61,6 +62,11 @@ struct RenderSettings {
     double time_limit_s = 0;
     double target_error = 0;   // relative MSE: against the reference if given, else estimated
     bool estimate_error = false;  // keep the half-sample buffer and report the estimated error
+    // AOVs for compositing (engine/render/aov.h), accumulated with the image.
+    AovSet aovs = 0;
+    // Denoise after every pass (engine/render/denoise.h) and report the denoised image's error;
+    // target_error then applies to the denoised image.
+    bool denoise = false;
 };
 
 }  // namespace tessera

@@ -33,7 +33,7 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
     const Image* reference = callbacks.reference && callbacks.reference->width == settings.width &&
                                      callbacks.reference->height == settings.height ? callbacks.reference : nullptr;
     const PassPlan plan = plan_passes(settings, reference != nullptr, bool(callbacks.on_pass));
-    Film film(settings.width, settings.height, plan.half_buffer, plan.adaptive);
+    Film film(settings.width, settings.height, plan.half_buffer, plan.adaptive, plan.aovs);
     describe_render(scene, settings, film, result.built, result.left_out);
     const Camera camera = camera_for(scene, settings);
     const std::vector<TileRect>& tiles = plan.tiles;
@@ -81,7 +81,8 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
 
         const PassEnd end = end_pass(settings, plan, film, reference, pass, target, samples_done.load(), elapsed(), stop_time, stop_cancel);
         result.curve.points.push_back(end.point);
-        if (callbacks.on_pass) callbacks.on_pass(PassView{pass, target, end.point, film});
+        if (end.denoised) result.denoised = end.denoised;
+        if (callbacks.on_pass) callbacks.on_pass(PassView{pass, target, end.point, film, end.denoised});
         if (end.stop) {
             result.curve.stop = *end.stop;
             break;
@@ -90,6 +91,7 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
     }
     for (auto& c : contexts) result.stats.add(c->stats);
     result.image = film.resolve();
+    result.aovs = film.resolve_aovs(settings.aovs);
     result.stats.canceled = stop_cancel;
     result.stats.render_seconds = elapsed();
     return result;

@@ -5,9 +5,11 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <vector>
 
 #include "engine/render/convergence.h"
+#include "engine/render/denoise.h"
 #include "engine/render/image.h"
 #include "engine/render/render_settings.h"
 #include "engine/scene/render_scene.h"
@@ -60,6 +62,7 @@ struct PassView {
     int spp = 0;
     const ConvergencePoint& point;
     const Film& film;
+    std::shared_ptr<const Denoised> denoised;  // the pass's denoised image, when the render denoises
 };
 
 struct RenderCallbacks {
@@ -79,6 +82,8 @@ struct RenderResult {
     Image image;
     RenderStats stats;
     ConvergenceCurve curve;
+    std::vector<AovPlane> aovs;                // the AOVs the settings asked for
+    std::shared_ptr<const Denoised> denoised;  // the last pass's, when the render denoises
     // What this render built and left out (film buffers, bounce and light paths), for the report.
     std::vector<std::string> built, left_out;
 };

@@ -51,13 +51,19 @@ public:
             eighth = film.sum_eighth[p];
         }
         int s = int(film.count[p]);
+        const AovLayout& layout = film.aov_layout;
+        double* aov_entry = layout.stride > 0 ? &film.aov[p * size_t(layout.stride)] : nullptr;
+        const bool split = !film.sum_odd.empty();
+        glm::dvec3 odd = split ? film.sum_odd[p] : glm::dvec3(0.0);
         for (; s < target; ++s) {
             if (halves && (s & (s - 1)) == 0) {  // s a power of two: the first s samples are a net
                 eighth = quarter;
                 quarter = half;
                 half = sum;
             }
-            Sampler rng(settings_.sampler, settings_.seed, pixel, uint64_t(s));
+            // Split halves: even and odd samples are two sequences of their own, scrambled apart.
+            Sampler rng = split ? Sampler(settings_.sampler, settings_.seed, pixel | (uint64_t(s & 1) << 62), uint64_t(s >> 1))
+                                : Sampler(settings_.sampler, settings_.seed, pixel, uint64_t(s));
             const glm::vec2 j = rng.next_2d();
             const float jx = j.y, jy = j.x;  // independent: the first number drawn goes to x, as it always did
             const float u = (float(x) + jx) * inv_w, v = 1.f - (float(y) + jy) * inv_h;
@@ -74,12 +80,18 @@ public:
             }
             ray.time = time;
             ++stats.camera_rays;
-            glm::vec3 L = integrator_.radiance(ray, rng);
+            SampleAovs aovs;
+            glm::vec3 L = integrator_.radiance(ray, rng, aov_entry ? &aovs : nullptr);
             if (!(std::isfinite(L.x) && std::isfinite(L.y) && std::isfinite(L.z))) {
                 ++stats.nonfinite_samples;
                 L = glm::vec3(0.f);
+                // The light split of a dropped sample is dropped with it: the split sums to the image.
+                aovs.emission = aovs.environment = aovs.diffuse_direct = aovs.diffuse_indirect = aovs.glossy_direct =
+                    aovs.glossy_indirect = glm::vec3(0.f);
             }
+            if (aov_entry) add_sample_aovs(layout, aov_entry, aovs, L, s == 0);
             sum += glm::dvec3(L);
+            if (split && (s & 1)) odd += glm::dvec3(L);
             stats.max_sample = std::max(stats.max_sample, illuminance(L));
             if (adaptive) film.stats[p].add(illuminance(L));
         }
@@ -91,6 +103,7 @@ public:
             film.sum_eighth[p] = eighth;
         }
         film.count[p] = uint32_t(s);
+        if (split) film.sum_odd[p] = odd;
         if (adaptive && (s >= settings_.spp || film.stats[p].converged(settings_.adaptive->tolerance))) film.done[p] = 1;
     }
 

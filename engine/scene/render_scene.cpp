@@ -108,6 +108,7 @@ LargeVector<TriangleVerts> gather_triangles(const std::vector<const MeshDesc*>& 
         first_vertex[k + 1] = first_vertex[k] + meshes[k]->positions.size();
     }
     const size_t ntri = first_tri.back();
+    s.mesh_first_tri.assign(first_tri.begin(), first_tri.end());
 
     s.normals.resize(first_vertex.back(), glm::vec3(0.f));  // zero: use the face normal
     for (size_t k = 0; k < meshes.size(); ++k) add_vertex_normals(*meshes[k], s.normals.data() + first_vertex[k]);

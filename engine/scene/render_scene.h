@@ -87,6 +87,9 @@ struct RenderScene {
     LargeVector<Triangle4> tri_blocks;
     size_t triangle_count() const { return tri_shading.size(); }
     LargeVector<TriangleShading> tri_shading;   // input order, indexed by Triangle4::prim
+    // Where each mesh's triangles begin in tri_shading (world meshes, then prototypes), and the
+    // end: a triangle's mesh is its object in the object_id AOV.
+    std::vector<uint32_t> mesh_first_tri;
     LargeVector<glm::vec3> normals;             // shared vertex normals
     // Per vertex like normals, each filled only when a material reads it (empty otherwise):
     // texture coordinate sets 0 and 1, COLOR_0 (white where a mesh has none), tangents (xyz,

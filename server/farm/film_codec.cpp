@@ -9,12 +9,13 @@ namespace tessera::server {
 
 namespace {
 
-constexpr char kMagic[4] = {'T', 'F', 'L', '2'};  // 2: the error estimate's prefix sums
+constexpr char kMagic[4] = {'T', 'F', 'L', '3'};  // 2: the error estimate's prefix sums; 3: AOVs
 
 struct Header {
     char magic[4];
     int32_t width, height, x0, y0;
     uint8_t half_buffer, adaptive, pad[2];
+    uint32_t aovs;  // AovSet: the AOV entries follow the rest
 };
 
 static_assert(std::is_trivially_copyable_v<glm::dvec3> && sizeof(glm::dvec3) == 24);
@@ -45,6 +46,7 @@ std::string encode_film(const Film& f) {
     h.y0 = f.y0;
     h.half_buffer = !f.sum_half.empty();
     h.adaptive = !f.stats.empty();
+    h.aovs = f.aov_layout.set | (f.sum_odd.empty() ? 0 : kSplitHalves);
     std::string out(reinterpret_cast<const char*>(&h), sizeof h);
     put(out, f.sum);
     put(out, f.count);
@@ -57,6 +59,8 @@ std::string encode_film(const Film& f) {
         put(out, f.stats);
         put(out, f.done);
     }
+    put(out, f.sum_odd);
+    put(out, f.aov);
     return out;
 }
 
@@ -66,7 +70,8 @@ Film decode_film(const std::string& bytes) {
     std::memcpy(&h, bytes.data(), sizeof h);
     if (std::memcmp(h.magic, kMagic, 4) != 0) throw std::runtime_error("tile film: not a film");
     if (h.width <= 0 || h.height <= 0 || h.width > 65536 || h.height > 65536) throw std::runtime_error("tile film: bad size");
-    Film f = Film::tile(h.x0, h.y0, h.width, h.height, h.half_buffer != 0, h.adaptive != 0);
+    if ((h.aovs & ~kSplitHalves) >= (AovSet(1) << kAovCount)) throw std::runtime_error("tile film: unknown AOVs");
+    Film f = Film::tile(h.x0, h.y0, h.width, h.height, h.half_buffer != 0, h.adaptive != 0, h.aovs);
     size_t at = sizeof h;
     get(bytes, at, f.sum);
     get(bytes, at, f.count);
@@ -79,6 +84,8 @@ Film decode_film(const std::string& bytes) {
         get(bytes, at, f.stats);
         get(bytes, at, f.done);
     }
+    get(bytes, at, f.sum_odd);
+    get(bytes, at, f.aov);
     if (at != bytes.size()) throw std::runtime_error("tile film: trailing bytes");
     return f;
 }

@@ -535,7 +535,7 @@ struct RenderNode::Impl {
         const auto prepared = cache.get(r, info->ref, rj.scene_options);
         const RenderSettings s = api::lit_settings(info->settings, prepared->scene);
         const TileRect& rect = plan.tiles[size_t(t.tile)];
-        Film film = Film::tile(rect.x0, rect.y0, rect.width(), rect.height(), plan.half_buffer, plan.adaptive);
+        Film film = Film::tile(rect.x0, rect.y0, rect.width(), rect.height(), plan.half_buffer, plan.adaptive, plan.aovs);
         if (t.pass > 0) {
             const RedisValue f = r.command({"HGET", keys::film(t.job), "t" + std::to_string(t.tile)});
             if (f.is_nil()) throw JobFailure("the film of tile " + std::to_string(t.tile) + " is missing from Redis");
@@ -564,9 +564,10 @@ struct RenderNode::Impl {
         commit.pass = t.pass;
         commit.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
         commit.stats = ctx.stats;
-        // A whole tile is finished with this task: it ships the resolved pixels. A pass-by-pass
-        // job's next pass goes on from the whole film.
-        commit.payload = plan.whole_tiles ? encode_tile_image(film) : encode_film(film);
+        // A whole tile is finished with this task: it ships the resolved pixels (its film where
+        // the job has AOVs, which resolve from the whole film's sums as one process's do). A
+        // pass-by-pass job's next pass goes on from the whole film.
+        commit.payload = plan.whole_tiles && plan.aovs == 0 ? encode_tile_image(film) : encode_film(film);
         acked = true;
         const long long rc = r.eval(commit_tile(),
                                     {keys::job(t.job), keys::film(t.job), keys::node_tiles(t.job), keys::node_seconds(t.job), t.stream,
@@ -592,15 +593,17 @@ struct RenderNode::Impl {
         const PassPlan& plan = info->plan;
         const size_t n = plan.tiles.size();
         if (size_t(run.tiles_total) != n) throw JobFailure("the run has " + std::to_string(run.tiles_total) + " tiles, the plan " + std::to_string(n));
-        // A whole-tile job's tiles are resolved pixels; a pass-by-pass job's are films.
-        Film film(plan.whole_tiles ? 1 : s.width, plan.whole_tiles ? 1 : s.height, plan.half_buffer, plan.adaptive);
-        Image image(plan.whole_tiles ? s.width : 0, plan.whole_tiles ? s.height : 0);
+        // A whole-tile job's tiles are resolved pixels (films where it has AOVs); a pass-by-pass
+        // job's are films.
+        const bool pixels = plan.whole_tiles && plan.aovs == 0;
+        Film film(pixels ? 1 : s.width, pixels ? 1 : s.height, plan.half_buffer, plan.adaptive, pixels ? 0 : plan.aovs);
+        Image image(pixels ? s.width : 0, pixels ? s.height : 0);
         const RedisValue tiles = r.command({"HGETALL", keys::film(t.job)});
         size_t found = 0;
         for (size_t i = 0; i + 1 < tiles.items.size(); i += 2) {
             const std::string& field = tiles.items[i].text;
             if (field.empty() || field[0] != 't') continue;
-            if (plan.whole_tiles) {
+            if (pixels) {
                 place_tile(decode_tile_image(tiles.items[i + 1].text), image);
             } else {
                 const Film tf = decode_film(tiles.items[i + 1].text);
@@ -618,6 +621,10 @@ struct RenderNode::Impl {
             for (size_t i = 0; i + 1 < all.items.size(); i += 2) per_tile.push_back(whole_tile_sums_from_text(all.items[i + 1].text));
             RenderResult result;
             result.curve = whole_tile_curve(plan, per_tile);
+            if (!pixels) {
+                image = film.resolve();
+                result.aovs = film.resolve_aovs(s.aovs);
+            }
             const ConvergencePoint last = result.curve.points.empty() ? ConvergencePoint{} : result.curve.points.back();
             return write_results(r, t, *info, std::move(image), film, run, seconds, std::move(result), last);
         }
@@ -633,6 +640,8 @@ struct RenderNode::Impl {
             result.curve.points.push_back(api::convergence_point_from_json(json::parse(p.text)));
         result.curve.points.push_back(end.point);
         result.curve.stop = *end.stop;
+        result.aovs = film.resolve_aovs(s.aovs);
+        result.denoised = end.denoised;
         write_results(r, t, *info, film.resolve(), film, run, seconds, std::move(result), end.point);
     }
 
@@ -671,7 +680,13 @@ struct RenderNode::Impl {
         api::RunOptions opt;
         opt.job_id = t.job;
         const api::JobOutcome out = api::write_render(done, opt, api::RunOutputs::in_directory(part.string()));
-        for (const auto& e : fs::directory_iterator(part)) fs::rename(e.path(), dir / e.path().filename());
+        for (const auto& e : fs::directory_iterator(part)) {
+            // A folder (the passes) of an earlier attempt is replaced whole: rename does not
+            // replace a folder that holds files.
+            const fs::path to = dir / e.path().filename();
+            if (fs::is_directory(e.path()) && fs::is_directory(to)) fs::remove_all(to);
+            fs::rename(e.path(), to);
+        }
         fs::remove_all(part);
         if (r.eval(kComplete, {keys::job(t.job), keys::curve(t.job)},
                    {keys::prefix, t.job, std::to_string(t.pass), json_text(api::to_json(pt)), redis_number(now_s()), json_text(out.summary)}).as_int() == 1)

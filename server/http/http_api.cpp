@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -25,6 +26,7 @@
 #include "api/job_schema.h"
 #include "api/json_text.h"
 #include "engine/io/image_io.h"
+#include "engine/render/aov.h"
 #include "server/http/connection_stream.h"
 #include "server/http/problem.h"
 
@@ -98,6 +100,29 @@ bool is_json_media_type(const std::string& header) {
     return t.rfind("application/", 0) == 0 && t.size() > 17 && t.compare(t.size() - 5, 5, "+json") == 0;
 }
 
+// A render's result files, a still's or a frame's (regex alternatives): the image, rate map and
+// curve, the denoised image, and the passes together and one by one.
+const std::string& render_files_re() {
+    static const std::string re = [] {
+        std::string passes;
+        for (const AovInfo& i : kAovInfo) passes += (passes.empty() ? "" : "|") + std::string(i.name);
+        return R"(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg|denoised\.png|denoised\.exr|passes\.exr|passes/(?:)" +
+               passes + R"()\.exr)";
+    }();
+    return re;
+}
+// ... and a job's: a shot's contact sheet and preview besides.
+const std::string& job_files_re() {
+    static const std::string re = render_files_re() + R"(|contact_sheet\.png|preview\.mp4)";
+    return re;
+}
+
+const char* content_type(const std::string& file) {
+    auto ends = [&](const char* s) { return file.size() >= std::strlen(s) && file.compare(file.size() - std::strlen(s), std::string::npos, s) == 0; };
+    return ends(".exr") ? "image/x-exr" : ends(".json") ? "application/json" : ends(".csv") ? "text/csv"
+         : ends(".svg") ? "image/svg+xml" : ends(".mp4") ? "video/mp4" : "image/png";
+}
+
 std::string allowed_methods(const std::string& path) {
     // As routes() registers them; httplib answers HEAD with a GET route.
     static const std::vector<std::pair<std::regex, std::string>> table = {
@@ -106,8 +131,8 @@ std::string allowed_methods(const std::string& path) {
         {std::regex(R"(/v1/comparisons)"), "POST"},
         {std::regex(R"(/v1/jobs/[^/]+)"), "GET, HEAD, DELETE"},
         {std::regex(R"(/v1/jobs/[^/]+/results)"), "DELETE"},
-        {std::regex(R"(/v1/jobs/[^/]+/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg|contact_sheet\.png|preview\.mp4))"), "GET, HEAD"},
-        {std::regex(R"(/v1/jobs/[^/]+/frames/-?[0-9]{1,8}/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg))"), "GET, HEAD"},
+        {std::regex("/v1/jobs/[^/]+/(" + job_files_re() + ")"), "GET, HEAD"},
+        {std::regex("/v1/jobs/[^/]+/frames/-?[0-9]{1,8}/(" + render_files_re() + ")"), "GET, HEAD"},
     };
     for (const auto& [re, allow] : table)
         if (std::regex_match(path, re)) return allow;
@@ -633,31 +658,31 @@ void HttpApi::routes() {
     s.Get("/v1/job-schema", [this](const httplib::Request&, httplib::Response& res) {
         res.set_content(json_text(api::job_schema(queue_.config().job_limits)), "application/json");
     });
-    s.Get(R"(/v1/jobs/([^/]+)/frames/(-?[0-9]{1,8})/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg))",
-          [this](const httplib::Request& req, httplib::Response& res) {
+    s.Get("/v1/jobs/([^/]+)/frames/(-?[0-9]{1,8})/(" + render_files_re() + ")", [this](const httplib::Request& req, httplib::Response& res) {
         const std::string id = req.matches[1];
         const int frame = std::stoi(req.matches[2]);
         const std::string file = req.matches[3];
-        const char* type = file == "image.exr" ? "image/x-exr" : file == "report.json" ? "application/json"
-                         : file == "convergence.csv" ? "text/csv" : file == "convergence.svg" ? "image/svg+xml" : "image/png";
-        res.set_content(read_file(queue_.frame_result_path(id, frame, file)), type);
+        res.set_content(read_file(queue_.frame_result_path(id, frame, file)), content_type(file));
     });
-    s.Get(R"(/v1/jobs/([^/]+)/(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg|contact_sheet\.png|preview\.mp4))", [this](const httplib::Request& req, httplib::Response& res) {
+    s.Get("/v1/jobs/([^/]+)/(" + job_files_re() + ")", [this](const httplib::Request& req, httplib::Response& res) {
         const std::string id = req.matches[1];
         const std::string file = req.matches[2];
         const float exposure = exposure_param(req, file);
-        const char* type = file == "image.exr" ? "image/x-exr" : file == "report.json" ? "application/json"
-                         : file == "convergence.csv" ? "text/csv" : file == "convergence.svg" ? "image/svg+xml"
-                         : file == "preview.mp4" ? "video/mp4" : "image/png";
-        // A running job's images are its latest finished pass, said so in the headers.
-        if (file == "image.png" || file == "image.exr" || file == "rate.png") {
-            if (const auto live = queue_.live_pass(id)) {
-                const auto bytes = file == "image.png" ? png_bytes(*live->image, exposure)
-                                 : file == "image.exr" ? exr_bytes(*live->image) : rate_png_bytes(*live->image, live->max_spp);
+        const char* type = content_type(file);
+        // A running job's images are its latest finished pass, said so in the headers (the
+        // denoised image from the second pass on: one sample has no variance to go by).
+        const bool denoised = file == "denoised.png" || file == "denoised.exr";
+        if (file == "image.png" || file == "image.exr" || file == "rate.png" || denoised) {
+            const auto live = queue_.live_pass(id);
+            if (live && (!denoised || live->denoised)) {
+                const Image& img = denoised ? *live->denoised : *live->image;
+                const auto bytes = file.ends_with(".exr") ? exr_bytes(img)
+                                 : file == "rate.png" ? rate_png_bytes(img, live->max_spp) : png_bytes(img, exposure);
                 res.set_header("Cache-Control", "no-store");
                 res.set_header("X-Tessera-Pass", std::to_string(live->pass.index));
                 res.set_header("X-Tessera-Pass-Spp", std::to_string(live->pass.spp));
-                const double err = live->pass.rel_mse >= 0 ? live->pass.rel_mse : live->pass.est_rel_mse;
+                const double err = denoised ? live->pass.denoised_est_rel_mse
+                                 : live->pass.rel_mse >= 0 ? live->pass.rel_mse : live->pass.est_rel_mse;
                 if (err >= 0) res.set_header("X-Tessera-Pass-Error", fmt::format("{:.6g}", err));
                 res.set_content(std::string(bytes.begin(), bytes.end()), type);
                 return;

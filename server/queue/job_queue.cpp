@@ -1,5 +1,6 @@
 #include "server/queue/job_queue.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cstdio>
@@ -272,6 +273,28 @@ void JobQueue::delete_results(const std::string& id) {
     spdlog::info("job {} results deleted", id);
 }
 
+namespace {
+
+// A denoised image or a pass the job did not ask for is not "gone" but never made: 404.
+void check_asked_for(const std::string& id, const nlohmann::json& settings, const std::string& file) {
+    if (!settings.is_object()) return;
+    if (file.starts_with("denoised.") && !(settings.contains("denoise") && settings["denoise"] == true))
+        throw QueueError(QueueErrorKind::not_found, "not-denoised", "The job does not denoise",
+                         "job " + id + " was not asked to denoise (\"denoise\": true): it has no " + file);
+    if (file.starts_with("passes")) {
+        const nlohmann::json passes = settings.contains("passes") ? settings["passes"] : nlohmann::json::array();
+        const std::string name = file == "passes.exr" ? "" : file.substr(7, file.size() - 7 - 4);  // passes/<name>.exr
+        const bool asked = passes.is_array() && !passes.empty() &&
+                           (name.empty() || std::find(passes.begin(), passes.end(), nlohmann::json(name)) != passes.end());
+        if (!asked)
+            throw QueueError(QueueErrorKind::not_found, "no-such-pass", "The job has no such pass",
+                             "job " + id + (name.empty() ? " asked for no passes" : " did not ask for the pass " + name) +
+                                 " (\"passes\": [...])");
+    }
+}
+
+}  // namespace
+
 std::string JobQueue::result_path(const std::string& id, const std::string& file) {
     const api::JobStatus st = status(id);
     const JobState state = st.state;
@@ -282,7 +305,9 @@ std::string JobQueue::result_path(const std::string& id, const std::string& file
     if (!is_final(state))
         throw QueueError(QueueErrorKind::conflict, "not-finished", "The job is not finished",
                          "job " + id + " is " + to_string(state) + "; poll /v1/jobs/" + id);
-    if (shot && (file == "image.png" || file == "image.exr" || file == "rate.png" || file.starts_with("convergence.")))
+    check_asked_for(id, st.settings, file);
+    if (shot && (file == "image.png" || file == "image.exr" || file == "rate.png" || file.starts_with("convergence.") ||
+                 file.starts_with("denoised.") || file.starts_with("passes")))
         throw QueueError(QueueErrorKind::not_found, "per-frame-result", "A shot's images are per frame",
                          "job " + id + " is a shot: fetch /v1/jobs/" + id + "/frames/{n}/" + file + ", or contact_sheet.png");
     const fs::path p = fs::path(job_dir(id)) / file;
@@ -303,6 +328,7 @@ std::string JobQueue::frame_result_path(const std::string& id, int frame, const 
     if (!r->frames->contains(frame))
         throw QueueError(QueueErrorKind::not_found, "no-such-frame", "No such frame",
                          "job " + id + " does not render frame " + std::to_string(frame));
+    check_asked_for(id, st.settings, file);
     const fs::path dir = fs::path(job_dir(id)) / "frames" / std::to_string(frame);
     // report.json is a frame's last file: before it, the frame is not finished.
     if (!fs::exists(dir / "report.json")) {

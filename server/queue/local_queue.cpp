@@ -269,11 +269,12 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         };
         cb.pass = [&](const api::PassSnapshot& snap) {
             api::PassSummary ps{snap.index, snap.spp, snap.point.spp_mean, snap.point.seconds, snap.point.est_rel_mse,
-                                snap.point.rel_mse};
+                                snap.point.rel_mse, snap.point.denoised_est_rel_mse};
             {
                 std::lock_guard<std::mutex> lock(running.pass_mutex);
                 running.pass = ps;
                 running.pass_image = snap.image;
+                running.pass_denoised = snap.denoised;
             }
             publish("pass", running_status(running), &ps);
         };
@@ -286,6 +287,7 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
                 }
                 running.pass.reset();  // the next frame's passes start afresh
                 running.pass_image.reset();
+                running.pass_denoised.reset();
             }
             publish("frame", running_status(running));
         };
@@ -300,6 +302,7 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         std::lock_guard<std::mutex> lock(running.pass_mutex);
         running.pass.reset();
         running.pass_image.reset();
+        running.pass_denoised.reset();
     }
     if (error.empty() && outcome.stopped) {
         if (running.shutdown) {
@@ -334,7 +337,7 @@ std::optional<LivePass> LocalQueue::live_pass(const std::string& id) {
     }
     std::lock_guard<std::mutex> lock(r->pass_mutex);
     if (!r->pass || !r->pass_image) return std::nullopt;
-    return LivePass{*r->pass, r->pass_image, r->max_spp};
+    return LivePass{*r->pass, r->pass_image, r->pass_denoised, r->max_spp};
 }
 
 }  // namespace tessera::server

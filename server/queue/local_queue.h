@@ -47,6 +47,7 @@ private:
         std::mutex pass_mutex;
         std::optional<api::PassSummary> pass;   // the latest finished pass, and its image
         std::shared_ptr<const Image> pass_image;
+        std::shared_ptr<const Image> pass_denoised;  // a denoising job's latest denoised image
         int max_spp = 0;
         std::optional<api::ShotProgress> shot;  // a shot's frames (under pass_mutex)
     };

@@ -67,6 +67,7 @@ void expect_schema_matches(const YAML::Node& schema, std::span<const Field<Job>>
             case FieldKind::text:
             case FieldKind::choice:
             case FieldKind::job_id: EXPECT_EQ(type, "string"); break;
+            case FieldKind::boolean: EXPECT_EQ(type, "boolean"); break;
             case FieldKind::object: break;  // an object or a oneOf
         }
         if (f.default_json.empty()) {
@@ -74,7 +75,9 @@ void expect_schema_matches(const YAML::Node& schema, std::span<const Field<Job>>
         } else {
             ASSERT_TRUE(p["default"]) << "no default in the OpenAPI schema";
             const json want = json::parse(f.default_json);
-            const json got = p["default"].IsScalar() || p["default"].IsNull() ? scalar(p["default"]) : json("<not a scalar>");
+            // An empty list default (passes: []) is a sequence of nothing.
+            const json got = p["default"].IsSequence() && p["default"].size() == 0 ? json::array()
+                           : p["default"].IsScalar() || p["default"].IsNull() ? scalar(p["default"]) : json("<not a scalar>");
             EXPECT_TRUE(same_value(want, got)) << "default: table " << want << ", OpenAPI " << got;
         }
         if (f.kind == FieldKind::integer || f.kind == FieldKind::number) {

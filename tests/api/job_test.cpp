@@ -116,10 +116,11 @@ TEST(RenderJob, RoundTripsEveryField) {
         "max_depth":5,"bvh":"median","direct":"mis","russian_roulette":0.5,"bounces":"nth","lighting":"indirect",
         "light_selection":"power","adaptive":{"batch":16,"tolerance":0.25},"tile_size":16,"seed":7,"priority":3,
         "time_limit_s":12.5,"target_error":0.125,"reference":"0123456789abcdef","max_leaf_size":4,
-        "triangle_test":"moller_trumbore","integrator":"normals","sampler":"independent","environment":"sky",
-        "lens_radius":0.25,"focal_distance":3.5})");
+        "triangle_test":"moller_trumbore","integrator":"path","sampler":"independent","environment":"sky",
+        "lens_radius":0.25,"focal_distance":3.5,"passes":["variance","albedo"],"denoise":true})");
     json want = body;
     want.update({{"frames", nullptr}, {"fps", 24.0}, {"chunk", 0}, {"animation", nullptr}, {"shutter", nullptr}});
+    want["passes"] = {"albedo", "variance"};  // in the table's order
     const json back = to_json(parse_render_job(body));
     EXPECT_EQ(back, want) << back.dump();
     EXPECT_EQ(to_json(std::get<RenderJob>(job_from_json(back))), back);

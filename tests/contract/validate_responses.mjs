@@ -267,6 +267,17 @@ expect(await call('GET', `/v1/jobs/${job.id}/image.png?exposure=1.5`), 200, 'ano
 expect(await call('GET', `/v1/jobs/${job.id}/image.png?exposure=99`), 400, 'an exposure out of range');
 expect(await call('GET', `/v1/jobs/${job.id}/image.exr?exposure=1`), 400, 'exposure on the EXR');
 expect(await call('GET', `/v1/jobs/${job.id}/rate.png?exposure=1`), 400, 'exposure on the rate map');
+// Passes and the denoised image: served for a job that asked for them, 404 for one that did not.
+{
+  const dn = json(expect(await call('POST', '/v1/jobs', {body: {...small, passes: ['albedo', 'depth'], denoise: true}}), 202, 'a job with passes and denoising'));
+  await waitState(dn.id, ['succeeded']);
+  for (const f of ['denoised.png', 'denoised.exr', 'passes.exr', 'passes/albedo.exr', 'passes/depth.exr'])
+    expect(await call('GET', `/v1/jobs/${dn.id}/${f}`), 200, f);
+  expect(await call('GET', `/v1/jobs/${dn.id}/passes/normal.exr`), 404, 'a pass the job did not ask for');
+  expect(await call('GET', `/v1/jobs/${job.id}/denoised.png`), 404, 'the denoised image of a job that does not denoise');
+  expect(await call('POST', '/v1/jobs', {body: {...small, passes: ['beauty']}}), 400, 'an unknown pass');
+  expect(await call('POST', '/v1/jobs', {body: {...small, denoise: 'yes'}}), 400, 'denoise not a boolean');
+}
 expect(await call('DELETE', `/v1/jobs/${job.id}/results`), 204, 'delete results');
 for (const f of files) expect(await call('GET', `/v1/jobs/${job.id}/${f}`), 410, `${f} after deletion`);
 

@@ -128,6 +128,14 @@ TEST_F(RenderNodeFarm, EveryPassScheduleGivesOneProcessImageBitForBit) {
         // No lights: the default sky on the nodes as in one process.
         {"no lights", {{"scene", "dark_box"}, {"width", 32}, {"height", 24}, {"spp", 4}, {"max_depth", 2}, {"tile_size", 16}},
          "dark_box.gltf"},
+        // Passes on whole tiles: the tiles ship films, not pixels.
+        {"passes", {{"scene", "cornell_spheres"}, {"width", 40}, {"height", 30}, {"spp", 8}, {"max_depth", 3}, {"tile_size", 16},
+                    {"passes", {"albedo", "depth", "object_id", "emission", "diffuse_direct", "glossy_indirect", "variance"}}},
+         "cornell_spheres.gltf"},
+        // Denoised after every pass, from the assembled film.
+        {"denoise", {{"scene", "cornell_box"}, {"width", 40}, {"height", 30}, {"spp", 8}, {"max_depth", 3}, {"tile_size", 16},
+                     {"denoise", true}, {"passes", {"normal"}}},
+         "cornell_box.gltf"},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.what);
@@ -139,6 +147,23 @@ TEST_F(RenderNodeFarm, EveryPassScheduleGivesOneProcessImageBitForBit) {
         ASSERT_EQ(a.rgb.size(), b.rgb.size());
         EXPECT_EQ(0, std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float))) << "pixels";
         EXPECT_EQ(a.sample_count, b.sample_count) << "sample counts";
+        if (c.body.contains("passes")) {
+            const ChannelImage la = read_channels((farm / "passes.exr").string()), lb = read_channels((one / "passes.exr").string());
+            EXPECT_EQ(la.names, lb.names);
+            ASSERT_EQ(la.data.size(), lb.data.size());
+            EXPECT_EQ(0, std::memcmp(la.data.data(), lb.data.data(), la.data.size() * sizeof(float))) << "every pass, bit for bit";
+            for (const auto& name : c.body["passes"]) {
+                const std::string f = "passes/" + name.get<std::string>() + ".exr";
+                const ChannelImage pa = read_channels((farm / f).string()), pb = read_channels((one / f).string());
+                EXPECT_EQ(pa.names, pb.names) << f;
+                EXPECT_EQ(pa.data, pb.data) << f;
+            }
+        }
+        if (c.body.contains("denoise")) {
+            const Image da = read_image((farm / "denoised.exr").string()), db = read_image((one / "denoised.exr").string());
+            ASSERT_EQ(da.rgb.size(), db.rgb.size());
+            EXPECT_EQ(0, std::memcmp(da.rgb.data(), db.rgb.data(), da.rgb.size() * sizeof(float))) << "denoised pixels";
+        }
         const json fr = json::parse(std::ifstream(farm / "report.json")), orep = json::parse(std::ifstream(one / "report.json"));
         for (const char* k : {"rays_camera", "rays_shadow", "rays_bounce", "nonfinite_samples", "spp_mean", "max_sample_luminance"})
             EXPECT_EQ(fr["stats"][k], orep["stats"][k]) << k;

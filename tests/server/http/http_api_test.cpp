@@ -477,7 +477,9 @@ TEST(OpenApi, DescribesEveryRoute) {
         {"/v1/jobs/{id}/results", "delete"}, {"/v1/jobs/{id}/image.png", "get"}, {"/v1/jobs/{id}/image.exr", "get"},
         {"/v1/jobs/{id}/rate.png", "get"}, {"/v1/jobs/{id}/report.json", "get"}, {"/v1/scenes", "get"},
         {"/v1/scenes", "post"}, {"/healthz", "get"}, {"/readyz", "get"}, {"/metrics", "get"}, {"/v1/openapi.yaml", "get"},
-        {"/v1/jobs/{id}/frames/{n}/{file}", "get"}, {"/v1/jobs/{id}/contact_sheet.png", "get"}, {"/v1/jobs/{id}/preview.mp4", "get"}};
+        {"/v1/jobs/{id}/frames/{n}/{file}", "get"}, {"/v1/jobs/{id}/contact_sheet.png", "get"}, {"/v1/jobs/{id}/preview.mp4", "get"},
+        {"/v1/jobs/{id}/denoised.png", "get"}, {"/v1/jobs/{id}/denoised.exr", "get"}, {"/v1/jobs/{id}/passes.exr", "get"},
+        {"/v1/jobs/{id}/passes/{pass}", "get"}};
     for (const auto& [path, method] : routes) {
         const size_t at = yaml.find("\n  " + path + ":");
         ASSERT_NE(at, std::string::npos) << path << " is not under paths";

@@ -1,0 +1,189 @@
+// `tessera bench denoise`: the denoiser against the truth. Per scene: a reference of --ref-spp
+// samples (its own seed), then renders at 4 … 1024 spp that denoise; the true relMSE of the
+// noisy and the denoised image, the estimates beside them, also over the pixels at edges and in
+// textures alone (found from the reference's albedo, normal and depth), the denoiser's time, and
+// the time the denoised render needs to reach the error of the largest undenoised spp.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "api/job_runner.h"
+#include "cli/bench_common.h"
+#include "cli/command_line.h"
+#include "engine/io/image_io.h"
+#include "engine/io/scene_loader.h"
+#include "engine/render/film.h"
+#include "engine/render/renderer.h"
+
+namespace tessera::cli {
+
+using server::parse_args;
+
+namespace {
+
+struct BenchScene {
+    std::string label, source, environment;
+};
+
+const AovPlane* plane_of(const std::vector<AovPlane>& planes, Aov a) {
+    for (const AovPlane& p : planes)
+        if (p.aov == a) return &p;
+    return nullptr;
+}
+
+// Pixels next to a jump in the reference's normal, depth or albedo: the edges and texture
+// detail a denoiser must keep.
+std::vector<uint8_t> detail_mask(const RenderResult& ref, int w, int h) {
+    std::vector<uint8_t> mask(size_t(w) * h, 0);
+    const AovPlane* n = plane_of(ref.aovs, Aov::normal);
+    const AovPlane* z = plane_of(ref.aovs, Aov::depth);
+    const AovPlane* a = plane_of(ref.aovs, Aov::albedo);
+    if (!n || !z || !a) return mask;
+    auto differs = [&](size_t p, size_t q) {
+        double dn = 0, da = 0;
+        for (int k = 0; k < 3; ++k) {
+            dn += std::abs(n->values[p * 3 + k] - n->values[q * 3 + k]);
+            da = std::max(da, double(std::abs(a->values[p * 3 + k] - a->values[q * 3 + k])));
+        }
+        const double zp = z->values[p], zq = z->values[q];
+        const bool dz = std::abs(zp - zq) > 0.03 * std::min(zp, zq);
+        return dn > 0.15 || da > 0.04 || dz;
+    };
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const size_t p = size_t(y) * w + x;
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const int xx = x + dx, yy = y + dy;
+                    if (xx < 0 || yy < 0 || xx >= w || yy >= h) continue;
+                    if (differs(p, size_t(yy) * w + xx)) mask[p] = 1;
+                }
+        }
+    return mask;
+}
+
+double masked_rel_mse(const Image& img, const Image& ref, const std::vector<uint8_t>& mask) {
+    double s = 0;
+    size_t n = 0;
+    for (size_t p = 0; p < mask.size(); ++p) {
+        if (!mask[p]) continue;
+        for (int k = 0; k < 3; ++k) {
+            const double r = ref.rgb[p * 3 + k], d = double(img.rgb[p * 3 + k]) - r;
+            s += d * d / (r * r + 0.01);
+        }
+        n += 3;
+    }
+    return n ? s / double(n) : 0.0;
+}
+
+}  // namespace
+
+int bench_denoise(int argc, char** argv) {
+    std::string cs184 = default_cs184_dir(), gltf = default_gltf_pbr_dir(), figures, only;
+    std::string sky = std::string(TESSERA_DEFAULT_SCENES_DIR) + "/sky.exr";
+    std::pair<int, int> size{160, 120};
+    int ref_spp = 16384, max_spp = 1024, depth = 5;
+    CLI::App app{"The denoiser against a converged reference: true and estimated relMSE of the noisy and denoised images "
+                 "at 4-1024 spp, over the image and at edges and textures, denoise time, and the time to the error of "
+                 "1024 undenoised spp.", "bench denoise"};
+    app.option_defaults()->always_capture_default();
+    app.add_option("-r", size, "image width and height")->type_name("W H")->check(CLI::Range(16, 4096));
+    app.add_option("--ref-spp", ref_spp, "samples per pixel of each reference")->check(CLI::Range(16, 1 << 20));
+    app.add_option("--max-spp", max_spp, "the largest spp rendered (a power of two)")->check(CLI::Range(4, 1 << 16));
+    app.add_option("--depth", depth, "maximum bounce depth")->check(CLI::Range(1, 100));
+    app.add_option("--figures", figures, "write each scene's noisy, denoised and reference images here")->type_name("DIR");
+    app.add_option("--scene", only, "only the scene whose label contains this")->type_name("TEXT");
+    app.add_option("--cs184", cs184, "the CS184 scene folder")->type_name("DIR");
+    app.add_option("--gltf-pbr", gltf, "the glTF sample models folder")->type_name("DIR");
+    if (const auto status = parse_args(app, argc, argv)) return *status;
+    const std::vector<BenchScene> scenes = {
+        {"diffuse Cornell box (CBspheres_lambertian)", cs184 + "/sky/CBspheres_lambertian.dae", ""},
+        {"glossy Cornell box (CBspheres_glossy)", cs184 + "/sky/CBspheres_glossy.dae", ""},
+        {"textured model under an environment map (Duck)", gltf + "/Duck.gltf", sky},
+        {"1,000-lamp room (builtin:lamp_room)", "builtin:lamp_room", ""},
+    };
+    const int W = size.first, H = size.second;
+    std::printf("denoiser: %dx%d, depth %d, MIS, references of %d spp (seed 7), renders seed 1, %u threads\n\n", W, H, depth, ref_spp,
+                std::max(1u, std::thread::hardware_concurrency()));
+    bool all_better = true, all_tracked = true;
+    for (const BenchScene& bs : scenes) {
+        if (!only.empty() && bs.label.find(only) == std::string::npos) continue;
+        if (bs.source.rfind("builtin:", 0) != 0 && !std::filesystem::exists(bs.source)) {
+            std::printf("## %s\nskipped: %s is absent\n\n", bs.label.c_str(), bs.source.c_str());
+            continue;
+        }
+        const RenderScene scene = build_render_scene(load_scene(bs.source), {});
+        RenderSettings base;
+        base.width = W;
+        base.height = H;
+        base.max_depth = depth;
+        if (!bs.environment.empty()) base.environment = api::load_environment(bs.environment);
+        base = api::lit_settings(base, scene);
+        RenderSettings rs = base;
+        rs.spp = ref_spp;
+        rs.seed = 7;
+        rs.aovs = aov_bit(Aov::albedo) | aov_bit(Aov::normal) | aov_bit(Aov::depth);
+        const RenderResult ref = render(scene, rs);
+        const std::vector<uint8_t> mask = detail_mask(ref, W, H);
+        const double mask_share = double(std::count(mask.begin(), mask.end(), 1)) / double(mask.size());
+        std::printf("## %s\nreference: %d spp in %.1f s; edges and textures: %.1f%% of the pixels\n\n", bs.label.c_str(), ref_spp,
+                    ref.stats.render_seconds, 100 * mask_share);
+        std::printf("| spp | render (s) | denoise (s) | relMSE noisy | estimate | relMSE denoised | its estimate | estimate/true | "
+                    "edges+textures noisy | denoised |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+        struct Row { int spp; double render_s, denoise_s, noisy, denoised; };
+        std::vector<Row> rows;
+        for (int spp = 4; spp <= max_spp; spp *= 2) {
+            RenderSettings s = base;
+            s.spp = spp;
+            s.seed = 1;
+            s.denoise = true;
+            // Denoised after every pass, as a job does; the render's own time is without them.
+            const RenderResult r = render(scene, s);
+            if (!r.denoised || r.curve.points.empty()) continue;
+            const Denoised* d = r.denoised.get();
+            double denoising = 0;
+            for (const ConvergencePoint& p : r.curve.points) denoising += p.denoise_seconds;
+            const double render_s = r.stats.render_seconds - denoising;
+            const double noisy = relative_mse(r.image, ref.image), dn = relative_mse(d->image, ref.image);
+            const double est_noisy = r.curve.points.empty() ? -1 : r.curve.points.back().est_rel_mse;
+            const double edge_noisy = masked_rel_mse(r.image, ref.image, mask), edge_dn = masked_rel_mse(d->image, ref.image, mask);
+            const double ratio = d->est_rel_mse / dn;
+            std::printf("| %d | %.3f | %.3f | %.4g | %.4g | %.4g | %.4g | %.2f | %.4g | %.4g |\n", spp, render_s,
+                        d->seconds, noisy, est_noisy, dn, d->est_rel_mse, ratio, edge_noisy, edge_dn);
+            all_better = all_better && dn < noisy && edge_dn < edge_noisy;
+            all_tracked = all_tracked && ratio >= 0.5 && ratio <= 2.0;
+            rows.push_back({spp, render_s, d->seconds, noisy, dn});
+            if (!figures.empty() && (spp == 16 || spp == max_spp)) {
+                std::filesystem::create_directories(figures);
+                std::string stem = bs.source.substr(bs.source.find_last_of("/:") + 1);
+                stem = stem.substr(0, stem.find('.'));
+                write_png(figures + "/denoise_" + stem + "_" + std::to_string(spp) + "spp_noisy.png", r.image);
+                write_png(figures + "/denoise_" + stem + "_" + std::to_string(spp) + "spp_denoised.png", d->image);
+                if (spp == max_spp) write_png(figures + "/denoise_" + stem + "_reference.png", ref.image);
+            }
+        }
+        if (!rows.empty()) {
+            const Row& top = rows.back();
+            const Row* reach = nullptr;
+            for (const Row& r : rows)
+                if (r.denoised <= top.noisy) { reach = &r; break; }
+            if (reach)
+                std::printf("\nthe error of %d undenoised spp (%.4g, %.3f s) is reached denoised at %d spp in %.3f s: %.3f of the time\n\n",
+                            top.spp, top.noisy, top.render_s, reach->spp, reach->render_s + reach->denoise_s,
+                            (reach->render_s + reach->denoise_s) / top.render_s);
+            else
+                std::printf("\nno denoised render reached the error of %d undenoised spp\n\n", top.spp);
+        }
+    }
+    std::printf("denoised below noisy everywhere (image, edges and textures): %s; denoised estimate within 0.5-2x of the truth everywhere: %s\n",
+                all_better ? "yes" : "NO", all_tracked ? "yes" : "NO");
+    return 0;
+}
+
+}  // namespace tessera::cli

@@ -1,0 +1,322 @@
+#include "engine/render/denoise.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <thread>
+#include <vector>
+
+#include "engine/render/film.h"
+
+namespace tessera {
+
+namespace {
+
+constexpr int kF = 5;                                     // features: albedo's luminance, normal (3), depth
+constexpr int kPairs = kF * (kF + 1) / 2;                 // f_a f_b, a ≤ b
+constexpr int kY = 6;                                     // colour over albedo: half A (3), half B (3)
+constexpr int kChannels = 1 + kF + kPairs + kY * (1 + kF);  // box-summed per pixel
+constexpr int kBand = 32;                                 // rows per task: fixed, so the sums' order is too
+constexpr int kSmooth = 4;                                // radius over which error estimates are pooled
+constexpr int kBiasSmooth = 8;                            // ... bias estimates, before they are held at zero or more
+constexpr double kEps = 0.01;                             // relMSE's ε
+// Ridge: each feature's own variance in the window times kTau, plus kDelta (features lie in
+// [-1, 1]): a feature that barely varies is not trusted to explain the colour's noise.
+constexpr double kTau = 0.01, kDelta = 1e-4;
+
+struct Inputs {
+    int w = 0, h = 0;
+    std::vector<float> f;   // kF per pixel
+    std::vector<float> y;   // the halves over albedo, kY per pixel
+    std::vector<float> m;   // the albedo they were divided by (1 where there is none), 3 per pixel
+};
+
+inline void pixel_channels(const float* f, const float* y, double* v) {
+    v[0] = 1.0;
+    for (int a = 0; a < kF; ++a) v[1 + a] = f[a];
+    int o = 1 + kF;
+    for (int a = 0; a < kF; ++a)
+        for (int b = a; b < kF; ++b) v[o++] = double(f[a]) * f[b];
+    for (int k = 0; k < kY; ++k) {
+        v[o++] = y[k];
+        for (int a = 0; a < kF; ++a) v[o++] = double(f[a]) * y[k];
+    }
+}
+
+// Solves A z = r for symmetric positive definite A (n × n, row-major), by Cholesky in place.
+bool cholesky(double* A, int n) {
+    for (int j = 0; j < n; ++j) {
+        double d = A[j * n + j];
+        for (int k = 0; k < j; ++k) d -= A[j * n + k] * A[j * n + k];
+        if (!(d > 0.0)) return false;
+        d = std::sqrt(d);
+        A[j * n + j] = d;
+        for (int i = j + 1; i < n; ++i) {
+            double s = A[i * n + j];
+            for (int k = 0; k < j; ++k) s -= A[i * n + k] * A[j * n + k];
+            A[i * n + j] = s / d;
+        }
+    }
+    return true;
+}
+void cholesky_solve(const double* L, int n, double* z) {
+    for (int i = 0; i < n; ++i) {
+        double s = z[i];
+        for (int k = 0; k < i; ++k) s -= L[i * n + k] * z[k];
+        z[i] = s / L[i * n + i];
+    }
+    for (int i = n - 1; i >= 0; --i) {
+        double s = z[i];
+        for (int k = i + 1; k < n; ++k) s -= L[k * n + i] * z[k];
+        z[i] = s / L[i * n + i];
+    }
+}
+
+// One candidate's outputs for both halves at one pixel (in the colour's units), from the box
+// sums S of its window: the same regression on the same features for each, so the filter is one
+// linear map applied to two independent images.
+void regress(const double* S, const float* fi, const float* mi, float* out) {
+    const double n = S[0];
+    double mf[kF], A[kF * kF], d[kF];
+    for (int a = 0; a < kF; ++a) mf[a] = S[1 + a] / n;
+    int o = 1 + kF;
+    for (int a = 0; a < kF; ++a)
+        for (int b = a; b < kF; ++b) {
+            const double c = S[o++] / n - mf[a] * mf[b];
+            A[a * kF + b] = A[b * kF + a] = c;
+        }
+    for (int a = 0; a < kF; ++a) {
+        A[a * kF + a] += kTau * std::max(0.0, A[a * kF + a]) + kDelta;
+        d[a] = double(fi[a]) - mf[a];
+    }
+    const bool solved = cholesky(A, kF);
+    for (int k = 0; k < kY; ++k) {
+        const double my = S[o] / n;
+        double coef[kF];
+        for (int a = 0; a < kF; ++a) coef[a] = S[o + 1 + a] / n - mf[a] * my;
+        o += 1 + kF;
+        double pred = my;
+        if (solved) {
+            cholesky_solve(A, kF, coef);
+            for (int a = 0; a < kF; ++a) pred += coef[a] * d[a];
+        }
+        out[k] = float(pred * mi[k % 3]);
+    }
+}
+
+// Runs fn(band) for every band of kBand rows on `threads` threads.
+template <class Fn>
+void for_bands(int height, int threads, Fn&& fn) {
+    const int bands = (height + kBand - 1) / kBand;
+    std::atomic<int> next{0};
+    auto work = [&] {
+        for (int b; (b = next.fetch_add(1)) < bands;) fn(b * kBand, std::min(height, (b + 1) * kBand));
+    };
+    std::vector<std::thread> pool;
+    for (int t = 1; t < std::min(threads, bands); ++t) pool.emplace_back(work);
+    work();
+    for (auto& t : pool) t.join();
+}
+
+// The candidate of window radius r at every pixel: both halves filtered (kY per pixel).
+void filter(const Inputs& in, int r, int threads, std::vector<float>& out) {
+    const int W = in.w, H = in.h;
+    out.assign(size_t(W) * H * kY, 0.f);
+    for_bands(H, threads, [&](int y0, int y1) {
+        std::vector<double> col(size_t(W) * kChannels, 0.0), v(kChannels), S(kChannels);
+        auto add_row = [&](int y, double sign) {
+            if (y < 0 || y >= H) return;
+            for (int x = 0; x < W; ++x) {
+                const size_t p = size_t(y) * W + x;
+                pixel_channels(&in.f[p * kF], &in.y[p * kY], v.data());
+                double* c = &col[size_t(x) * kChannels];
+                for (int k = 0; k < kChannels; ++k) c[k] += sign * v[k];
+            }
+        };
+        for (int y = y0 - r; y <= y0 + r; ++y) add_row(y, 1.0);
+        for (int y = y0; y < y1; ++y) {
+            std::fill(S.begin(), S.end(), 0.0);
+            for (int x = 0; x <= std::min(r, W - 1); ++x)
+                for (int k = 0; k < kChannels; ++k) S[k] += col[size_t(x) * kChannels + k];
+            for (int x = 0; x < W; ++x) {
+                const size_t p = size_t(y) * W + x;
+                regress(S.data(), &in.f[p * kF], &in.m[p * 3], &out[p * kY]);
+                if (x + r + 1 < W)
+                    for (int k = 0; k < kChannels; ++k) S[k] += col[size_t(x + r + 1) * kChannels + k];
+                if (x - r >= 0)
+                    for (int k = 0; k < kChannels; ++k) S[k] -= col[size_t(x - r) * kChannels + k];
+            }
+            add_row(y + r + 1, 1.0);
+            add_row(y - r, -1.0);
+        }
+    });
+}
+
+// Box mean of a one-channel map over radius r (clipped at the border); rows then columns.
+std::vector<float> box_mean(const std::vector<float>& a, int W, int H, int r) {
+    std::vector<double> rows(a.size());
+    std::vector<float> out(a.size());
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            double s = 0;
+            for (int k = std::max(0, x - r); k <= std::min(W - 1, x + r); ++k) s += a[size_t(y) * W + k];
+            rows[size_t(y) * W + x] = s / double(std::min(W - 1, x + r) - std::max(0, x - r) + 1);
+        }
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            double s = 0;
+            for (int k = std::max(0, y - r); k <= std::min(H - 1, y + r); ++k) s += rows[size_t(k) * W + x];
+            out[size_t(y) * W + x] = float(s / double(std::min(H - 1, y + r) - std::max(0, y - r) + 1));
+        }
+    return out;
+}
+
+}  // namespace
+
+bool can_denoise(const Film& film) {
+    const AovLayout& l = film.aov_layout;
+    return !film.sum_odd.empty() && l.has(Aov::albedo) && l.has(Aov::normal) && l.has(Aov::depth);
+}
+
+std::optional<Denoised> denoise(const Film& film, int threads) {
+    if (!can_denoise(film) || film.sum.empty()) return std::nullopt;
+    if (*std::min_element(film.count.begin(), film.count.end()) < 2) return std::nullopt;
+    const auto t0 = std::chrono::steady_clock::now();
+    if (threads <= 0) threads = int(std::max(1u, std::thread::hardware_concurrency()));
+    const int W = film.width, H = film.height;
+    const size_t n = size_t(W) * H;
+    const std::vector<AovPlane> planes = film.resolve_aovs(kDenoiseAovs);
+    auto plane = [&](Aov a) -> const std::vector<float>& {
+        for (const AovPlane& p : planes)
+            if (p.aov == a) return p.values;
+        return planes.front().values;  // can_denoise checked every one is there
+    };
+    const auto& albedo = plane(Aov::albedo);
+    const auto& normal = plane(Aov::normal);
+    const auto& depth = plane(Aov::depth);
+
+    Inputs in;
+    in.w = W;
+    in.h = H;
+    in.f.resize(n * kF);
+    in.y.resize(n * kY);
+    in.m.resize(n * 3);
+    std::vector<float> xa(n * 3), xb(n * 3), wa(n);  // the halves, and the even half's share of the samples
+    float zmax = 0.f;
+    for (size_t p = 0; p < n; ++p)
+        if (depth[p] < float(kNoDepth) * 0.5f) zmax = std::max(zmax, depth[p]);
+    const float zscale = zmax > 0.f ? 1.f / zmax : 1.f;
+    for (size_t p = 0; p < n; ++p) {
+        const uint32_t c = film.count[p];
+        const double na = double((c + 1) / 2), nb = double(c / 2);
+        wa[p] = float(na / double(c));
+        for (int k = 0; k < 3; ++k) {
+            const float a = albedo[p * 3 + k];
+            const float m = a > 0.02f ? a : 1.f;
+            xa[p * 3 + k] = float((film.sum[p][k] - film.sum_odd[p][k]) / na);
+            xb[p * 3 + k] = float(film.sum_odd[p][k] / nb);
+            in.m[p * 3 + k] = m;
+            in.y[p * kY + k] = xa[p * 3 + k] / m;
+            in.y[p * kY + 3 + k] = xb[p * 3 + k] / m;
+            in.f[p * kF + 1 + k] = normal[p * 3 + k];
+        }
+        in.f[p * kF] = std::min(1.f, 0.2126f * albedo[p * 3] + 0.7152f * albedo[p * 3 + 1] + 0.0722f * albedo[p * 3 + 2]);
+        in.f[p * kF + 4] = depth[p] < float(kNoDepth) * 0.5f ? depth[p] * zscale : 2.f;
+    }
+
+    constexpr size_t C = kDenoiseRadii.size();
+    std::array<std::vector<float>, C> halves;  // each candidate's two filtered halves
+    for (size_t c = 1; c < C; ++c) filter(in, kDenoiseRadii[c], threads, halves[c]);
+    halves[0].resize(n * kY);  // the noisy halves themselves
+    for (size_t p = 0; p < n; ++p)
+        for (int k = 0; k < 3; ++k) {
+            halves[0][p * kY + k] = xa[p * 3 + k];
+            halves[0][p * kY + 3 + k] = xb[p * 3 + k];
+        }
+    auto combined = [&](size_t c, size_t p, int k) {
+        return wa[p] * halves[c][p * kY + k] + (1.f - wa[p]) * halves[c][p * kY + 3 + k];
+    };
+    // Relative errors are taken against the widest window's image (the smoothest stand-in for
+    // the truth, the same for every candidate).
+    std::vector<float> q(n * 3);
+    for (size_t p = 0; p < n; ++p)
+        for (int k = 0; k < 3; ++k) {
+            const double v = combined(C - 1, p, k);
+            q[p * 3 + k] = float(1.0 / (v * v + kEps));
+        }
+    // Each candidate's error per pixel from the two independent halves A and B; f is the
+    // candidate, applied to each. Exactly, with nothing to calibrate:
+    //   MSE = [(f(A) − B)² + (f(B) − A)²]/2 − (A − B)²/2 − (f(A) − f(B))²/4         (cross-validation)
+    // but per pixel that is about (A − μ)(B − μ), the product of two raw noises, whose heavy tail
+    // (a firefly in one half) swamps a strong filter's small error. So only the smallest window's
+    // bias is taken from it, pooled over a wide neighbourhood; the rest from filtered
+    // differences, which carry little noise:
+    //   variance of candidate c: (f_c(A) − f_c(B))²/4
+    //   its bias beyond the smallest window's: (d_c − d_1)² less the variance of d_c − d_1,
+    //     ((f_c(A) − f_1(A)) − (f_c(B) − f_1(B)))²/4
+    // and for the noisy image, (A − B)²/4.
+    auto at = [&](size_t c, size_t p, int k, int half) { return double(halves[c][p * kY + 3 * half + k]); };
+    std::vector<float> cv1(n);
+    for (size_t p = 0; p < n; ++p) {
+        double e = 0, v = 0;
+        for (int k = 0; k < 3; ++k) {
+            const double fa = at(1, p, k, 0), fb = at(1, p, k, 1), a = xa[p * 3 + k], b = xb[p * 3 + k];
+            e += q[p * 3 + k] * (0.5 * ((fa - b) * (fa - b) + (fb - a) * (fb - a)) - 0.5 * (a - b) * (a - b) - 0.25 * (fa - fb) * (fa - fb));
+            v += q[p * 3 + k] * 0.25 * (fa - fb) * (fa - fb);
+        }
+        cv1[p] = float((e - v) / 3.0);  // the smallest window's bias², per pixel (noisy)
+    }
+    const std::vector<float> bias1 = box_mean(cv1, W, H, kBiasSmooth);
+    // Per candidate: its variance, and its bias beyond the smallest window's, pooled over the
+    // neighbourhood (filtered differences are smooth: a pixel's own value says little that its
+    // neighbours do not) and held at zero or more.
+    std::array<std::vector<float>, C> rel, pooled;
+    for (size_t c = 0; c < C; ++c) {
+        rel[c].resize(n);
+        std::vector<float> bias(n, 0.f);
+        for (size_t p = 0; p < n; ++p) {
+            double v = 0, b = 0;
+            for (int k = 0; k < 3; ++k) {
+                const double fa = at(c, p, k, 0), fb = at(c, p, k, 1);
+                v += q[p * 3 + k] * 0.25 * (fa - fb) * (fa - fb);
+                if (c > 1) {
+                    const double dc = combined(c, p, k) - combined(1, p, k);
+                    const double vd = (fa - at(1, p, k, 0)) - (fb - at(1, p, k, 1));
+                    b += q[p * 3 + k] * (dc * dc - 0.25 * vd * vd);
+                }
+            }
+            rel[c][p] = float(v / 3.0);
+            bias[p] = float(b / 3.0) + (c > 0 ? bias1[p] : 0.f);
+        }
+        if (c > 0) {
+            bias = box_mean(bias, W, H, kBiasSmooth);
+            for (size_t p = 0; p < n; ++p) rel[c][p] += std::max(0.f, bias[p]);
+        }
+        pooled[c] = box_mean(rel[c], W, H, kSmooth);
+    }
+
+    Denoised d;
+    d.image = Image(W, H);
+    double est = 0, noisy_est = 0;
+    std::array<size_t, C> taken{};
+    for (size_t p = 0; p < n; ++p) {
+        size_t best = 0;
+        for (size_t c = 1; c < C; ++c)
+            if (pooled[c][p] < pooled[best][p]) best = c;
+        ++taken[best];
+        // The noisy candidate is the film's own mean, not the halves' mix (the same up to rounding).
+        for (int k = 0; k < 3; ++k)
+            d.image.rgb[p * 3 + k] = best == 0 ? float(film.sum[p][k] / double(film.count[p])) : combined(best, p, k);
+        d.image.sample_count[p] = float(film.count[p]);
+        est += rel[best][p];
+        noisy_est += rel[0][p];
+    }
+    d.est_rel_mse = est / double(n);
+    d.noisy_est_rel_mse = noisy_est / double(n);
+    for (size_t c = 0; c < C; ++c) d.share[c] = double(taken[c]) / double(n);
+    d.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return d;
+}
+
+}  // namespace tessera

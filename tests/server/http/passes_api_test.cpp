@@ -1,0 +1,148 @@
+// Passes and the denoised image through the HTTP API of a one-process server: a job's
+// multilayer EXR and each pass alone, its denoised image and the denoised error series; the
+// denoised image while the job runs; a pass or denoised image the job did not ask for is 404 with
+// its reason, a shot's are per frame; bad `passes` and `denoise` values are refused naming the
+// field.
+#include "tests/server/server_fixture.h"
+
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <chrono>
+#include <string>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+namespace tessera::server {
+namespace {
+
+using nlohmann::json;
+
+const std::string kExrMagic("\x76\x2f\x31\x01", 4);
+
+TEST_F(Server, PassesAndTheDenoisedImageAreServed) {
+    start();
+    json job = kSmallJob;
+    job["spp"] = 8;
+    job["max_depth"] = 3;
+    job["passes"] = {"albedo", "depth", "diffuse_direct", "glossy_indirect"};
+    job["denoise"] = true;
+    const std::string id = submit(job);
+    const json done = wait_state(id, {"succeeded", "failed"});
+    ASSERT_EQ(done["state"], "succeeded") << done.dump();
+    EXPECT_EQ(done["settings"]["passes"], job["passes"]);
+    EXPECT_EQ(done["settings"]["denoise"], true);
+    const std::string base = "/v1/jobs/" + id;
+    for (const char* f : {"/passes.exr", "/passes/albedo.exr", "/passes/depth.exr", "/denoised.exr"}) {
+        auto r = client_->Get(base + f);
+        ASSERT_TRUE(r) << f;
+        EXPECT_EQ(r->status, 200) << f << r->body;
+        EXPECT_EQ(r->get_header_value("Content-Type"), "image/x-exr") << f;
+        EXPECT_EQ(r->body.substr(0, 4), kExrMagic) << f;
+    }
+    auto png = client_->Get(base + "/denoised.png");
+    ASSERT_TRUE(png && png->status == 200);
+    EXPECT_EQ(png->body.substr(1, 3), "PNG");
+    // Asked for neither: 404 with the reason, not 410.
+    expect_problem(client_->Get(base + "/passes/normal.exr"), 404);
+    EXPECT_NE(client_->Get(base + "/passes/normal.exr")->body.find("no-such-pass"), std::string::npos);
+    // The denoised series beside the noisy one.
+    const json report = json::parse(client_->Get(base + "/report.json")->body);
+    const json& last = report["convergence"]["points"].back();
+    EXPECT_TRUE(last["denoised_est_rel_mse"].is_number()) << last.dump();
+    EXPECT_LT(last["denoised_est_rel_mse"].get<double>(), last["est_rel_mse"].get<double>());
+    auto csv = client_->Get(base + "/convergence.csv");
+    ASSERT_TRUE(csv && csv->status == 200);
+    EXPECT_NE(csv->body.find("denoised_est_rel_mse"), std::string::npos);
+    EXPECT_NE(client_->Get(base + "/convergence.svg")->body.find("denoised"), std::string::npos);
+
+    // A job that asked for nothing has neither.
+    const std::string plain = submit(kSmallJob);
+    ASSERT_EQ(wait_state(plain, {"succeeded", "failed"})["state"], "succeeded");
+    for (const char* f : {"/denoised.png", "/denoised.exr", "/passes.exr", "/passes/albedo.exr"}) {
+        auto r = client_->Get("/v1/jobs/" + plain + f);
+        expect_problem(r, 404);
+    }
+    EXPECT_NE(client_->Get("/v1/jobs/" + plain + "/denoised.png")->body.find("not-denoised"), std::string::npos);
+    // No such pass at all: not a route.
+    auto unknown = client_->Get(base + "/passes/beauty.exr");
+    ASSERT_TRUE(unknown);
+    EXPECT_EQ(unknown->status, 404);
+    auto escape = client_->Get(base + "/passes/..%2Freport.json");
+    ASSERT_TRUE(escape);
+    EXPECT_EQ(escape->status, 404);
+}
+
+TEST_F(Server, TheDenoisedImageIsShownWhileTheJobRuns) {
+    start();
+    json job = {{"scene", "builtin:cornell_box"}, {"width", 160}, {"height", 120}, {"spp", 4096}, {"max_depth", 4},
+                {"denoise", true}, {"time_limit_s", 60}};
+    const std::string id = submit(job);
+    const std::string base = "/v1/jobs/" + id;
+    bool seen = false;
+    const auto t0 = std::chrono::steady_clock::now();
+    while (!seen && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(30)) {
+        auto r = client_->Get(base + "/denoised.png");
+        ASSERT_TRUE(r);
+        if (r->status == 200) {
+            EXPECT_FALSE(r->get_header_value("X-Tessera-Pass").empty());
+            EXPECT_FALSE(r->get_header_value("X-Tessera-Pass-Error").empty()) << "the denoised image's estimated error";
+            EXPECT_EQ(r->get_header_value("Cache-Control"), "no-store");
+            seen = true;
+        } else {
+            EXPECT_EQ(r->status, 409) << r->body;  // before the second pass
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+    }
+    EXPECT_TRUE(seen);
+    const json st = status(id);
+    if (st["latest_pass"].is_object()) EXPECT_TRUE(st["latest_pass"].contains("denoised_est_rel_mse"));
+    client_->Delete(base);
+    wait_state(id, {"canceled", "succeeded", "failed"});
+}
+
+TEST_F(Server, BadPassesAndDenoiseAreRefusedNamingTheField) {
+    start();
+    auto with = [](const char* key, json v) {
+        json j = kSmallJob;
+        j[key] = std::move(v);
+        return j;
+    };
+    expect_problem(post_job(with("passes", "albedo")), 400, "/passes");
+    expect_problem(post_job(with("passes", {"albedo", "beauty"})), 400, "/passes/1");
+    expect_problem(post_job(with("passes", {"albedo", "albedo"})), 400, "/passes/1");
+    expect_problem(post_job(with("passes", {1})), 400, "/passes/0");
+    expect_problem(post_job(with("passes", json::array({nullptr}))), 400, "/passes/0");
+    json many = json::array();
+    for (int i = 0; i < 14; ++i) many.push_back("albedo");
+    expect_problem(post_job(with("passes", many)), 400, "/passes");
+    expect_problem(post_job(with("denoise", 1)), 400, "/denoise");
+    expect_problem(post_job(with("denoise", "true")), 400, "/denoise");
+    expect_problem(post_job(with("denoise", nullptr)), 400, "/denoise");
+    json normals = with("denoise", true);
+    normals["integrator"] = "normals";
+    expect_problem(post_job(normals), 400, "/denoise");
+    // The server goes on serving.
+    EXPECT_EQ(post_job(with("passes", json::array()))->status, 202);
+}
+
+TEST_F(Server, AShotsPassesAndDenoisedImagesArePerFrame) {
+    start();
+    const json job = {{"scene", "cornell_shot"}, {"frames", {{"start", 1}, {"end", 2}}}, {"width", 24}, {"height", 18}, {"spp", 4},
+                      {"max_depth", 2}, {"passes", {"normal"}}, {"denoise", true}};
+    const std::string id = submit(job);
+    ASSERT_EQ(wait_state(id, {"succeeded", "failed"}, 120)["state"], "succeeded");
+    const std::string base = "/v1/jobs/" + id;
+    for (int f : {1, 2})
+        for (const char* file : {"/denoised.png", "/denoised.exr", "/passes.exr", "/passes/normal.exr"}) {
+            auto r = client_->Get(base + "/frames/" + std::to_string(f) + file);
+            ASSERT_TRUE(r);
+            EXPECT_EQ(r->status, 200) << f << file << r->body;
+        }
+    expect_problem(client_->Get(base + "/denoised.png"), 404);
+    expect_problem(client_->Get(base + "/frames/1/passes/albedo.exr"), 404);
+}
+
+}  // namespace
+}  // namespace tessera::server
