@@ -1,6 +1,8 @@
 #include "api/job.h"
 
 #include "api/job_fields.h"
+#include "engine/render/film.h"
+#include "engine/render/passes.h"
 
 #include <algorithm>
 #include <limits>
@@ -68,6 +70,19 @@ RenderJob parse_render_job(const json& body, const JobLimits& limits) {
         throw InvalidJob("/shutter", "a shutter blurs a shot's motion: it needs frames (a still is the scene at rest)");
     if (job.shutter && job.scene_options.bvh.type == BvhType::embree)
         throw InvalidJob("/shutter", "motion blur is traced by our BVH only: leave out shutter or bvh \"embree\"");
+    // Passes and denoising multiply a pixel's film: a job may not keep more than the largest
+    // plain job (max_pixels with the error estimate's buffers) would.
+    if (job.render.aovs || job.render.denoise) {
+        const PassPlan plan = plan_passes(job.render, false, true);
+        const double bytes = double(pixels) * double(Film::bytes_per_pixel(plan.half_buffer, plan.adaptive, plan.aovs));
+        const double bound = double(limits.max_pixels) * double(Film::bytes_per_pixel(true, false, 0));
+        if (bytes > bound)
+            throw InvalidJob(job.render.aovs ? "/passes" : "/denoise",
+                             "width × height = " + std::to_string(pixels) + " pixels with these passes" +
+                                 (job.render.denoise ? " and denoising" : "") + " would keep " + std::to_string(int64_t(bytes / 1048576)) +
+                                 " MiB of film, over the " + std::to_string(int64_t(bound / 1048576)) +
+                                 " MiB the largest plain job may keep (--max-pixels): ask for fewer passes or pixels");
+    }
     if (job.render.integrator == Integrator::normals && (job.render.aovs || job.render.denoise))
         throw InvalidJob(job.render.denoise ? "/denoise" : "/passes",
                          "passes and denoising follow light paths: integrator \"normals\" traces none (leave them out or use \"path\")");

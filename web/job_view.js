@@ -48,7 +48,7 @@ function renderBody(container, first) {
       else if (pass != null) {
         const spp = headers.get('X-Tessera-Pass-Spp');
         const err = Number(headers.get('X-Tessera-Pass-Error'));
-        setText(passInfo, `Pass ${pass}${spp ? ` · ${spp} spp` : ''}${Number.isFinite(err) && headers.get('X-Tessera-Pass-Error') ? ` · estimated relative MSE ${fmtSci(err)}` : ''}`);
+        setText(passInfo, `${showDenoised ? 'Denoised, pass' : 'Pass'} ${pass}${spp ? ` · ${spp} spp` : ''}${Number.isFinite(err) && headers.get('X-Tessera-Pass-Error') ? ` · estimated relative MSE ${fmtSci(err)}` : ''}`);
       } else {
         const spp = report?.stats?.spp_mean ?? job.stats?.spp_mean;
         setText(passInfo, `Final image${spp != null ? ` · ${fmtSci(spp)} spp on average` : ''}`);
@@ -57,7 +57,8 @@ function renderBody(container, first) {
     onError(e) {
       image.clear();
       image.img.dataset.pass = '';
-      if (e.status === 409) showPlaceholder(job.state === 'queued' ? 'The image appears once the job runs.' : 'The image appears after the first pass.');
+      if (e.status === 409) showPlaceholder(job.state === 'queued' ? 'The image appears once the job runs.'
+        : showDenoised ? 'The denoised image appears after the second pass.' : 'The image appears after the first pass.');
       else if (e.status === 410) showPlaceholder(job.state === 'succeeded' ? 'The results of this job were removed.' : 'This job ended without an image.');
       else showPlaceholder(`The image could not be loaded: ${e.message}`);
     },
@@ -71,9 +72,21 @@ function renderBody(container, first) {
   }
 
   const controls = viewControls();
+  // A denoising job shows its denoised image or the noisy one (from the second pass on while it runs).
+  const denoises = first.settings.denoise === true;
+  let showDenoised = false;
+  const denoisedButton = h('button', { type: 'button', id: 'show-denoised', class: 'secondary toggle', 'aria-pressed': 'false', hidden: !denoises }, 'Denoised');
+  denoisedButton.addEventListener('click', () => {
+    showDenoised = !showDenoised;
+    denoisedButton.setAttribute('aria-pressed', String(showDenoised));
+    if (showDenoised && showRate) rateButton.click();
+    controls.setExposureEnabled(!showDenoised && !showRate);
+    refreshImage();
+  });
   const rateButton = h('button', { type: 'button', id: 'show-rate', class: 'secondary toggle', 'aria-pressed': 'false' }, 'Sample-rate map');
   rateButton.addEventListener('click', () => {
     showRate = !showRate;
+    if (showRate && showDenoised) denoisedButton.click();
     rateButton.setAttribute('aria-pressed', String(showRate));
     controls.setExposureEnabled(!showRate);
     image.img.alt = showRate ? `Sample-rate map of ${job.settings.scene}` : `Render of ${job.settings.scene}`;
@@ -90,7 +103,7 @@ function renderBody(container, first) {
   container.append(
     h('section', { class: 'card', 'aria-labelledby': 'image-h' },
       h('h2', { id: 'image-h' }, 'Image'),
-      h('div', { class: 'toolbar' }, rateButton, controls.el),
+      h('div', { class: 'toolbar' }, rateButton, denoisedButton, controls.el),
       passInfo, viewport),
     h('section', { class: 'card', 'aria-labelledby': 'plot-h' },
       h('h2', { id: 'plot-h' }, 'Convergence'), plot, stopReason),
@@ -113,7 +126,7 @@ function renderBody(container, first) {
     // Failed and canceled jobs keep no results: nothing to ask for (it would be a 410).
     if (job.state === 'failed' || job.state === 'canceled') { image.clear(); return showPlaceholder('This job ended without an image.'); }
     if (job.state === 'running' && !hasPassImage()) { image.clear(); return showPlaceholder('The image appears after the first pass.'); }
-    image.show(showRate ? jobPath(id, 'rate.png') : jobPath(id, 'image.png', exposureQuery()));
+    image.show(showRate ? jobPath(id, 'rate.png') : showDenoised ? jobPath(id, 'denoised.png') : jobPath(id, 'image.png', exposureQuery()));
   }
 
   function drawConvergence() {
@@ -138,7 +151,10 @@ function renderBody(container, first) {
         link('download-rate', 'rate.png', 'Sample-rate map (PNG)'),
         link('download-report', 'report.json', 'Report (JSON)'),
         link('download-csv', 'convergence.csv', 'Convergence (CSV)'),
-        link('download-svg', 'convergence.svg', 'Convergence plot (SVG)')));
+        link('download-svg', 'convergence.svg', 'Convergence plot (SVG)'),
+        ...(denoises ? [link('download-denoised', 'denoised.png', 'Denoised image (PNG, sRGB)'),
+          link('download-denoised-exr', 'denoised.exr', 'Denoised image (OpenEXR, linear)')] : []),
+        ...((first.settings.passes || []).length ? [link('download-passes', 'passes.exr', 'Passes (multilayer OpenEXR)')] : [])));
     } else if (pass) {
       downloads.replaceChildren(h('ul', { class: 'downloads' },
         link('download-png', 'image.png', 'Image (PNG, sRGB)', '— the latest pass'),

@@ -136,18 +136,24 @@ export function drawPlot(el, series, { xLabel = 'Render time (s)', yLabel = 'Rel
   el.setAttribute('aria-label', `${yLabel} against ${xLabel}, log-log. ${summary.join('; ')}.`);
 }
 
-// A render report's convergence points as plot series: the half-buffer estimate, and the error
-// against the reference job when the job had one.
+// A render report's convergence points as plot series: the half-buffer estimate, the error
+// against the reference job when the job had one, and a denoising job's denoised image's.
 export function convergenceSeries(points, label = '', style = 0) {
   const est = [];
   const ref = [];
+  const den = [];
+  const denRef = [];
   for (const p of points || []) {
     const note = p.spp_mean != null ? `${Number(p.spp_mean.toFixed(1))} spp` : '';
     if (p.est_rel_mse != null) est.push({ x: p.seconds, y: p.est_rel_mse, note });
     if (p.rel_mse != null) ref.push({ x: p.seconds, y: p.rel_mse, note });
+    if (p.denoised_est_rel_mse != null) den.push({ x: p.seconds, y: p.denoised_est_rel_mse, note });
+    if (p.denoised_rel_mse != null) denRef.push({ x: p.seconds, y: p.denoised_rel_mse, note });
   }
   const prefix = label ? `${label}: ` : '';
   const out = [{ label: `${prefix}estimated relative MSE`, points: est, style }];
   if (ref.length) out.push({ label: `${prefix}relative MSE against the reference`, points: ref, style: style + 2 });
+  if (den.length) out.push({ label: `${prefix}denoised, estimated relative MSE`, points: den, style: style + 1 });
+  if (denRef.length) out.push({ label: `${prefix}denoised, against the reference`, points: denRef, style: style + 3 });
   return out;
 }

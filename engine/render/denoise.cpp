@@ -19,7 +19,8 @@ constexpr int kY = 6;                                     // colour over albedo:
 constexpr int kChannels = 1 + kF + kPairs + kY * (1 + kF);  // box-summed per pixel
 constexpr int kBand = 32;                                 // rows per task: fixed, so the sums' order is too
 constexpr int kSmooth = 4;                                // radius over which error estimates are pooled
-constexpr int kBiasSmooth = 8;                            // ... bias estimates, before they are held at zero or more
+constexpr int kBiasSmooth = 8;
+constexpr double kContradiction = 8.0;                     // a pixel's own error estimate against its noise, to refuse a candidate                            // ... bias estimates, before they are held at zero or more
 constexpr double kEps = 0.01;                             // relMSE's ε
 // Ridge: each feature's own variance in the window times kTau, plus kDelta (features lie in
 // [-1, 1]): a feature that barely varies is not trusted to explain the colour's noise.
@@ -237,13 +238,15 @@ std::optional<Denoised> denoise(const Film& film, int threads) {
     auto combined = [&](size_t c, size_t p, int k) {
         return wa[p] * halves[c][p * kY + k] + (1.f - wa[p]) * halves[c][p * kY + 3 + k];
     };
-    // Relative errors are taken against the widest window's image (the smoothest stand-in for
-    // the truth, the same for every candidate).
+    // Relative errors are taken against a stand-in for the truth, the same for every candidate:
+    // the mean square of the noisy pixel and the smallest window's output. Not a wide window's
+    // alone: beside a pixel far brighter than its neighbours (the sun in an environment, a
+    // highlight) it is wrong both ways, and the error there would be weighed by it.
     std::vector<float> q(n * 3);
     for (size_t p = 0; p < n; ++p)
         for (int k = 0; k < 3; ++k) {
-            const double v = combined(C - 1, p, k);
-            q[p * 3 + k] = float(1.0 / (v * v + kEps));
+            const double v = combined(1, p, k), x = combined(0, p, k);
+            q[p * 3 + k] = float(1.0 / (0.5 * (v * v + x * x) + kEps));
         }
     // Each candidate's error per pixel from the two independent halves A and B; f is the
     // candidate, applied to each. Exactly, with nothing to calibrate:
@@ -300,10 +303,21 @@ std::optional<Denoised> denoise(const Film& film, int threads) {
     d.image = Image(W, H);
     double est = 0, noisy_est = 0;
     std::array<size_t, C> taken{};
+    // The pixel's own cross-validation (noisy, but not pooled away): a candidate whose output its
+    // own samples contradict by far more than their noise is refused there, such as a highlight
+    // the regression carried to a neighbour that has none (the features do not explain it).
+    auto contradicted = [&](size_t c, size_t p) {
+        double e = 0;
+        for (int k = 0; k < 3; ++k) {
+            const double fa = at(c, p, k, 0), fb = at(c, p, k, 1), a = xa[p * 3 + k], b = xb[p * 3 + k];
+            e += q[p * 3 + k] * (0.5 * ((fa - b) * (fa - b) + (fb - a) * (fb - a)) - 0.5 * (a - b) * (a - b) - 0.25 * (fa - fb) * (fa - fb));
+        }
+        return e / 3.0 > kContradiction * (double(rel[0][p]) + double(pooled[0][p]) + double(pooled[c][p]));
+    };
     for (size_t p = 0; p < n; ++p) {
         size_t best = 0;
         for (size_t c = 1; c < C; ++c)
-            if (pooled[c][p] < pooled[best][p]) best = c;
+            if (pooled[c][p] < pooled[best][p] && !contradicted(c, p)) best = c;
         ++taken[best];
         // The noisy candidate is the film's own mean, not the halves' mix (the same up to rounding).
         for (int k = 0; k < 3; ++k)

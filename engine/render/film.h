@@ -65,6 +65,15 @@ struct Film {
         }
         if (adaptive) { stats.resize(size_t(w) * h); done.assign(size_t(w) * h, 0); }
     }
+    // What a film keeps per pixel (bytes), and the denoiser's working memory besides: a job's
+    // memory is bounded by it before anything is allocated.
+    static size_t bytes_per_pixel(bool half_buffer, bool adaptive, AovSet aovs) {
+        size_t b = sizeof(glm::dvec3) + sizeof(uint32_t);
+        if (half_buffer) b += 3 * sizeof(glm::dvec3);
+        if (adaptive) b += sizeof(RunningStats) + 1;
+        if (aovs & kSplitHalves) b += sizeof(glm::dvec3) + 200;  // the odd sums; the denoiser's candidates and inputs
+        return b + size_t(AovLayout(aovs).stride) * sizeof(double);
+    }
     // A film of one tile's pixels, for a render node that renders one tile at a time.
     static Film tile(int x0, int y0, int w, int h, bool half_buffer, bool adaptive, AovSet aovs = 0) {
         Film f(w, h, half_buffer, adaptive, aovs);

@@ -123,6 +123,13 @@ TEST_F(Server, BadPassesAndDenoiseAreRefusedNamingTheField) {
     json normals = with("denoise", true);
     normals["integrator"] = "normals";
     expect_problem(post_job(normals), 400, "/denoise");
+    // Passes multiply a pixel's film: not past what the largest plain job keeps.
+    json huge = with("passes", {"albedo", "normal", "depth", "position", "object_id", "material_id", "emission", "environment",
+                                "diffuse_direct", "diffuse_indirect", "glossy_direct", "glossy_indirect", "variance"});
+    huge["width"] = 16384;
+    huge["height"] = 16384;
+    huge["denoise"] = true;
+    expect_problem(post_job(huge), 400, "/passes");
     // The server goes on serving.
     EXPECT_EQ(post_job(with("passes", json::array()))->status, 202);
 }
