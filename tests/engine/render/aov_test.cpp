@@ -183,9 +183,11 @@ TEST(Aov, VarianceIsThatOfThePixelMean) {
     RenderSettings s = small(8, 3);
     s.sampler = SamplerKind::independent;
     double v8 = 0, v32 = 0;
-    for (float v : plane(render(lit, s), Aov::variance).values) v8 += v;
+    const RenderResult r8 = render(lit, s);  // bound: a range-for over a temporary's member would dangle
+    for (float v : plane(r8, Aov::variance).values) v8 += v;
     s.spp = 32;
-    for (float v : plane(render(lit, s), Aov::variance).values) v32 += v;
+    const RenderResult r32 = render(lit, s);
+    for (float v : plane(r32, Aov::variance).values) v32 += v;
     EXPECT_GT(v8, 0.0);
     EXPECT_NEAR(v8 / v32, 4.0, 1.0) << "the variance of the mean falls as 1/n";
 }
