@@ -504,7 +504,7 @@ private:
                 ++stats_.shadow_rays;
                 if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance, si.time), stats_.traversal)) {
                     Ld += weight * s_.sky / float(n);
-                    Lg += share * weight * s_.sky / float(n);
+                    if (split) Lg += share * weight * s_.sky / float(n);
                 }
             }
         }

@@ -55,6 +55,7 @@ public:
         double* aov_entry = layout.stride > 0 ? &film.aov[p * size_t(layout.stride)] : nullptr;
         const bool split = !film.sum_odd.empty();
         glm::dvec3 odd = split ? film.sum_odd[p] : glm::dvec3(0.0);
+        SampleAovs aovs;  // cleared per sample only where the film keeps AOVs
         for (; s < target; ++s) {
             if (halves && (s & (s - 1)) == 0) {  // s a power of two: the first s samples are a net
                 eighth = quarter;
@@ -80,7 +81,7 @@ public:
             }
             ray.time = time;
             ++stats.camera_rays;
-            SampleAovs aovs;
+            if (aov_entry) aovs = SampleAovs{};
             glm::vec3 L = integrator_.radiance(ray, rng, aov_entry ? &aovs : nullptr);
             if (!(std::isfinite(L.x) && std::isfinite(L.y) && std::isfinite(L.z))) {
                 ++stats.nonfinite_samples;
