@@ -13,14 +13,21 @@ namespace tessera {
 
 namespace {
 
-constexpr int kF = 5;                                     // features: albedo's luminance, normal (3), depth
+// Features: the shading normal (3, made unit: a silhouette pixel's is its surface's), depth, and
+// the pixel's place (x and y over 16), so a window fits a gradient across the screen too, as
+// NFOR's do. Not the albedo: the colour is divided by it, and a silhouette pixel's albedo is its
+// coverage times its surface's, which a linear fit would read as a darker surface.
+constexpr int kF = 6;
 constexpr int kPairs = kF * (kF + 1) / 2;                 // f_a f_b, a ≤ b
 constexpr int kY = 6;                                     // colour over albedo: half A (3), half B (3)
 constexpr int kChannels = 1 + kF + kPairs + kY * (1 + kF);  // box-summed per pixel
 constexpr int kBand = 32;                                 // rows per task: fixed, so the sums' order is too
 constexpr int kSmooth = 4;                                // radius over which error estimates are pooled
-constexpr int kBiasSmooth = 8;
-constexpr double kContradiction = 8.0;                     // a pixel's own error estimate against its noise, to refuse a candidate                            // ... bias estimates, before they are held at zero or more
+constexpr int kBiasSmooth = 8;                            // ... bias estimates, before they are held at zero or more
+constexpr double kContradiction = 8.0;                    // a pixel's own error estimate against its noise, to refuse a candidate
+// Below this albedo the colour is divided by it no further: what a dark albedo does not scale
+// (a coat's reflection, the eye of a toy duck) would become a giant that spreads to neighbours.
+constexpr float kAlbedoFloor = 0.1f;
 constexpr double kEps = 0.01;                             // relMSE's ε
 // Ridge: each feature's own variance in the window times kTau, plus kDelta (features lie in
 // [-1, 1]): a feature that barely varies is not trusted to explain the colour's noise.
@@ -31,6 +38,7 @@ struct Inputs {
     std::vector<float> f;   // kF per pixel
     std::vector<float> y;   // the halves over albedo, kY per pixel
     std::vector<float> m;   // the albedo they were divided by (1 where there is none), 3 per pixel
+    std::vector<uint8_t> use;  // whether the pixel joins its neighbours' windows (it saw no light directly)
 };
 
 inline void pixel_channels(const float* f, const float* y, double* v) {
@@ -44,6 +52,8 @@ inline void pixel_channels(const float* f, const float* y, double* v) {
         for (int a = 0; a < kF; ++a) v[o++] = double(f[a]) * y[k];
     }
 }
+// Fewer pixels than this in a window (the rest saw light directly): the pixel is left as it is.
+constexpr double kMinSupport = 3.0;
 
 // Solves A z = r for symmetric positive definite A (n × n, row-major), by Cholesky in place.
 bool cholesky(double* A, int n) {
@@ -77,8 +87,12 @@ void cholesky_solve(const double* L, int n, double* z) {
 // One candidate's outputs for both halves at one pixel (in the colour's units), from the box
 // sums S of its window: the same regression on the same features for each, so the filter is one
 // linear map applied to two independent images.
-void regress(const double* S, const float* fi, const float* mi, float* out) {
+void regress(const double* S, const float* fi, const float* yi, const float* mi, float* out) {
     const double n = S[0];
+    if (n < kMinSupport || fi[3] > 1.5f) {  // too few to fit, or the pixel saw no surface (nothing to filter)
+        for (int k = 0; k < kY; ++k) out[k] = yi[k] * mi[k % 3];
+        return;
+    }
     double mf[kF], A[kF * kF], d[kF];
     for (int a = 0; a < kF; ++a) mf[a] = S[1 + a] / n;
     int o = 1 + kF;
@@ -130,6 +144,7 @@ void filter(const Inputs& in, int r, int threads, std::vector<float>& out) {
             if (y < 0 || y >= H) return;
             for (int x = 0; x < W; ++x) {
                 const size_t p = size_t(y) * W + x;
+                if (!in.use[p]) continue;
                 pixel_channels(&in.f[p * kF], &in.y[p * kY], v.data());
                 double* c = &col[size_t(x) * kChannels];
                 for (int k = 0; k < kChannels; ++k) c[k] += sign * v[k];
@@ -142,7 +157,7 @@ void filter(const Inputs& in, int r, int threads, std::vector<float>& out) {
                 for (int k = 0; k < kChannels; ++k) S[k] += col[size_t(x) * kChannels + k];
             for (int x = 0; x < W; ++x) {
                 const size_t p = size_t(y) * W + x;
-                regress(S.data(), &in.f[p * kF], &in.m[p * 3], &out[p * kY]);
+                regress(S.data(), &in.f[p * kF], &in.y[p * kY], &in.m[p * 3], &out[p * kY]);
                 if (x + r + 1 < W)
                     for (int k = 0; k < kChannels; ++k) S[k] += col[size_t(x + r + 1) * kChannels + k];
                 if (x - r >= 0)
@@ -151,6 +166,81 @@ void filter(const Inputs& in, int r, int threads, std::vector<float>& out) {
             add_row(y + r + 1, 1.0);
             add_row(y - r, -1.0);
         }
+    });
+}
+
+// The candidate that weighs each neighbour by how alike it looks (NL-means as Rousselle, Knaus and
+// Zwicker 2012 use it for rendering, first-order-free): shadows and glossy highlights, which the
+// features do not explain, keep their edges. Half A is averaged with weights from half B's
+// colour and B with A's (cross-filtering, as NFOR does), so neither half picks the neighbours
+// its own noise happens to match. The guide is each half's colour over albedo, box-smoothed
+// over 3×3 (a patch), its variance from the difference of the halves.
+void filter_nlm(const Inputs& in, int r, int threads, std::vector<float>& out) {
+    const int W = in.w, H = in.h;
+    const size_t n = size_t(W) * H;
+    // Guides (3×3 means of each half) and their variance per pixel, per half.
+    std::vector<float> g(n * kY), v(n);
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            const size_t p = size_t(y) * W + x;
+            double s[kY] = {}, d = 0;
+            int cnt = 0;
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const int xx = x + dx, yy = y + dy;
+                    if (xx < 0 || yy < 0 || xx >= W || yy >= H) continue;
+                    const size_t q = size_t(yy) * W + xx;
+                    if (!in.use[q] && q != p) continue;
+                    for (int k = 0; k < kY; ++k) s[k] += in.y[q * kY + k];
+                    for (int k = 0; k < 3; ++k) {
+                        const double e = in.y[q * kY + k] - in.y[q * kY + 3 + k];
+                        d += e * e;
+                    }
+                    ++cnt;
+                }
+            for (int k = 0; k < kY; ++k) g[p * kY + k] = float(s[k] / cnt);
+            // One half's variance is (A − B)²/2 per channel; the 3×3 mean's, that over cnt.
+            v[p] = float(d / 3.0 / 2.0 / cnt / cnt);
+        }
+    out.assign(n * kY, 0.f);
+    constexpr double kK2 = 0.45 * 0.45, kVarFloor = 1e-4;
+    for_bands(H, threads, [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y)
+            for (int x = 0; x < W; ++x) {
+                const size_t p = size_t(y) * W + x;
+                const float* fi = &in.f[p * kF];
+                if (fi[3] > 1.5f) {
+                    for (int k = 0; k < kY; ++k) out[p * kY + k] = in.y[p * kY + k] * in.m[p * 3 + k % 3];
+                    continue;
+                }
+                double wsum[2] = {}, acc[kY] = {};
+                for (int yy = std::max(0, y - r); yy <= std::min(H - 1, y + r); ++yy)
+                    for (int xx = std::max(0, x - r); xx <= std::min(W - 1, x + r); ++xx) {
+                        const size_t q = size_t(yy) * W + xx;
+                        if (!in.use[q] && q != p) continue;
+                        const float* fq = &in.f[q * kF];
+                        // Geometry: a neighbour on another surface is not one of this pixel's kind.
+                        const double dn = double(fi[0] - fq[0]) * (fi[0] - fq[0]) + double(fi[1] - fq[1]) * (fi[1] - fq[1]) +
+                                          double(fi[2] - fq[2]) * (fi[2] - fq[2]);
+                        const double dz = double(fi[3] - fq[3]) / (0.02 + fi[3]);
+                        const double gf = dn / 0.05 + dz * dz / 0.0025;
+                        if (gf > 9.2) continue;  // a weight below 1e-4
+                        const double vi = v[p], vq = v[q], scale = 1.0 / (3.0 * (kVarFloor + kK2 * (vi + vq)));
+                        const double floor = vi + std::min(vi, vq);
+                        for (int h = 0; h < 2; ++h) {
+                            const int o = 3 * (1 - h);  // the other half's guide
+                            double d2 = 0;
+                            for (int k = 0; k < 3; ++k) {
+                                const double e = double(g[p * kY + o + k]) - g[q * kY + o + k];
+                                d2 += e * e - floor;
+                            }
+                            const double w = std::exp(-gf - std::max(0.0, d2 * scale));
+                            wsum[h] += w;
+                            for (int k = 0; k < 3; ++k) acc[3 * h + k] += w * in.y[q * kY + 3 * h + k];
+                        }
+                    }
+                for (int k = 0; k < kY; ++k) out[p * kY + k] = float(acc[k] / wsum[k / 3] * in.m[p * 3 + k % 3]);
+            }
     });
 }
 
@@ -203,7 +293,9 @@ std::optional<Denoised> denoise(const Film& film, int threads) {
     in.f.resize(n * kF);
     in.y.resize(n * kY);
     in.m.resize(n * 3);
+    in.use.resize(n);
     std::vector<float> xa(n * 3), xb(n * 3), wa(n);  // the halves, and the even half's share of the samples
+    std::vector<float> ea(n * 3), eb(n * 3);          // the light each half saw directly
     float zmax = 0.f;
     for (size_t p = 0; p < n; ++p)
         if (depth[p] < float(kNoDepth) * 0.5f) zmax = std::max(zmax, depth[p]);
@@ -212,23 +304,40 @@ std::optional<Denoised> denoise(const Film& film, int threads) {
         const uint32_t c = film.count[p];
         const double na = double((c + 1) / 2), nb = double(c / 2);
         wa[p] = float(na / double(c));
+        in.use[p] = film.seen[p] == glm::dvec3(0.0) && depth[p] < float(kNoDepth) * 0.5f;
+        // The share of the pixel's samples that hit a surface: a miss adds a zero normal, so the
+        // mean normal's length (of a pixel on one surface). Albedo is over the hits, so that a
+        // pixel on a silhouette divides by its surface's albedo times its coverage, as its colour is.
+        const glm::vec3 nn(normal[p * 3], normal[p * 3 + 1], normal[p * 3 + 2]);
+        const float len = glm::length(nn), cover = std::clamp(len, 0.05f, 1.f);
         for (int k = 0; k < 3; ++k) {
+            ea[p * 3 + k] = float((film.seen[p][k] - film.seen_odd[p][k]) / na);
+            eb[p * 3 + k] = float(film.seen_odd[p][k] / nb);
             const float a = albedo[p * 3 + k];
-            const float m = a > 0.02f ? a : 1.f;
+            const float m = std::max(a / cover, kAlbedoFloor) * cover;
             xa[p * 3 + k] = float((film.sum[p][k] - film.sum_odd[p][k]) / na);
             xb[p * 3 + k] = float(film.sum_odd[p][k] / nb);
             in.m[p * 3 + k] = m;
-            in.y[p * kY + k] = xa[p * 3 + k] / m;
-            in.y[p * kY + 3 + k] = xb[p * 3 + k] / m;
-            in.f[p * kF + 1 + k] = normal[p * 3 + k];
+            in.y[p * kY + k] = (xa[p * 3 + k] - ea[p * 3 + k]) / m;
+            in.y[p * kY + 3 + k] = (xb[p * 3 + k] - eb[p * 3 + k]) / m;
         }
-        in.f[p * kF] = std::min(1.f, 0.2126f * albedo[p * 3] + 0.7152f * albedo[p * 3 + 1] + 0.0722f * albedo[p * 3 + 2]);
-        in.f[p * kF + 4] = depth[p] < float(kNoDepth) * 0.5f ? depth[p] * zscale : 2.f;
+        for (int k = 0; k < 3; ++k) in.f[p * kF + k] = len > 1e-6f ? nn[k] / len : 0.f;
+        in.f[p * kF + 3] = depth[p] < float(kNoDepth) * 0.5f ? depth[p] * zscale : 2.f;
+        in.f[p * kF + 4] = float(p % size_t(W)) / 16.f;
+        in.f[p * kF + 5] = float(p / size_t(W)) / 16.f;
     }
 
     constexpr size_t C = kDenoiseRadii.size();
     std::array<std::vector<float>, C> halves;  // each candidate's two filtered halves
-    for (size_t c = 1; c < C; ++c) filter(in, kDenoiseRadii[c], threads, halves[c]);
+    for (size_t c = 1; c < C; ++c) {
+        if (kDenoiseRadii[c] > 0) filter(in, kDenoiseRadii[c], threads, halves[c]);
+        else filter_nlm(in, -kDenoiseRadii[c], threads, halves[c]);
+        for (size_t p = 0; p < n; ++p)
+            for (int k = 0; k < 3; ++k) {
+                halves[c][p * kY + k] += ea[p * 3 + k];
+                halves[c][p * kY + 3 + k] += eb[p * 3 + k];
+            }
+    }
     halves[0].resize(n * kY);  // the noisy halves themselves
     for (size_t p = 0; p < n; ++p)
         for (int k = 0; k < 3; ++k) {
@@ -239,14 +348,14 @@ std::optional<Denoised> denoise(const Film& film, int threads) {
         return wa[p] * halves[c][p * kY + k] + (1.f - wa[p]) * halves[c][p * kY + 3 + k];
     };
     // Relative errors are taken against a stand-in for the truth, the same for every candidate:
-    // the mean square of the noisy pixel and the smallest window's output. Not a wide window's
-    // alone: beside a pixel far brighter than its neighbours (the sun in an environment, a
-    // highlight) it is wrong both ways, and the error there would be weighed by it.
+    // the NL-means candidate's output, which keeps shadows and highlights and carries little
+    // noise. (Not a box window's: beside a highlight it is wrong both ways; not the noisy pixel:
+    // where it is bright by chance, its error would be weighed the least.)
     std::vector<float> q(n * 3);
     for (size_t p = 0; p < n; ++p)
         for (int k = 0; k < 3; ++k) {
-            const double v = combined(1, p, k), x = combined(0, p, k);
-            q[p * 3 + k] = float(1.0 / (0.5 * (v * v + x * x) + kEps));
+            const double v = combined(C - 1, p, k);  // the NL-means candidate is the last
+            q[p * 3 + k] = float(1.0 / (v * v + kEps));
         }
     // Each candidate's error per pixel from the two independent halves A and B; f is the
     // candidate, applied to each. Exactly, with nothing to calibrate:

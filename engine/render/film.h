@@ -44,6 +44,10 @@ struct Film {
     // A denoising render's: the sum of its odd samples (1, 3, 5, …), drawn from a scramble of
     // their own, so that even and odd samples are two independent estimates (denoise.h).
     std::vector<glm::dvec3> sum_odd;
+    // ... and of the light its samples saw directly (emitters, the environment), all and odd: the
+    // denoiser filters the rest and adds this back, so a lamp's glare never spreads to the wall
+    // beside it (features do not tell a lamp from the ceiling it hangs in).
+    std::vector<glm::dvec3> seen, seen_odd;
     std::vector<uint32_t> count;       // samples taken
     std::vector<RunningStats> stats;   // illuminance statistics (adaptive only)
     std::vector<uint8_t> done;         // adaptive: converged
@@ -53,7 +57,11 @@ struct Film {
 
     Film(int w, int h, bool half_buffer, bool adaptive, AovSet aovs = 0)
         : width(w), height(h), sum(size_t(w) * h, glm::dvec3(0.0)), count(size_t(w) * h, 0), aov_layout(aovs) {
-        if (aovs & kSplitHalves) sum_odd.assign(size_t(w) * h, glm::dvec3(0.0));
+        if (aovs & kSplitHalves) {
+            sum_odd.assign(size_t(w) * h, glm::dvec3(0.0));
+            seen.assign(size_t(w) * h, glm::dvec3(0.0));
+            seen_odd.assign(size_t(w) * h, glm::dvec3(0.0));
+        }
         if (aov_layout.stride > 0) {
             aov.resize(size_t(w) * h * size_t(aov_layout.stride));
             for (size_t p = 0; p < size_t(w) * h; ++p) clear_aovs(aov_layout, &aov[p * size_t(aov_layout.stride)]);
@@ -71,7 +79,7 @@ struct Film {
         size_t b = sizeof(glm::dvec3) + sizeof(uint32_t);
         if (half_buffer) b += 3 * sizeof(glm::dvec3);
         if (adaptive) b += sizeof(RunningStats) + 1;
-        if (aovs & kSplitHalves) b += sizeof(glm::dvec3) + 200;  // the odd sums; the denoiser's candidates and inputs
+        if (aovs & kSplitHalves) b += 3 * sizeof(glm::dvec3) + 200;  // the odd and seen sums; the denoiser's candidates and inputs
         return b + size_t(AovLayout(aovs).stride) * sizeof(double);
     }
     // A film of one tile's pixels, for a render node that renders one tile at a time.

@@ -120,7 +120,7 @@ ConvergenceCurve whole_tile_curve(const PassPlan& plan, const std::vector<std::v
 void describe_render(const RenderScene& scene, const RenderSettings& settings, const Film& film,
                      std::vector<std::string>& built, std::vector<std::string>& left_out) {
     film.describe(built, left_out);
-    if (settings.denoise) built.push_back("denoiser: feature regression over 3 window sizes, chosen per pixel by the error its two independent halves give (after every pass)");
+    if (settings.denoise) built.push_back("denoiser: feature regression over 2 window sizes and cross-filtered NL-means, chosen per pixel by the error its two independent halves give (after every pass)");
     else left_out.push_back("denoiser (not asked for)");
     if (settings.integrator == Integrator::path) {
         (settings.max_depth > 1 ? built : left_out)
@@ -180,7 +180,11 @@ void copy_entry(const Film& from, size_t i, Film& to, size_t j) {
         to.stats[j] = from.stats[i];
         to.done[j] = from.done[i];
     }
-    if (!to.sum_odd.empty() && !from.sum_odd.empty()) to.sum_odd[j] = from.sum_odd[i];
+    if (!to.sum_odd.empty() && !from.sum_odd.empty()) {
+        to.sum_odd[j] = from.sum_odd[i];
+        to.seen[j] = from.seen[i];
+        to.seen_odd[j] = from.seen_odd[i];
+    }
     if (to.aov_layout.set == from.aov_layout.set && to.aov_layout.stride > 0) {
         const size_t n = size_t(to.aov_layout.stride);
         std::copy_n(&from.aov[i * n], n, &to.aov[j * n]);

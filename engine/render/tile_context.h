@@ -55,6 +55,7 @@ public:
         double* aov_entry = layout.stride > 0 ? &film.aov[p * size_t(layout.stride)] : nullptr;
         const bool split = !film.sum_odd.empty();
         glm::dvec3 odd = split ? film.sum_odd[p] : glm::dvec3(0.0);
+        glm::dvec3 seen = split ? film.seen[p] : glm::dvec3(0.0), seen_odd = split ? film.seen_odd[p] : glm::dvec3(0.0);
         SampleAovs aovs;  // cleared per sample only where the film keeps AOVs
         for (; s < target; ++s) {
             if (halves && (s & (s - 1)) == 0) {  // s a power of two: the first s samples are a net
@@ -92,7 +93,14 @@ public:
             }
             if (aov_entry) add_sample_aovs(layout, aov_entry, aovs, L, s == 0);
             sum += glm::dvec3(L);
-            if (split && (s & 1)) odd += glm::dvec3(L);
+            if (split) {
+                const glm::dvec3 e = glm::dvec3(aovs.emission) + glm::dvec3(aovs.environment);
+                seen += e;
+                if (s & 1) {
+                    odd += glm::dvec3(L);
+                    seen_odd += e;
+                }
+            }
             stats.max_sample = std::max(stats.max_sample, illuminance(L));
             if (adaptive) film.stats[p].add(illuminance(L));
         }
@@ -104,7 +112,11 @@ public:
             film.sum_eighth[p] = eighth;
         }
         film.count[p] = uint32_t(s);
-        if (split) film.sum_odd[p] = odd;
+        if (split) {
+            film.sum_odd[p] = odd;
+            film.seen[p] = seen;
+            film.seen_odd[p] = seen_odd;
+        }
         if (adaptive && (s >= settings_.spp || film.stats[p].converged(settings_.adaptive->tolerance))) film.done[p] = 1;
     }
 

@@ -9,7 +9,7 @@ namespace tessera::server {
 
 namespace {
 
-constexpr char kMagic[4] = {'T', 'F', 'L', '3'};  // 2: the error estimate's prefix sums; 3: AOVs
+constexpr char kMagic[4] = {'T', 'F', 'L', '4'};  // 2: the error estimate's prefix sums; 3: AOVs; 4: seen light's halves
 
 struct Header {
     char magic[4];
@@ -60,6 +60,8 @@ std::string encode_film(const Film& f) {
         put(out, f.done);
     }
     put(out, f.sum_odd);
+    put(out, f.seen);
+    put(out, f.seen_odd);
     put(out, f.aov);
     return out;
 }
@@ -85,6 +87,8 @@ Film decode_film(const std::string& bytes) {
         get(bytes, at, f.done);
     }
     get(bytes, at, f.sum_odd);
+    get(bytes, at, f.seen);
+    get(bytes, at, f.seen_odd);
     get(bytes, at, f.aov);
     if (at != bytes.size()) throw std::runtime_error("tile film: trailing bytes");
     return f;

@@ -9,7 +9,10 @@
 
 #include "engine/render/film.h"
 #include "engine/render/renderer.h"
+#include "engine/scene/environment.h"
+#include "engine/io/scene_loader.h"
 #include "engine/scene/procedural.h"
+#include "tests/test_paths.h"
 
 namespace tessera {
 namespace {
@@ -57,6 +60,85 @@ void expect_tracks_the_truth(const std::string& name) {
 
 TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthOnTheCornellBox) { expect_tracks_the_truth("builtin:cornell_box"); }
 TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthInTheLampRoom) { expect_tracks_the_truth("builtin:lamp_room"); }
+
+// Light seen directly is taken out before filtering and added back after: a pixel that saw only
+// the environment keeps its noisy value exactly, and (below) a lamp's glare does not spread to
+// the ceiling around it (the features cannot tell a lamp from the ceiling it hangs in).
+TEST(Denoise, PixelsThatSawOnlyTheEnvironmentKeepIt) {
+    {
+        const RenderScene scene = build_render_scene(builtin_scene("builtin:displaced_sphere?triangles=2000"), {});
+        RenderSettings s = settings(8);
+        s.environment = std::make_shared<const EnvironmentMap>(build_environment(128, 64, sky_environment(128, 64), "sky"));
+        s.denoise = true;
+        s.aovs = aov_bit(Aov::depth);
+        const RenderResult r = render(scene, s);
+        ASSERT_TRUE(r.denoised);
+        const AovPlane* depth = nullptr;
+        for (const AovPlane& p : r.aovs)
+            if (p.aov == Aov::depth) depth = &p;
+        ASSERT_NE(depth, nullptr);
+        size_t sky = 0, surface = 0;
+        for (size_t p = 0; p < depth->values.size(); ++p) {
+            if (depth->values[p] < kNoDepth / 2) {
+                ++surface;
+                continue;
+            }
+            ++sky;
+            for (int k = 0; k < 3; ++k)
+                ASSERT_NEAR(r.denoised->image.rgb[p * 3 + k], r.image.rgb[p * 3 + k], 1e-5f * (1.f + r.image.rgb[p * 3 + k])) << "pixel " << p;
+        }
+        EXPECT_GT(sky, 100u);
+        EXPECT_GT(surface, 100u);
+    }
+}
+
+TEST(Denoise, ALampsGlareNeverSpreads) {
+    TESSERA_REQUIRE_CS184(dir);
+    SceneDescription desc = load_scene(dir + "/sky/CBspheres_lambertian.dae");
+    if (desc.camera) desc.camera->focal_px = 0.f;  // the whole box, the lamp in view
+    const RenderScene scene = build_render_scene(desc, {});
+    RenderSettings rs = settings(2048);
+    rs.width = 64;
+    rs.height = 48;
+    rs.seed = 7;
+    rs.aovs = aov_bit(Aov::emission);
+    const RenderResult ref = render(scene, rs);
+    ASSERT_EQ(ref.aovs.size(), 1u);
+    const std::vector<float>& emission = ref.aovs[0].values;
+    const int W = rs.width, H = rs.height;
+    auto lamp = [&](int x, int y) {
+        const float* c = &emission[(size_t(y) * W + x) * 3];
+        return c[0] + c[1] + c[2] > 0.f;
+    };
+    std::vector<size_t> ring;  // the pixels within two of the lamp's, not the lamp's
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            if (lamp(x, y)) continue;
+            bool near = false;
+            for (int dy = -2; dy <= 2; ++dy)
+                for (int dx = -2; dx <= 2; ++dx)
+                    near = near || (x + dx >= 0 && y + dy >= 0 && x + dx < W && y + dy < H && lamp(x + dx, y + dy));
+            if (near) ring.push_back(size_t(y) * W + x);
+        }
+    ASSERT_GT(ring.size(), 10u) << "the lamp is in view";
+    RenderSettings s = rs;
+    s.spp = 8;
+    s.seed = 1;
+    s.aovs = 0;
+    s.denoise = true;
+    const RenderResult r = render(scene, s);
+    ASSERT_TRUE(r.denoised);
+    auto ring_error = [&](const Image& img) {
+        double e = 0;
+        for (size_t p : ring)
+            for (int k = 0; k < 3; ++k) {
+                const double t = ref.image.rgb[p * 3 + k], d = img.rgb[p * 3 + k] - t;
+                e += d * d / (t * t + 0.01);
+            }
+        return e / double(3 * ring.size());
+    };
+    EXPECT_LT(ring_error(r.denoised->image), ring_error(r.image));
+}
 
 TEST(Denoise, SameImageWhateverTheThreadCount) {
     const RenderScene scene = build_render_scene(builtin_scene("builtin:cornell_spheres"), {});
