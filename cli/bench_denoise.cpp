@@ -135,11 +135,15 @@ int bench_denoise(int argc, char** argv) {
         rs.aovs = aov_bit(Aov::albedo) | aov_bit(Aov::normal) | aov_bit(Aov::depth);
         const RenderResult ref = render(scene, rs);
         const std::vector<uint8_t> mask = detail_mask(ref, W, H);
+        // Elsewhere: the other pixels that saw a surface (the sky and a black void have nothing to denoise).
+        std::vector<uint8_t> rest(mask.size(), 0);
+        if (const AovPlane* z = plane_of(ref.aovs, Aov::depth))
+            for (size_t p = 0; p < rest.size(); ++p) rest[p] = !mask[p] && z->values[p] < kNoDepth / 2;
         const double mask_share = double(std::count(mask.begin(), mask.end(), 1)) / double(mask.size());
         std::printf("## %s\nreference: %d spp in %.1f s; edges and textures: %.1f%% of the pixels\n\n", bs.label.c_str(), ref_spp,
                     ref.stats.render_seconds, 100 * mask_share);
         std::printf("| spp | render (s) | denoise (s) | relMSE noisy | estimate | relMSE denoised | its estimate | estimate/true | "
-                    "edges+textures noisy | denoised |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+                    "edges+textures noisy | denoised | elsewhere noisy | denoised |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
         struct Row { int spp; double render_s, denoise_s, noisy, denoised; };
         std::vector<Row> rows;
         for (int spp = 4; spp <= max_spp; spp *= 2) {
@@ -157,9 +161,10 @@ int bench_denoise(int argc, char** argv) {
             const double noisy = relative_mse(r.image, ref.image), dn = relative_mse(d->image, ref.image);
             const double est_noisy = r.curve.points.empty() ? -1 : r.curve.points.back().est_rel_mse;
             const double edge_noisy = masked_rel_mse(r.image, ref.image, mask), edge_dn = masked_rel_mse(d->image, ref.image, mask);
+            const double rest_noisy = masked_rel_mse(r.image, ref.image, rest), rest_dn = masked_rel_mse(d->image, ref.image, rest);
             const double ratio = d->est_rel_mse / dn;
-            std::printf("| %d | %.3f | %.3f | %.4g | %.4g | %.4g | %.4g | %.2f | %.4g | %.4g |\n", spp, render_s,
-                        d->seconds, noisy, est_noisy, dn, d->est_rel_mse, ratio, edge_noisy, edge_dn);
+            std::printf("| %d | %.3f | %.3f | %.4g | %.4g | %.4g | %.4g | %.2f | %.4g | %.4g | %.4g | %.4g |\n", spp, render_s,
+                        d->seconds, noisy, est_noisy, dn, d->est_rel_mse, ratio, edge_noisy, edge_dn, rest_noisy, rest_dn);
             all_better = all_better && dn < noisy && edge_dn < edge_noisy;
             all_tracked = all_tracked && ratio >= 0.5 && ratio <= 2.0;
             rows.push_back({spp, render_s, d->seconds, noisy, dn});

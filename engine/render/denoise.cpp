@@ -427,12 +427,16 @@ std::optional<Denoised> denoise(const Film& film, int threads) {
         size_t best = 0;
         for (size_t c = 1; c < C; ++c)
             if (pooled[c][p] < pooled[best][p] && !contradicted(c, p)) best = c;
+        // Nor where its own estimate here is above what the noisy pixel's is, here or around.
+        if (rel[best][p] > std::max(rel[0][p], pooled[0][p])) best = 0;
         ++taken[best];
         // The noisy candidate is the film's own mean, not the halves' mix (the same up to rounding).
         for (int k = 0; k < 3; ++k)
             d.image.rgb[p * 3 + k] = best == 0 ? float(film.sum[p][k] / double(film.count[p])) : combined(best, p, k);
         d.image.sample_count[p] = float(film.count[p]);
-        est += rel[best][p];
+        // A noisy pixel's own estimate is one product of two noises: it was kept where that was
+        // small, so its neighbourhood's stands in for it.
+        est += best == 0 ? pooled[0][p] : rel[best][p];
         noisy_est += rel[0][p];
     }
     d.est_rel_mse = est / double(n);
