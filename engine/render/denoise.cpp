@@ -25,6 +25,7 @@ constexpr int kBand = 32;                                 // rows per task: fixe
 constexpr int kSmooth = 4;                                // radius over which error estimates are pooled
 constexpr int kBiasSmooth = 8;                            // ... bias estimates, before they are held at zero or more
 constexpr double kContradiction = 8.0;                    // a pixel's own error estimate against its noise, to refuse a candidate
+constexpr double kDeparture = 9.0;                        // a candidate's move of a pixel against its noise (3 sigma), the same
 // Below this albedo the colour is divided by it no further: what a dark albedo does not scale
 // (a coat's reflection, the eye of a toy duck) would become a giant that spreads to neighbours.
 constexpr float kAlbedoFloor = 0.1f;
@@ -428,10 +429,36 @@ std::optional<Denoised> denoise(const Film& film, int threads) {
         }
         return e / 3.0 > kContradiction * (double(rel[0][p]) + double(pooled[0][p]) + double(pooled[c][p]));
     };
+    // The pixel's departure from its own value, against its noise here and just around (not the
+    // pooled neighbourhood's, which a highlight beside it inflates): a candidate that moves a
+    // pixel by far more than both is wrong there, such as a pupil averaged with the white of the
+    // eye beside it, which the pooled estimates do not see.
+    // All relative to the pixel's own value (the product of its halves): the stand-in for the
+    // truth used elsewhere is the NL-means candidate's output, which is the one at fault here.
+    std::vector<float> q0(n * 3), own0(n);
+    for (size_t p = 0; p < n; ++p) {
+        double e = 0;
+        for (int k = 0; k < 3; ++k) {
+            const double a = xa[p * 3 + k], b = xb[p * 3 + k], x = combined(0, p, k);
+            q0[p * 3 + k] = float(1.0 / (std::max(a * b, 0.0625 * x * x) + kEps));
+            e += q0[p * 3 + k] * 0.25 * (a - b) * (a - b);
+        }
+        own0[p] = float(e / 3.0);
+    }
+    const std::vector<float> local0 = box_mean(own0, W, H, 1);
+    auto departs = [&](size_t c, size_t p) {
+        double d = 0, v = 0;
+        for (int k = 0; k < 3; ++k) {
+            const double e = double(combined(c, p, k)) - combined(0, p, k), fa = at(c, p, k, 0), fb = at(c, p, k, 1);
+            d += q0[p * 3 + k] * e * e;
+            v += q0[p * 3 + k] * 0.25 * (fa - fb) * (fa - fb);
+        }
+        return d / 3.0 > kDeparture * (std::max(own0[p], local0[p]) + v / 3.0);
+    };
     for (size_t p = 0; p < n; ++p) {
         size_t best = 0;
         for (size_t c = 1; c < C; ++c)
-            if (pooled[c][p] < pooled[best][p] && !contradicted(c, p)) best = c;
+            if (pooled[c][p] < pooled[best][p] && !contradicted(c, p) && !departs(c, p)) best = c;
         // Nor where its own estimate here is above what the noisy pixel's is, here or around.
         if (rel[best][p] > std::max(rel[0][p], pooled[0][p])) best = 0;
         ++taken[best];
