@@ -235,7 +235,7 @@ void filter_nlm(const Inputs& in, int r, int threads, std::vector<float>& out) {
                                 const double e = double(g[p * kY + o + k]) - g[q * kY + o + k];
                                 d2 += e * e - floor;
                             }
-                            const double w = std::exp(-gf - std::max(0.0, d2 * scale));
+                            const double w = std::exp(float(-gf - std::max(0.0, d2 * scale)));  // float: half the time
                             wsum[h] += w;
                             for (int k = 0; k < 3; ++k) acc[3 * h + k] += w * in.y[q * kY + 3 * h + k];
                         }
@@ -247,20 +247,30 @@ void filter_nlm(const Inputs& in, int r, int threads, std::vector<float>& out) {
 
 // Box mean of a one-channel map over radius r (clipped at the border); rows then columns.
 std::vector<float> box_mean(const std::vector<float>& a, int W, int H, int r) {
+    // Running sums, rows then columns: O(1) per pixel whatever the radius.
     std::vector<double> rows(a.size());
     std::vector<float> out(a.size());
-    for (int y = 0; y < H; ++y)
+    for (int y = 0; y < H; ++y) {
+        const float* in = &a[size_t(y) * W];
+        double s = 0;
+        for (int k = 0; k <= std::min(W - 1, r); ++k) s += in[k];
         for (int x = 0; x < W; ++x) {
-            double s = 0;
-            for (int k = std::max(0, x - r); k <= std::min(W - 1, x + r); ++k) s += a[size_t(y) * W + k];
             rows[size_t(y) * W + x] = s / double(std::min(W - 1, x + r) - std::max(0, x - r) + 1);
+            if (x + r + 1 < W) s += in[x + r + 1];
+            if (x - r >= 0) s -= in[x - r];
         }
-    for (int y = 0; y < H; ++y)
-        for (int x = 0; x < W; ++x) {
-            double s = 0;
-            for (int k = std::max(0, y - r); k <= std::min(H - 1, y + r); ++k) s += rows[size_t(k) * W + x];
-            out[size_t(y) * W + x] = float(s / double(std::min(H - 1, y + r) - std::max(0, y - r) + 1));
-        }
+    }
+    std::vector<double> col(size_t(W), 0.0);
+    for (int k = 0; k <= std::min(H - 1, r); ++k)
+        for (int x = 0; x < W; ++x) col[x] += rows[size_t(k) * W + x];
+    for (int y = 0; y < H; ++y) {
+        const double n = double(std::min(H - 1, y + r) - std::max(0, y - r) + 1);
+        for (int x = 0; x < W; ++x) out[size_t(y) * W + x] = float(col[x] / n);
+        if (y + r + 1 < H)
+            for (int x = 0; x < W; ++x) col[x] += rows[size_t(y + r + 1) * W + x];
+        if (y - r >= 0)
+            for (int x = 0; x < W; ++x) col[x] -= rows[size_t(y - r) * W + x];
+    }
     return out;
 }
 

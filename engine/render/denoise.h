@@ -45,7 +45,7 @@ struct Film;
 
 // Candidate windows (radius in pixels): 0 is the noisy pixel itself, a positive radius a
 // regression's box, a negative one NL-means' window (the last).
-inline constexpr std::array<int, 4> kDenoiseRadii{0, 2, 4, -5};
+inline constexpr std::array<int, 4> kDenoiseRadii{0, 2, 4, -4};
 static_assert(kDenoiseRadii.front() == 0 && kDenoiseRadii.back() < 0);
 
 struct Denoised {
