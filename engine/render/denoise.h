@@ -34,6 +34,7 @@
 // denoised image's error estimate is the chosen candidates', relative as the convergence curve's
 // relMSE is. docs/denoising.md has the figures.
 #include <array>
+#include <cstddef>
 #include <optional>
 #include <string>
 
@@ -42,6 +43,12 @@
 namespace tessera {
 
 struct Film;
+
+// The denoiser's working memory per pixel at its peak, counted from denoise.cpp's buffers: the
+// resolved features (28 bytes), its inputs (61), the halves and the light they saw (52), four
+// candidates' halves (96), the NL-means guide (28), the error maps (88) and the image (16), with
+// room to spare. A job's memory bound (Film::bytes_per_pixel) counts it.
+inline constexpr size_t kDenoiseBytesPerPixel = 400;
 
 // Candidate windows (radius in pixels): 0 is the noisy pixel itself, a positive radius a
 // regression's box, a negative one NL-means' window (the last).

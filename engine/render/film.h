@@ -9,6 +9,7 @@
 #include <glm/glm.hpp>
 
 #include "engine/render/aov.h"
+#include "engine/render/denoise.h"
 #include "engine/render/image.h"
 
 namespace tessera {
@@ -79,7 +80,7 @@ struct Film {
         size_t b = sizeof(glm::dvec3) + sizeof(uint32_t);
         if (half_buffer) b += 3 * sizeof(glm::dvec3);
         if (adaptive) b += sizeof(RunningStats) + 1;
-        if (aovs & kSplitHalves) b += 3 * sizeof(glm::dvec3) + 200;  // the odd and seen sums; the denoiser's candidates and inputs
+        if (aovs & kSplitHalves) b += 3 * sizeof(glm::dvec3) + kDenoiseBytesPerPixel;  // the odd and seen sums; the denoiser's own
         return b + size_t(AovLayout(aovs).stride) * sizeof(double);
     }
     // A film of one tile's pixels, for a render node that renders one tile at a time.
