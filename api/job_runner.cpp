@@ -1,6 +1,8 @@
 #include "api/json_text.h"
 #include "api/job_runner.h"
 
+#include "api/checkpoint_file.h"
+
 #include "engine/scene/environment.h"
 
 #include <algorithm>
@@ -182,6 +184,8 @@ JobOutcome write_render(const FinishedRender& done, const RunOptions& opt, const
     rep.tiles_total = done.tiles_total;
     rep.nodes = done.nodes;
     rep.scene_cache = done.scene_cache;
+    rep.recovered_samples = result.resumed_samples;
+    rep.recovered_render_s = result.resumed_seconds;
     const RenderScene& scene = done.scene;
     rep.triangles = scene.triangle_count();
     rep.spheres = scene.spheres.size();
@@ -260,7 +264,15 @@ JobOutcome render_prepared(const RenderJob& job, const RenderSettings& render_se
         reference = read_image(opt.reference_image);
         rcb.reference = &reference;
     }
+    std::optional<RenderCheckpoint> resume;
+    if (!out.checkpoint.empty()) {
+        resume = read_checkpoint(out.checkpoint);
+        if (resume) rcb.resume = &*resume;
+        rcb.on_checkpoint = [&](const RenderCheckpoint& c) { write_checkpoint(out.checkpoint, c); };
+        rcb.checkpoint_seconds = opt.checkpoint_seconds;
+    }
     const RenderResult result = render(scene, settings, rcb);
+    resume.reset();
     const auto t_rendered = Clock::now();
     JobOutcome outcome;
     if (stop_requested(cb)) {
@@ -275,7 +287,10 @@ JobOutcome render_prepared(const RenderJob& job, const RenderSettings& render_se
     done.before_write_s = seconds_between(t0, t_rendered);
     done.tiles_done = tiles_done;
     done.tiles_total = tiles_total;
-    return write_render(done, opt, out);
+    JobOutcome written = write_render(done, opt, out);
+    // The results are written: the render is not continued from here again.
+    if (!out.checkpoint.empty()) std::filesystem::remove(out.checkpoint);
+    return written;
 }
 
 void write_text(const std::string& path, const std::string& text) {
@@ -302,6 +317,7 @@ RunOutputs RunOutputs::in_directory(const std::string& dir) {
     o.denoised_png = (d / "denoised.png").string();
     o.contact_sheet_png = (d / "contact_sheet.png").string();
     o.preview_mp4 = (d / "preview.mp4").string();
+    o.checkpoint = (d / "checkpoint.tck").string();
     o.frame = [dir](int frame) { return in_directory((std::filesystem::path(dir) / "frames" / std::to_string(frame)).string()); };
     return o;
 }

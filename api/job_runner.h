@@ -72,6 +72,9 @@ struct RunOptions {
     // A shot's scene opened already (a render node's, kept across the chunks of a shot it
     // renders): used instead of opening the file again.
     std::shared_ptr<const SceneFile> scene_file;
+    // Checkpoints (RunOutputs::checkpoint): the render's state is written every this many seconds
+    // of rendering (0: only when it is stopped), and a render finding one continues from it.
+    double checkpoint_seconds = 0;
 };
 
 // Where the results go; an empty path is not written.
@@ -87,6 +90,10 @@ struct RunOutputs {
     std::function<RunOutputs(int frame)> frame;
     std::string contact_sheet_png;
     std::string preview_mp4;        // a shot's frames as a video (ffmpeg; needs each frame's png)
+    // The render's checkpoint (engine/render/checkpoint.h): continued from when it is there,
+    // written atomically while it renders and when it is stopped, removed once its results are
+    // written. Empty: none kept.
+    std::string checkpoint;
     // Every result file in `dir` under the server's names (image.png, image.exr, ...).
     static RunOutputs in_directory(const std::string& dir);
 };
@@ -112,11 +119,11 @@ struct RunCallbacks {
     std::function<void(const RenderProgress&)> progress;  // from render threads: cheap, thread-safe; a shot's samples count over all its frames
     std::function<void(const FrameDone&)> frame;          // after each frame of a shot
     std::function<void(const PassSnapshot&)> pass;        // after each pass of a render job (not set: none made)
-    const std::atomic<bool>* stop = nullptr;             // set: end early, write nothing
+    const std::atomic<bool>* stop = nullptr;             // set: end early, write nothing but the checkpoint
 };
 
 struct JobOutcome {
-    bool stopped = false;            // `stop` ended the job; nothing was written
+    bool stopped = false;            // `stop` ended the job; nothing was written but its checkpoint
     nlohmann::json report;           // report.json's content
     nlohmann::json summary;          // what the job's status shows (status_summary)
     std::optional<RenderReport> render;  // a render job's typed report

@@ -103,6 +103,8 @@ json to_json(const JobStatus& s) {
     j["stats"] = has_summary && s.summary.contains("stats") ? s.summary["stats"] : json(nullptr);
     // A farm's render: each node's share of the tiles; null for one process.
     j["nodes"] = has_summary && s.summary.contains("nodes") ? s.summary["nodes"] : json(nullptr);
+    // Continued from a checkpoint: what it kept; null for a job rendered in one go.
+    j["recovered"] = has_summary && s.summary.contains("recovered") ? s.summary["recovered"] : json(nullptr);
     const std::string self = "/v1/jobs/" + s.id;
     j["links"] = {{"self", self}, {"image_png", self + "/image.png"}, {"image_exr", self + "/image.exr"},
                   {"rate_png", self + "/rate.png"}, {"report", self + "/report.json"}};

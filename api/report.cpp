@@ -29,6 +29,10 @@ json progress_json(const RenderReport& r) {
     return {{"fraction", 1.0}, {"tiles_done", r.tiles_done}, {"tiles_total", r.tiles_total}, {"samples_done", r.stats.samples}};
 }
 
+json recovered_json(const RenderReport& r) {
+    return {{"samples", r.recovered_samples}, {"render_s", r.recovered_render_s}};
+}
+
 json nodes_json(const RenderReport& r) {
     json nodes = json::array();
     size_t all = 0;
@@ -98,12 +102,14 @@ json to_json(const RenderReport& r) {
     report["render"] = {{"built", r.render_built}, {"left_out", r.render_left_out}};
     report["progress"] = progress_json(r);
     if (!r.nodes.empty()) report["nodes"] = nodes_json(r);
+    if (r.recovered_samples > 0) report["recovered"] = recovered_json(r);
     return report;
 }
 
 json status_summary(const RenderReport& r) {
     json s = {{"timings", timings_json(r.timings)}, {"stats", stats_json(r)}, {"progress", progress_json(r)}};
     if (!r.nodes.empty()) s["nodes"] = nodes_json(r);
+    if (r.recovered_samples > 0) s["recovered"] = recovered_json(r);
     return s;
 }
 

@@ -48,6 +48,9 @@ struct RenderReport {
     size_t tiles_done = 0, tiles_total = 0;
     std::vector<NodeShare> nodes;  // a farm's render nodes; empty for one process
     SceneCacheUse scene_cache;
+    // Continued from a checkpoint (a restart, a pause): the samples and render time it kept.
+    uint64_t recovered_samples = 0;
+    double recovered_render_s = 0;
 };
 
 // report.json: settings, timings, statistics, scene, convergence, render, progress.

@@ -38,7 +38,8 @@
 #include "server/store/cluster_lua.h"
 #include "cli/command_line.h"
 #include "server/farm/farm_records.h"
-#include "server/farm/film_codec.h"
+#include "engine/render/film_codec.h"
+#include "server/farm/tile_image_codec.h"
 #include "server/store/job_results.h"
 #include "server/farm/farm_queue.h"
 #include "server/store/redis_process.h"
@@ -302,7 +303,7 @@ int bench_cluster(int argc, char** argv) {
     for (int tile : {16, 32, 64}) {
         const Film film = Film::tile(0, 0, tile, tile, true, false);
         std::vector<std::pair<const char*, std::string>> payloads = {{"resolved pixels", server::encode_tile_image(film)},
-                                                                       {"film", server::encode_film(film)}};
+                                                                       {"film", encode_film(film)}};
         if (tile == 16) payloads.insert(payloads.begin(), {"none (the queue alone)", std::string()});
         for (const auto& [what, payload] : payloads) {
             const double one = handoffs(url, payload, 1, seconds);

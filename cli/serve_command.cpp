@@ -68,6 +68,10 @@ int serve_command(int argc, char** argv) {
         ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
     option("threads", o.service.render_threads, "render threads per job (0: all cores)")->check(CLI::Range(0, 1024));
     option("max-jobs", o.service.concurrent_jobs, "jobs rendered at the same time")->check(CLI::Range(1, 64));
+    option("checkpoint-s", o.service.checkpoint_s,
+           "a running job's film is written to its folder every this many seconds of rendering (0: only when it "
+           "stops); after a crash or restart it continues from there")
+        ->check(CLI::Range(0.0, 86400.0));
     option("max-queued", o.service.max_queued, "queued jobs before 429")->check(CLI::Range(1, 10'000'000));
     option("max-body", o.http.max_job_body, "bytes of a job request body")->type_name("BYTES")->check(CLI::Range(256LL, 1LL << 30));
     option("max-upload", o.http.max_upload, "bytes of a scene upload")->type_name("BYTES")->check(CLI::Range(1024LL, 1LL << 34));

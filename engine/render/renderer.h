@@ -54,6 +54,7 @@ struct RenderProgress {
 };
 
 struct Film;
+struct RenderCheckpoint;
 
 // What a finished pass shows: its number (0 first), its per-pixel sample target, its error point
 // and the film as it stands (valid during the call only: the next pass adds to it).
@@ -76,6 +77,14 @@ struct RenderCallbacks {
     std::function<void(const PassView&)> on_pass;
     // An image of the same size to measure the error against (converged render); optional.
     const Image* reference = nullptr;
+    // A checkpoint of an earlier render of the same scene and settings to continue from
+    // (checkpoint.h); ignored, and the render starts afresh, when it does not fit them.
+    const RenderCheckpoint* resume = nullptr;
+    // Called with the render's state between tiles (every tile finished, none begun): every
+    // checkpoint_seconds of rendering (0: never), and once more when `cancel` stops it. From a
+    // render thread, with the others rendering on; the copy is the callee's.
+    std::function<void(const RenderCheckpoint&)> on_checkpoint;
+    double checkpoint_seconds = 0;
 };
 
 struct RenderResult {
@@ -86,6 +95,9 @@ struct RenderResult {
     std::shared_ptr<const Denoised> denoised;  // the last pass's, when the render denoises
     // What this render built and left out (film buffers, bounce and light paths), for the report.
     std::vector<std::string> built, left_out;
+    // Continued from a checkpoint: the samples and render seconds it brought (0 when not).
+    uint64_t resumed_samples = 0;
+    double resumed_seconds = 0;
 };
 
 RenderResult render(const RenderScene& scene, const RenderSettings& settings, const RenderCallbacks& callbacks = {});

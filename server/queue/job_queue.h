@@ -43,6 +43,9 @@ struct QueueConfig {
     LoadLimits load_limits;
     int64_t scene_cache_mb = 2048;   // prepared scenes kept between jobs
     double scene_cache_idle_s = 30;  // and dropped after this long unused
+    // A running job's film is written to its folder this often (seconds of rendering; 0: only
+    // when it is stopped): after a crash, kill -9 or a restart it continues from there.
+    double checkpoint_s = 30;
 };
 
 struct QueueMetrics {

@@ -226,6 +226,20 @@ std::string LocalQueue::scene_source(const std::string& scene) {
     return entry->source == "builtin" ? scene : entry->path;
 }
 
+namespace {
+
+// A job that ends without its results (canceled, failed) is never continued: its checkpoints
+// (the render's, or a shot's frame's) go.
+void remove_checkpoints(const std::string& dir) {
+    std::error_code ec;
+    std::vector<fs::path> found;
+    for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+        if (it->path().filename() == "checkpoint.tck") found.push_back(it->path());
+    for (const fs::path& p : found) fs::remove(p, ec);
+}
+
+}  // namespace
+
 void LocalQueue::run(const JobRecord& rec, Running& running) {
     std::string error;
     api::JobOutcome outcome;
@@ -237,6 +251,7 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         opt.threads = config_.render_threads;
         opt.job_id = rec.id;
         opt.resume_frames = true;  // a shot queued again after a shutdown keeps its written frames
+        opt.checkpoint_seconds = config_.checkpoint_s;  // and a render its samples
         opt.prepare = [this](const std::string& source, const RenderSceneOptions& options) { return scenes_.get_local(source, options); };
         if (const auto* r = std::get_if<api::RenderJob>(&job)) {
             running.max_spp = r->render.spp;
@@ -309,11 +324,13 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
             if (until_stored(rec.id, "queued again", [&] { store_->requeue(rec.id); }))
                 spdlog::warn("job {} interrupted by shutdown; queued again", rec.id);
         } else if (until_stored(rec.id, "canceled", [&] { store_->finish(rec.id, JobState::canceled, unix_time_s(), "", ""); })) {
+            remove_checkpoints(job_dir(rec.id));
             spdlog::info("job {} canceled while running", rec.id);
         }
         return;
     }
     if (!error.empty()) {
+        remove_checkpoints(job_dir(rec.id));
         if (until_stored(rec.id, "failed", [&] { store_->finish(rec.id, JobState::failed, unix_time_s(), error, ""); }))
             spdlog::error("job {} failed: {}", rec.id, loggable(error, 2000));
         return;

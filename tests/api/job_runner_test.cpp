@@ -74,14 +74,47 @@ TEST_F(Runner, SameImageWhateverTheThreadCount) {
     EXPECT_TRUE(same_pixels(read_image(one.exr), read_image(two.exr)));
 }
 
-TEST_F(Runner, AStopWritesNothing) {
+// A stop writes no result, only the checkpoint the job continues from.
+TEST_F(Runner, AStopWritesNothingButItsCheckpoint) {
     const RenderJob job = small_job();
     std::atomic<bool> stop{true};
     RunCallbacks cb;
     cb.stop = &stop;
-    const JobOutcome out = run_job(job, options_for(job), RunOutputs::in_directory(dir_.string()), cb);
-    EXPECT_TRUE(out.stopped);
-    EXPECT_TRUE(fs::is_empty(dir_));
+    const RunOutputs out = RunOutputs::in_directory(dir_.string());
+    const JobOutcome outcome = run_job(job, options_for(job), out, cb);
+    EXPECT_TRUE(outcome.stopped);
+    std::vector<std::string> files;
+    for (const auto& e : fs::directory_iterator(dir_)) files.push_back(e.path().filename().string());
+    EXPECT_EQ(files, std::vector<std::string>{"checkpoint.tck"});
+}
+
+// Stopped mid-render and run again: the job continues from its checkpoint, ends with the image
+// of a job never stopped, says what it recovered, and leaves no checkpoint behind.
+TEST_F(Runner, AStoppedJobRunAgainContinuesToTheSameImage) {
+    RenderJob job = small_job();
+    job.render.spp = 64;
+    job.render.tile_size = 8;  // a pass of 12 tiles: stopped between them
+    const RunOutputs whole = RunOutputs::in_directory((dir_ / "whole").string());
+    const RunOutputs resumed = RunOutputs::in_directory((dir_ / "resumed").string());
+    fs::create_directories(whole.directory);
+    fs::create_directories(resumed.directory);
+    RunCallbacks pass_cb;
+    pass_cb.pass = [](const PassSnapshot&) {};  // progressive, as a server runs it
+    run_job(job, options_for(job, 2), whole, pass_cb);
+    std::atomic<bool> stop{false};
+    RunCallbacks cb = pass_cb;
+    cb.stop = &stop;
+    cb.progress = [&](const RenderProgress& p) {
+        if (p.samples_done > 1000) stop = true;
+    };
+    ASSERT_TRUE(run_job(job, options_for(job, 2), resumed, cb).stopped);
+    ASSERT_TRUE(fs::exists(resumed.checkpoint));
+    const JobOutcome again = run_job(job, options_for(job, 2), resumed, pass_cb);
+    ASSERT_TRUE(again.render);
+    EXPECT_GT(again.render->recovered_samples, 1000u);
+    EXPECT_TRUE(again.summary.contains("recovered"));
+    EXPECT_TRUE(same_pixels(read_image(whole.exr), read_image(resumed.exr)));
+    EXPECT_FALSE(fs::exists(resumed.checkpoint));
 }
 
 // Real faults, not mocks: a folder that does not exist, a scene file that does not.

@@ -1,16 +1,12 @@
 #pragma once
-// A tile's film as bytes, to travel through Redis between passes and to the node that assembles
-// the image: the sums are copied bit for bit (doubles stay doubles), so a farm's image equals one
-// process's. Little-endian x86-64 layout; a header names the tile and the buffers present.
+// A finished tile as the image needs it, as bytes for a render farm (the film itself travels as
+// engine/render/film_codec.h writes it).
 #include <string>
 
 #include "engine/render/film.h"
+#include "engine/render/image.h"
 
 namespace tessera::server {
-
-std::string encode_film(const Film& film);
-// Throws std::runtime_error for bytes that are not a film this build wrote.
-Film decode_film(const std::string& bytes);
 
 // A finished tile as the image needs it: each pixel resolved to float RGB and its sample count
 // (16 bytes a pixel against the film's 52 with the error estimate on). A job rendered straight
