@@ -21,12 +21,14 @@ const char* to_string(JobState s) {
     case JobState::succeeded: return "succeeded";
     case JobState::failed: return "failed";
     case JobState::canceled: return "canceled";
+    case JobState::paused: return "paused";
+    case JobState::waiting: return "waiting";
     }
     return "unknown";
 }
 
 bool parse_job_state(const std::string& s, JobState& out) {
-    for (JobState st : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed, JobState::canceled}) {
+    for (JobState st : kJobStates) {
         if (s == to_string(st)) {
             out = st;
             return true;

@@ -8,11 +8,17 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
+
 #include "api/job.h"
 
 namespace tessera::api {
 
-enum class JobState { queued, running, succeeded, failed, canceled };
+// paused: stopped by its owner, its film kept; resumed, it is queued again and continues.
+// waiting: for the jobs it runs after (`after`) to succeed.
+enum class JobState { queued, running, succeeded, failed, canceled, paused, waiting };
+inline constexpr std::array<JobState, 7> kJobStates{JobState::queued,   JobState::waiting, JobState::running, JobState::paused,
+                                                   JobState::succeeded, JobState::failed,  JobState::canceled};
 
 const char* to_string(JobState s);
 bool parse_job_state(const std::string& s, JobState& out);

@@ -85,6 +85,8 @@ export const api = {
   submitJob: (job, opts) => getJson('/v1/jobs', { ...opts, method: 'POST', json: job }),
   submitComparison: (job, opts) => getJson('/v1/comparisons', { ...opts, method: 'POST', json: job }),
   cancelJob: (id, opts) => getJson(jobPath(id), { ...opts, method: 'DELETE' }),
+  pauseJob: (id, opts) => getJson(`${jobPath(id)}:pause`, { ...opts, method: 'POST' }),
+  resumeJob: (id, opts) => getJson(`${jobPath(id)}:resume`, { ...opts, method: 'POST' }),
   deleteResults: (id, opts) => request(jobPath(id, 'results'), { ...opts, method: 'DELETE' }).then(() => true),
   report: (id, opts) => getJson(jobPath(id, 'report.json'), opts),
   scenes: (opts) => getJson('/v1/scenes', opts),

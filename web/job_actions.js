@@ -1,4 +1,4 @@
-// Cancel and remove-results, shared by the queue and the job page so both ask and report alike.
+// Cancel, pause, resume and remove-results, shared by the queue and the job page so both ask and report alike.
 
 import { api } from '/ui/api.js';
 import { shortId } from '/ui/format.js';
@@ -12,6 +12,29 @@ export async function cancelJob(id) {
     return job;
   } catch (e) {
     toastError(e, `Could not cancel job ${shortId(id)}: `);
+    return null;
+  }
+}
+
+// Pause or resume: resolves to the job's new status, or null when the request failed (reported).
+export async function pauseJob(id) {
+  try {
+    const job = await api.pauseJob(id);
+    toast(`Job ${shortId(id)} paused: it keeps its samples until resumed.`);
+    return job;
+  } catch (e) {
+    toastError(e, `Could not pause job ${shortId(id)}: `);
+    return null;
+  }
+}
+
+export async function resumeJob(id) {
+  try {
+    const job = await api.resumeJob(id);
+    toast(`Job ${shortId(id)} resumed.`);
+    return job;
+  } catch (e) {
+    toastError(e, `Could not resume job ${shortId(id)}: `);
     return null;
   }
 }

@@ -2,15 +2,19 @@
 
 import { h } from '/ui/dom.js';
 
-export const STATES = ['queued', 'running', 'succeeded', 'failed', 'canceled'];
+export const STATES = ['queued', 'waiting', 'running', 'paused', 'succeeded', 'failed', 'canceled'];
 
-const LABELS = { queued: 'Queued', running: 'Running', succeeded: 'Succeeded', failed: 'Failed', canceled: 'Canceled' };
+const LABELS = {
+  queued: 'Queued', waiting: 'Waiting', running: 'Running', paused: 'Paused', succeeded: 'Succeeded', failed: 'Failed', canceled: 'Canceled',
+};
 // A glyph beside the word, so state never depends on colour alone.
-const GLYPHS = { queued: '◷', running: '▶', succeeded: '✓', failed: '✕', canceled: '⊘' };
+const GLYPHS = { queued: '◷', waiting: '⧗', running: '▶', paused: '⏸', succeeded: '✓', failed: '✕', canceled: '⊘' };
 
 export const stateLabel = (state) => LABELS[state] || state;
-export const isActive = (state) => state === 'queued' || state === 'running';
+// Not finished: it may still change (a paused or waiting job too).
+export const isActive = (state) => state === 'queued' || state === 'running' || state === 'paused' || state === 'waiting';
 export const isFinal = (state) => !isActive(state);
+export const canPause = (state) => state === 'queued' || state === 'running';
 export const isComparison = (job) => job?.settings?.kind === 'comparison';
 
 export function stateBadge(state) {

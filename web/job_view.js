@@ -6,9 +6,9 @@ import { facts, h, setText } from '/ui/dom.js';
 import { downloadLink } from '/ui/downloads.js';
 import { openEventStream } from '/ui/events.js';
 import { fmtDuration, fmtPercent, fmtSci, fmtTime, shortId } from '/ui/format.js';
-import { cancelJob, removeResults } from '/ui/job_actions.js';
+import { cancelJob, pauseJob, removeResults, resumeJob } from '/ui/job_actions.js';
 import {
-  elapsedSeconds, isActive, isComparison, isFinal, jobSize, remainingSeconds, stateBadge, stateLabel,
+  canPause, elapsedSeconds, isActive, isComparison, isFinal, jobSize, remainingSeconds, stateBadge, stateLabel,
 } from '/ui/job_info.js';
 import { announce } from '/ui/notify.js';
 import { convergenceSeries, drawPlot } from '/ui/plot.js';
@@ -123,6 +123,8 @@ function renderBody(container, first) {
   function refreshImage() {
     if (gone && job.state !== 'running') return showPlaceholder('The results of this job were removed.');
     if (job.state === 'queued') { image.clear(); return showPlaceholder('The image appears once the job runs.'); }
+    if (job.state === 'paused') { image.clear(); return showPlaceholder('This job is paused; it keeps its samples and shows its image again once resumed.'); }
+    if (job.state === 'waiting') { image.clear(); return showPlaceholder('This job waits for the jobs it runs after.'); }
     // Failed and canceled jobs keep no results: nothing to ask for (it would be a 410).
     if (job.state === 'failed' || job.state === 'canceled') { image.clear(); return showPlaceholder('This job ended without an image.'); }
     if (job.state === 'running' && !hasPassImage()) { image.clear(); return showPlaceholder('The image appears after the first pass.'); }
@@ -244,6 +246,8 @@ export function mount(root, { id }) {
     const detail = h('span', { class: 'muted' });
     const error = h('div', { class: 'notice error', role: 'alert', hidden: true });
     const cancel = h('button', { type: 'button', id: 'cancel-job', class: 'danger' }, 'Cancel job');
+    const pause = h('button', { type: 'button', id: 'pause-job', class: 'secondary' }, 'Pause');
+    const resume = h('button', { type: 'button', id: 'resume-job', class: 'secondary' }, 'Resume');
     const remove = h('button', { type: 'button', id: 'remove-results', class: 'secondary' }, 'Remove results');
     const compare = h('a', { id: 'compare-link', class: 'button secondary', href: `#/compare?a=${encodeURIComponent(j.id)}` }, 'Compare with another job');
     const times = h('p', { class: 'muted meta' });
@@ -253,6 +257,13 @@ export function mount(root, { id }) {
       cancel.disabled = false;
       if (s) applyStatus(s);
     });
+    for (const [button, action] of [[pause, pauseJob], [resume, resumeJob]])
+      button.addEventListener('click', async () => {
+        button.disabled = true;
+        const s = await action(j.id);
+        button.disabled = false;
+        if (s) applyStatus(s);
+      });
     remove.addEventListener('click', async () => {
       if (await removeResults(j.id)) body?.resultsRemoved?.();
     });
@@ -262,8 +273,8 @@ export function mount(root, { id }) {
           ` · ${jobSize(j)}`, j.settings.spp ? ` · ${j.settings.spp} spp` : '', ' · ', h('span', { class: 'mono', title: 'Job id' }, j.id)),
         h('div', { class: 'status-line' }, badge, h('span', { class: 'progress-wrap' }, progress, pct), detail),
         times, error,
-        h('div', { class: 'actions' }, cancel, remove, compare)));
-    return { badge, progress, pct, detail, error, cancel, remove, compare, times, state: null };
+        h('div', { class: 'actions' }, pause, resume, cancel, remove, compare)));
+    return { badge, progress, pct, detail, error, cancel, pause, resume, remove, compare, times, state: null };
   }
 
   function tick() {
@@ -272,6 +283,7 @@ export function mount(root, { id }) {
     const left = remainingSeconds(job);
     let text = '';
     if (job.state === 'queued') text = job.queue_position != null ? `Position ${job.queue_position + 1} in the queue` : 'Waiting to start';
+    else if (job.state === 'paused') text = 'Paused: its samples are kept until it is resumed';
     else if (job.state === 'running') {
       const p = job.progress || {};
       text = [p.tiles_total ? `tiles ${p.tiles_done} of ${p.tiles_total}` : null, `running for ${fmtDuration(e)}`, left != null ? `about ${fmtDuration(left)} left` : null].filter(Boolean).join(' · ');
@@ -297,6 +309,8 @@ export function mount(root, { id }) {
     ui.progress.setAttribute('aria-valuetext', fmtPercent(f));
     setText(ui.pct, fmtPercent(f));
     ui.cancel.hidden = !isActive(j.state);
+    ui.pause.hidden = !canPause(j.state);
+    ui.resume.hidden = j.state !== 'paused';
     ui.remove.hidden = !isFinal(j.state);
     ui.compare.hidden = j.state !== 'succeeded' || isComparison(j);
     ui.error.hidden = !j.error;

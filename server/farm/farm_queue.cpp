@@ -153,6 +153,14 @@ api::JobStatus FarmQueue::cancel(const std::string& id) {
     return status(id);
 }
 
+api::JobStatus FarmQueue::pause(const std::string& id) {
+    status(id);
+    throw QueueError(QueueErrorKind::conflict, "not-on-a-farm", "Not available on a render farm",
+                     "pausing and resuming a job is available on one process (serve without --redis) only, so far");
+}
+
+api::JobStatus FarmQueue::resume(const std::string& id) { return pause(id); }
+
 size_t FarmQueue::queue_depth() { return store_->count(JobState::queued); }
 
 FarmQueue::Look FarmQueue::look() {

@@ -41,6 +41,10 @@ public:
     ~FarmQueue() override;
 
     api::JobStatus cancel(const std::string& id) override;
+    // Not yet on a farm: 409, saying so (its nodes drop a paused job's tasks, and nothing would
+    // queue them again).
+    api::JobStatus pause(const std::string& id) override;
+    api::JobStatus resume(const std::string& id) override;
     void shutdown() override;
     size_t queue_depth() override;
     SceneCacheCounts scene_cache_counts() const override;

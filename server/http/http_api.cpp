@@ -129,6 +129,7 @@ std::string allowed_methods(const std::string& path) {
         {std::regex(R"(/healthz|/readyz|/metrics|/v1/openapi\.yaml|/v1/job-schema|/v1/events|/|/ui/[^/]+)"), "GET, HEAD"},
         {std::regex(R"(/v1/jobs|/v1/scenes)"), "GET, HEAD, POST"},
         {std::regex(R"(/v1/comparisons)"), "POST"},
+        {std::regex(R"(/v1/jobs/[^/:]+:(pause|resume))"), "POST"},
         {std::regex(R"(/v1/jobs/[^/]+)"), "GET, HEAD, DELETE"},
         {std::regex(R"(/v1/jobs/[^/]+/results)"), "DELETE"},
         {std::regex("/v1/jobs/[^/]+/(" + job_files_re() + ")"), "GET, HEAD"},
@@ -650,6 +651,12 @@ void HttpApi::routes() {
     });
     s.Delete(R"(/v1/jobs/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
         send_json(res, 200, api::to_json(queue_.cancel(req.matches[1])));
+    });
+    s.Post(R"(/v1/jobs/([^/:]+):pause)", [this](const httplib::Request& req, httplib::Response& res) {
+        send_json(res, 200, api::to_json(queue_.pause(req.matches[1])));
+    });
+    s.Post(R"(/v1/jobs/([^/:]+):resume)", [this](const httplib::Request& req, httplib::Response& res) {
+        send_json(res, 200, api::to_json(queue_.resume(req.matches[1])));
     });
     s.Delete(R"(/v1/jobs/([^/]+)/results)", [this](const httplib::Request& req, httplib::Response& res) {
         queue_.delete_results(req.matches[1]);

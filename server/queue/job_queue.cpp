@@ -250,7 +250,7 @@ JobList JobQueue::list(const std::string& state, size_t offset, size_t limit) {
         JobState s;
         if (!parse_job_state(state, s))
             throw QueueError(QueueErrorKind::invalid, "invalid-parameter", "Invalid query parameter",
-                             "state must be queued, running, succeeded, failed or canceled").with_field("state");
+                             "state must be queued, waiting, running, paused, succeeded, failed or canceled").with_field("state");
         filter = s;
     }
     JobList out;
@@ -346,8 +346,7 @@ std::string JobQueue::frame_result_path(const std::string& id, int frame, const 
 
 std::map<std::string, size_t> JobQueue::counts_by_state() {
     std::map<std::string, size_t> m;
-    for (JobState s : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed, JobState::canceled})
-        m[to_string(s)] = store_->count(s);
+    for (JobState s : api::kJobStates) m[to_string(s)] = store_->count(s);
     return m;
 }
 

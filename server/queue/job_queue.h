@@ -90,6 +90,14 @@ public:
     JobList list(const std::string& state, size_t offset, size_t limit);
     // Idempotent; throws QueueError not_found.
     virtual api::JobStatus cancel(const std::string& id) = 0;
+    // A queued job leaves the queue; a running one stops before its next tile, keeping its film
+    // (a checkpoint), and frees its render threads. Idempotent for a paused job; throws
+    // QueueError not_found, or conflict for a finished one.
+    virtual api::JobStatus pause(const std::string& id) = 0;
+    // A paused job is queued again in its place and continues from its checkpoint, to the image
+    // it would have had never paused. Idempotent for a queued or running job; conflict for a
+    // finished one.
+    virtual api::JobStatus resume(const std::string& id) = 0;
     void delete_results(const std::string& id);  // throws QueueError not_found / conflict
     // The path of a finished job's result file ("image.png", ...); throws QueueError
     // not_found / conflict / gone.

@@ -100,6 +100,20 @@ void LocalQueue::add_live(api::JobStatus& st, const JobRecord& rec, bool locked)
     }
 }
 
+namespace {
+
+// A job that ends without its results (canceled, failed) is never continued: its checkpoints
+// (the render's, or a shot's frame's) go.
+void remove_checkpoints(const std::string& dir) {
+    std::error_code ec;
+    std::vector<fs::path> found;
+    for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+        if (it->path().filename() == "checkpoint.tck") found.push_back(it->path());
+    for (const fs::path& p : found) fs::remove(p, ec);
+}
+
+}  // namespace
+
 api::JobStatus LocalQueue::cancel(const std::string& id) {
     status(id);  // not_found for unknown ids
     bool canceled_queued = false;
@@ -118,10 +132,90 @@ api::JobStatus LocalQueue::cancel(const std::string& id) {
                 break;
             }
         auto r = running_.find(id);
-        if (r != running_.end()) { r->second->cancel = true; r->second->stop = true; }
+        if (r != running_.end()) {
+            r->second->cancel = true;
+            r->second->stop = true;
+        } else if (!canceled_queued) {
+            // Paused (or waiting): in neither the queue nor a worker. Its checkpoint goes with it.
+            try {
+                if (store_->finish(id, JobState::canceled, unix_time_s(), "", "")) {
+                    spdlog::info("job {} canceled while paused", id);
+                    remove_checkpoints(job_dir(id));
+                    canceled_queued = true;
+                }
+            } catch (const StoreError& e) {
+                throw store_refusal(e);
+            }
+        }
     }
     api::JobStatus st = status(id);
     if (canceled_queued) publish("state", st);  // a running job's ends when its worker stops it
+    return st;
+}
+
+namespace {
+
+QueueError finished_job(const std::string& id, JobState state, const char* what) {
+    return QueueError(QueueErrorKind::conflict, "job-finished", "Job finished",
+                      "job " + id + " has " + to_string(state) + "; only a queued, running or paused job can be " + what);
+}
+
+}  // namespace
+
+api::JobStatus LocalQueue::pause(const std::string& id) {
+    const api::JobStatus before = status(id);  // not_found for unknown ids
+    if (is_final(before.state)) throw finished_job(id, before.state, "paused");
+    bool paused_queued = false;
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        for (auto it = queue_.begin(); it != queue_.end(); ++it)
+            if (it->id == id) {
+                // The store first: if it refuses, the job stays queued in both.
+                try {
+                    if (store_->pause(id)) spdlog::info("job {} paused while queued", id);
+                } catch (const StoreError& e) {
+                    throw store_refusal(e);
+                }
+                queue_.erase(it);
+                paused_queued = true;
+                break;
+            }
+        auto r = running_.find(id);
+        if (r != running_.end()) { r->second->pause = true; r->second->stop = true; }
+    }
+    api::JobStatus st = status(id);
+    if (paused_queued) publish("state", st);  // a running job's pauses when its worker stops it
+    return st;
+}
+
+api::JobStatus LocalQueue::resume(const std::string& id) {
+    const api::JobStatus before = status(id);
+    if (is_final(before.state)) throw finished_job(id, before.state, "resumed");
+    bool resumed = false;
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        // A running job asked to pause and not yet stopped: it runs on.
+        auto r = running_.find(id);
+        if (r != running_.end() && !r->second->cancel && !r->second->shutdown && r->second->pause) {
+            r->second->pause = false;
+            r->second->stop = false;
+        }
+        try {
+            if (store_->resume(id)) {
+                const std::optional<JobRecord> rec = store_->get(id);
+                if (rec) queue_.insert(QueueKey{rec->priority, rec->seq, id});
+                resumed = true;
+            }
+        } catch (const StoreError& e) {
+            throw store_refusal(e);
+        }
+    }
+    if (resumed) {
+        spdlog::info("job {} resumed: queued again", id);
+        cv_.notify_one();
+    }
+    api::JobStatus st = status(id);
+    if (resumed) publish("state", st);
     return st;
 }
 
@@ -226,20 +320,6 @@ std::string LocalQueue::scene_source(const std::string& scene) {
     return entry->source == "builtin" ? scene : entry->path;
 }
 
-namespace {
-
-// A job that ends without its results (canceled, failed) is never continued: its checkpoints
-// (the render's, or a shot's frame's) go.
-void remove_checkpoints(const std::string& dir) {
-    std::error_code ec;
-    std::vector<fs::path> found;
-    for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
-        if (it->path().filename() == "checkpoint.tck") found.push_back(it->path());
-    for (const fs::path& p : found) fs::remove(p, ec);
-}
-
-}  // namespace
-
 void LocalQueue::run(const JobRecord& rec, Running& running) {
     std::string error;
     api::JobOutcome outcome;
@@ -320,12 +400,23 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         running.pass_denoised.reset();
     }
     if (error.empty() && outcome.stopped) {
-        if (running.shutdown) {
-            if (until_stored(rec.id, "queued again", [&] { store_->requeue(rec.id); }))
+        // A cancel wins over a pause, and both over a shutdown (which would queue the job again).
+        if (running.cancel) {
+            if (until_stored(rec.id, "canceled", [&] { store_->finish(rec.id, JobState::canceled, unix_time_s(), "", ""); })) {
+                remove_checkpoints(job_dir(rec.id));
+                spdlog::info("job {} canceled while running", rec.id);
+            }
+        } else if (running.pause) {
+            if (until_stored(rec.id, "paused", [&] { store_->pause(rec.id); }))
+                spdlog::info("job {} paused; its film is kept in its checkpoint", rec.id);
+        } else if (until_stored(rec.id, "queued again", [&] { store_->requeue(rec.id); })) {
+            if (running.shutdown) {
                 spdlog::warn("job {} interrupted by shutdown; queued again", rec.id);
-        } else if (until_stored(rec.id, "canceled", [&] { store_->finish(rec.id, JobState::canceled, unix_time_s(), "", ""); })) {
-            remove_checkpoints(job_dir(rec.id));
-            spdlog::info("job {} canceled while running", rec.id);
+            } else {  // a pause taken back after the render had seen it: it continues from its checkpoint
+                std::lock_guard<std::mutex> lock(mutex_);
+                queue_.insert(QueueKey{rec.priority, rec.seq, rec.id});
+                cv_.notify_one();
+            }
         }
         return;
     }

@@ -28,6 +28,8 @@ public:
     ~LocalQueue() override;
 
     api::JobStatus cancel(const std::string& id) override;
+    api::JobStatus pause(const std::string& id) override;
+    api::JobStatus resume(const std::string& id) override;
     std::optional<LivePass> live_pass(const std::string& id) override;
     void shutdown() override;
     size_t queue_depth() override;
@@ -38,6 +40,7 @@ private:
     struct Running {
         std::atomic<bool> stop{false};  // what the renderer checks between tiles; set with a reason below
         std::atomic<bool> cancel{false};
+        std::atomic<bool> pause{false};
         std::atomic<bool> shutdown{false};
         std::atomic<size_t> tiles_done{0}, tiles_total{0};
         std::atomic<uint64_t> samples{0};

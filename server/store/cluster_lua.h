@@ -8,7 +8,8 @@
 namespace tessera::server::lua {
 
 // Moves a job between states, keeping the per-state sets and the queue in step; a final state
-// also drops the job's film and delivery counts. Returns 1, or 0 if the job is missing or not
+// also drops the job's film and delivery counts (paused and waiting are not final: they keep
+// them). Returns 1, or 0 if the job is missing or not
 // in one of `allowed` (comma-separated).
 inline const std::string transition = R"lua(
 local function transition(prefix, id, new_state, allowed, now, err, report)
@@ -30,7 +31,7 @@ local function transition(prefix, id, new_state, allowed, now, err, report)
   if new_state == 'running' then
     redis.call('HSET', k, 'started_at', now)
     redis.call('HINCRBY', k, 'attempts', 1)
-  elseif new_state ~= 'queued' then
+  elseif new_state ~= 'queued' and new_state ~= 'paused' and new_state ~= 'waiting' then
     redis.call('HSET', k, 'finished_at', now, 'error', err, 'report', report)
     redis.call('DEL', prefix .. 'film:' .. id, prefix .. 'deliveries:' .. id, prefix .. 'sums:' .. id)
   end

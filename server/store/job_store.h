@@ -54,6 +54,10 @@ public:
     virtual size_t count(std::optional<JobState> state) const = 0;
     // queued → running (sets started_at, attempts += 1); false if the job was not queued.
     virtual bool mark_running(const std::string& id, double started_at) = 0;
+    // queued or running → paused (its film is kept); false if it was neither.
+    virtual bool pause(const std::string& id) = 0;
+    // paused → queued, in its place (priority, then submission order); false if it was not paused.
+    virtual bool resume(const std::string& id) = 0;
     // Any non-final state → final state with finished_at, error and report; false if already final.
     virtual bool finish(const std::string& id, JobState state, double finished_at, const std::string& error,
                         const std::string& report_json) = 0;

@@ -148,8 +148,20 @@ bool RedisJobStore::finish(const std::string& id, JobState state, double finishe
                            const std::string& report_json) {
     if (!is_final(state)) throw std::invalid_argument("job store: finish: " + std::string(to_string(state)) + " is not a final state");
     return locked("finish", [&] {
-        return redis_.eval(kTransition, {}, {keys::prefix, id, to_string(state), "queued,running", redis_number(finished_at), error, report_json})
+        return redis_.eval(kTransition, {}, {keys::prefix, id, to_string(state), "queued,waiting,running,paused", redis_number(finished_at), error, report_json})
                    .as_int() == 1;
+    });
+}
+
+bool RedisJobStore::pause(const std::string& id) {
+    return locked("pause", [&] {
+        return redis_.eval(kTransition, {}, {keys::prefix, id, "paused", "queued,running", "0", "", ""}).as_int() == 1;
+    });
+}
+
+bool RedisJobStore::resume(const std::string& id) {
+    return locked("resume", [&] {
+        return redis_.eval(kTransition, {}, {keys::prefix, id, "queued", "paused", "0", "", ""}).as_int() == 1;
     });
 }
 

@@ -16,14 +16,14 @@ namespace tessera::server {
 
 namespace {
 
-constexpr int kSchemaVersion = 1;
+constexpr int kSchemaVersion = 2;  // 2: the states paused and waiting
 constexpr size_t kMaxListLimit = 1000;
 
 // The CHECK keeps a hand-edited or buggy row from reaching parse_job_state as garbage.
 constexpr const char* kSchema = R"(
 CREATE TABLE IF NOT EXISTS jobs (
     id          TEXT    PRIMARY KEY NOT NULL,
-    state       TEXT    NOT NULL CHECK (state IN ('queued','running','succeeded','failed','canceled')),
+    state       TEXT    NOT NULL CHECK (state IN ('queued','waiting','running','paused','succeeded','failed','canceled')),
     spec_json   TEXT    NOT NULL DEFAULT '',
     priority    INTEGER NOT NULL DEFAULT 0,
     seq         INTEGER NOT NULL,
@@ -36,6 +36,19 @@ CREATE TABLE IF NOT EXISTS jobs (
 );
 CREATE INDEX IF NOT EXISTS jobs_queue_order ON jobs (state, priority DESC, seq ASC);
 CREATE UNIQUE INDEX IF NOT EXISTS jobs_seq ON jobs (seq);
+)";
+
+// Version 1's table refuses the new states in its CHECK, which SQLite cannot alter: the rows
+// move to a table of the new schema (inside the schema's transaction: all or nothing).
+constexpr const char* kMigrateFrom1 = R"(
+ALTER TABLE jobs RENAME TO jobs_v1;
+DROP INDEX IF EXISTS jobs_queue_order;
+DROP INDEX IF EXISTS jobs_seq;
+)";
+constexpr const char* kCopyFrom1 = R"(
+INSERT INTO jobs (id, state, spec_json, priority, seq, created_at, started_at, finished_at, error, report_json, attempts)
+    SELECT id, state, spec_json, priority, seq, created_at, started_at, finished_at, error, report_json, attempts FROM jobs_v1;
+DROP TABLE jobs_v1;
 )";
 
 [[noreturn]] void fail(sqlite3* db, const std::string& op) {
@@ -224,7 +237,9 @@ struct SqliteJobStore::Impl {
             Transaction tx(db, "create schema");
             const int version = user_version();  // again: another process may have upgraded meanwhile
             refuse_newer(version, path);
+            if (version == 1) exec(db, kMigrateFrom1, "migrate schema 1");
             exec(db, kSchema, "create schema");
+            if (version == 1) exec(db, kCopyFrom1, "migrate schema 1");
             if (version < kSchemaVersion)
                 exec(db, ("PRAGMA user_version=" + std::to_string(kSchemaVersion)).c_str(), "set schema version");
             tx.commit();
@@ -411,8 +426,20 @@ bool SqliteJobStore::finish(const std::string& id, JobState state, double finish
     impl_->ensure_file();
     return impl_->change("finish",
                          "UPDATE jobs SET state = ?2, finished_at = ?3, error = ?4, report_json = ?5 "
-                         "WHERE id = ?1 AND state IN ('queued', 'running')",
+                         "WHERE id = ?1 AND state IN ('queued', 'waiting', 'running', 'paused')",
                          id, to_string(state), finished_at, error, report_json) == 1;
+}
+
+bool SqliteJobStore::pause(const std::string& id) {
+    std::lock_guard lock(impl_->mu);
+    impl_->ensure_file();
+    return impl_->change("pause", "UPDATE jobs SET state = 'paused' WHERE id = ?1 AND state IN ('queued', 'running')", id) == 1;
+}
+
+bool SqliteJobStore::resume(const std::string& id) {
+    std::lock_guard lock(impl_->mu);
+    impl_->ensure_file();
+    return impl_->change("resume", "UPDATE jobs SET state = 'queued', started_at = 0 WHERE id = ?1 AND state = 'paused'", id) == 1;
 }
 
 // Both requeues keep attempts: it counts starts, and the interrupted run did start.

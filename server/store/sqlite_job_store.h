@@ -27,6 +27,8 @@ public:
     bool mark_running(const std::string& id, double started_at) override;
     bool finish(const std::string& id, JobState state, double finished_at, const std::string& error,
                 const std::string& report_json) override;
+    bool pause(const std::string& id) override;
+    bool resume(const std::string& id) override;
     bool requeue(const std::string& id) override;
     int requeue_all_running() override;
     std::vector<JobRecord> queued_in_order() const override;

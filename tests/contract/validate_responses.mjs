@@ -43,7 +43,8 @@ const operations = [];
 for (const [path, item] of Object.entries(spec.paths))
   for (const method of ['get', 'post', 'put', 'patch', 'delete'])
     if (item[method]) operations.push({path, method, op: item[method],
-      re: new RegExp('^' + path.replace(/[.]/g, '\\.').replace(/\{[^}]+\}/g, '[^/]+') + '$')});
+      // A path parameter holds no ':' either: /v1/jobs/{id}:pause is its own operation.
+      re: new RegExp('^' + path.replace(/[.]/g, '\\.').replace(/\{[^}]+\}/g, '[^/:]+') + '$')});
 
 let failures = 0;
 const seen = new Map();  // operationId → Set of statuses
@@ -250,7 +251,21 @@ for (const f of files.slice(0, 3)) {
   const r = expect(await call('GET', `/v1/jobs/${running.id}/${f}`), 200, `${f} of a running job's latest pass`);
   if (!r.headers.get('x-tessera-pass') || !r.headers.get('x-tessera-pass-spp')) fail(`${f} of a running job: no X-Tessera-Pass headers`);
 }
+// Paused (200, idempotent) and resumed (200); GET there is a 405; a finished job's is a 409.
+expect(await call('POST', '/v1/jobs/0123456789abcdef:pause'), 404, 'pause an unknown job');
+expect(await call('POST', '/v1/jobs/0123456789abcdef:resume'), 404, 'resume an unknown job');
+expect(await call('GET', `/v1/jobs/${running.id}:pause`), 405, 'GET on an action');
+expect(await call('POST', `/v1/jobs/${running.id}:pause`), 200, 'pause');
+for (let i = 0; i < 500; i++) {
+  if (json(await call('GET', `/v1/jobs/${running.id}`)).state === 'paused') break;
+  await sleep(20);
+}
+if (json(await call('GET', `/v1/jobs/${running.id}`)).state !== 'paused') fail('a paused job did not become paused');
+expect(await call('GET', '/v1/jobs?state=paused'), 200, 'list paused jobs');
+expect(await call('POST', `/v1/jobs/${running.id}:resume`), 200, 'resume');
 expect(await call('DELETE', `/v1/jobs/${running.id}`), 200, 'cancel');
+await waitState(running.id, ['canceled']);
+expect(await call('POST', `/v1/jobs/${running.id}:resume`), 409, 'resume a canceled job');
 const blocker = json(expect(await call('POST', '/v1/jobs', {body: {...long, seed: 98}}), 202, 'a job that runs'));
 const unstarted = json(expect(await call('POST', '/v1/jobs', {body: {...long, seed: 99}}), 202, 'a job behind it'));
 for (const f of files) expect(await call('GET', `/v1/jobs/${unstarted.id}/${f}`), 409, `${f} of a queued job`);

@@ -32,12 +32,26 @@ protected:
         dir_ = std::filesystem::temp_directory_path() / ("tessera_http_" + std::to_string(::getpid()) + "_" +
                                             ::testing::UnitTest::GetInstance()->current_test_info()->name());
         std::filesystem::remove_all(dir_);
+        max_queued_ = max_queued;
+        max_store_bytes_ = max_store_bytes;
+        open();
+    }
+    // Stops the server as SIGTERM does and starts it again on the same data directory.
+    void restart() {
+        service_->shutdown();
+        api_->stop();
+        thread_.join();
+        api_.reset();
+        service_.reset();
+        open();
+    }
+    void open() {
         ServiceConfig cfg;
         cfg.data_dir = dir_.string();
         cfg.project_scenes = TESSERA_PROJECT_SCENES;
         cfg.render_threads = 2;
-        cfg.max_queued = max_queued;
-        cfg.max_store_bytes = max_store_bytes;
+        cfg.max_queued = max_queued_;
+        cfg.max_store_bytes = max_store_bytes_;
         cfg.scene_dirs = scene_dirs_;
         service_ = open_job_queue(cfg);
         std::ofstream(dir_ / "openapi.yaml") << "openapi: 3.0.3\n";
@@ -104,6 +118,8 @@ protected:
     HttpLimits limits_ = test_limits();  // a test may change them before start()
     std::vector<std::string> scene_dirs_;
     std::filesystem::path dir_;
+    size_t max_queued_ = 1000;
+    int64_t max_store_bytes_ = 0;
     std::unique_ptr<JobQueue> service_;
     std::unique_ptr<HttpApi> api_;
     std::unique_ptr<httplib::Client> client_;

@@ -126,8 +126,7 @@ TEST_P(JobStoreContract, SeqIsMonotonicAndContinuesAfterReopen) {
 }
 
 TEST_P(JobStoreContract, StateNamesRoundTrip) {
-    for (JobState s : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed,
-                       JobState::canceled}) {
+    for (JobState s : api::kJobStates) {
         JobState back = JobState::queued;
         ASSERT_TRUE(parse_job_state(to_string(s), back)) << to_string(s);
         EXPECT_EQ(back, s);
@@ -137,6 +136,38 @@ TEST_P(JobStoreContract, StateNamesRoundTrip) {
     EXPECT_FALSE(parse_job_state("Queued", out));
     EXPECT_FALSE(parse_job_state("", out));
     EXPECT_EQ(out, JobState::failed) << "untouched on failure";
+}
+
+// paused: from queued or running only, out of the queue, kept across a restart's requeue; resumed,
+// queued again in its place; canceled from paused; never counted as final.
+TEST_P(JobStoreContract, PauseAndResume) {
+    auto owned = open();
+    JobStore& store = *owned;
+    JobRecord a = make_job(1), b = make_job(2), c = make_job(3);
+    store.insert(a);
+    store.insert(b);
+    store.insert(c);
+    ASSERT_TRUE(store.mark_running(b.id, 5.0));
+    EXPECT_TRUE(store.pause(a.id)) << "queued";
+    EXPECT_TRUE(store.pause(b.id)) << "running";
+    EXPECT_FALSE(store.pause(a.id)) << "already paused";
+    EXPECT_EQ(store.get(a.id)->state, JobState::paused);
+    EXPECT_EQ(store.count(JobState::paused), 2u);
+    ASSERT_EQ(store.queued_in_order().size(), 1u);
+    EXPECT_EQ(store.queued_in_order()[0].id, c.id);
+    EXPECT_EQ(store.requeue_all_running(), 0) << "a paused job is not running";
+    EXPECT_FALSE(store.mark_running(a.id, 6.0));
+    EXPECT_FALSE(store.resume(c.id)) << "not paused";
+    EXPECT_TRUE(store.resume(a.id));
+    EXPECT_FALSE(store.resume(a.id));
+    const auto order = store.queued_in_order();
+    ASSERT_EQ(order.size(), 2u);
+    EXPECT_EQ(order[0].id, a.id) << "back in its place";
+    EXPECT_EQ(store.get(a.id)->finished_at, 0.0);
+    EXPECT_TRUE(store.finish(b.id, JobState::canceled, 9.0, "", "")) << "a paused job can be canceled";
+    EXPECT_FALSE(store.remove_final(a.id)) << "queued is not final";
+    EXPECT_FALSE(store.pause(b.id)) << "final";
+    EXPECT_FALSE(store.pause("0000000000000bad"));
 }
 
 TEST_P(JobStoreContract, MarkRunningOnlyFromQueued) {

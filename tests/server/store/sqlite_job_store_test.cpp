@@ -82,17 +82,17 @@ TEST_F(JobStoreTest, RefusesNewerSchemaVersion) {
     const std::string path = db_path();
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-    ASSERT_EQ(sqlite3_exec(db, "CREATE TABLE future(x); PRAGMA user_version=2;", nullptr, nullptr, nullptr), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "CREATE TABLE future(x); PRAGMA user_version=3;", nullptr, nullptr, nullptr), SQLITE_OK);
     sqlite3_close(db);
     try {
         SqliteJobStore store(path);
         FAIL() << "a newer schema was opened";
     } catch (const std::runtime_error& e) {
         const std::string msg = e.what();
-        EXPECT_NE(msg.find("schema version 2"), std::string::npos) << msg;
+        EXPECT_NE(msg.find("schema version 3"), std::string::npos) << msg;
         EXPECT_NE(msg.find("newer"), std::string::npos) << msg;
     }
-    // Left as found: still version 2 and not switched to WAL by the refused open.
+    // Left as found: still version 3 and not switched to WAL by the refused open.
     ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
     sqlite3_stmt* st = nullptr;
     ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA journal_mode", -1, &st, nullptr), SQLITE_OK);
@@ -106,7 +106,7 @@ TEST_F(JobStoreTest, SetsSchemaVersionAndWal) {
     { SqliteJobStore store(db_path()); }
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(db_path().c_str(), &db), SQLITE_OK);
-    for (const auto& [sql, want] : {std::pair<const char*, const char*>{"PRAGMA user_version", "1"},
+    for (const auto& [sql, want] : {std::pair<const char*, const char*>{"PRAGMA user_version", "2"},
                                     {"PRAGMA journal_mode", "wal"}}) {
         sqlite3_stmt* st = nullptr;
         ASSERT_EQ(sqlite3_prepare_v2(db, sql, -1, &st, nullptr), SQLITE_OK);
@@ -115,6 +115,50 @@ TEST_F(JobStoreTest, SetsSchemaVersionAndWal) {
         sqlite3_finalize(st);
     }
     sqlite3_close(db);
+}
+
+// A version 1 file (whose CHECK knows five states) is moved to the new table on open: its jobs
+// keep every column and their order, and take the new states.
+TEST_F(JobStoreTest, AVersion1StoreIsMigratedWithEveryJob) {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(db_path().c_str(), &db), SQLITE_OK);
+    const char* v1 = R"(
+CREATE TABLE jobs (
+    id          TEXT    PRIMARY KEY NOT NULL,
+    state       TEXT    NOT NULL CHECK (state IN ('queued','running','succeeded','failed','canceled')),
+    spec_json   TEXT    NOT NULL DEFAULT '',
+    priority    INTEGER NOT NULL DEFAULT 0,
+    seq         INTEGER NOT NULL,
+    created_at  REAL    NOT NULL DEFAULT 0,
+    started_at  REAL    NOT NULL DEFAULT 0,
+    finished_at REAL    NOT NULL DEFAULT 0,
+    error       TEXT    NOT NULL DEFAULT '',
+    report_json TEXT    NOT NULL DEFAULT '',
+    attempts    INTEGER NOT NULL DEFAULT 0
+);
+CREATE INDEX jobs_queue_order ON jobs (state, priority DESC, seq ASC);
+CREATE UNIQUE INDEX jobs_seq ON jobs (seq);
+INSERT INTO jobs VALUES ('00000000000000a1', 'succeeded', '{"scene":"a"}', 3, 1, 10.5, 11.0, 12.0, '', '{"r":1}', 1);
+INSERT INTO jobs VALUES ('00000000000000a2', 'queued', '{"scene":"b"}', -2, 2, 20.0, 0, 0, '', '', 0);
+PRAGMA user_version=1;)";
+    ASSERT_EQ(sqlite3_exec(db, v1, nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(db);
+    SqliteJobStore store(db_path());
+    const auto a = store.get("00000000000000a1");
+    ASSERT_TRUE(a);
+    EXPECT_EQ(a->state, JobState::succeeded);
+    EXPECT_EQ(a->spec_json, R"({"scene":"a"})");
+    EXPECT_EQ(a->priority, 3);
+    EXPECT_EQ(a->seq, 1);
+    EXPECT_DOUBLE_EQ(a->finished_at, 12.0);
+    EXPECT_EQ(a->report_json, R"({"r":1})");
+    EXPECT_EQ(a->attempts, 1);
+    EXPECT_EQ(store.queued_in_order().size(), 1u);
+    EXPECT_TRUE(store.pause("00000000000000a2"));
+    EXPECT_EQ(store.get("00000000000000a2")->state, JobState::paused);
+    JobRecord next = make_job(3);
+    store.insert(next);
+    EXPECT_EQ(next.seq, 3);
 }
 
 TEST_F(JobStoreTest, OpenErrorsThrowWithSqliteMessage) {
