@@ -153,13 +153,43 @@ api::JobStatus FarmQueue::cancel(const std::string& id) {
     return status(id);
 }
 
-api::JobStatus FarmQueue::pause(const std::string& id) {
-    status(id);
-    throw QueueError(QueueErrorKind::conflict, "not-on-a-farm", "Not available on a render farm",
-                     "pausing and resuming a job is available on one process (serve without --redis) only, so far");
+namespace {
+
+// Shots and comparisons run whole on one node (a rerun starts them again): not paused so far.
+void refuse_whole_jobs(const api::JobStatus& st) {
+    const nlohmann::json& s = st.settings;
+    const bool comparison = s.is_object() && s.value("kind", "") == "comparison";
+    const bool shot = s.is_object() && s.contains("frames") && !s["frames"].is_null();
+    if (comparison || shot)
+        throw QueueError(QueueErrorKind::conflict, "not-on-a-farm", "Not available on a render farm",
+                         std::string("pausing a ") + (shot ? "shot" : "comparison") +
+                             " is available on one process (serve without --redis) only, so far; a still pauses on a farm too");
 }
 
-api::JobStatus FarmQueue::resume(const std::string& id) { return pause(id); }
+}  // namespace
+
+api::JobStatus FarmQueue::pause(const std::string& id) {
+    const api::JobStatus st = status(id);
+    if (is_final(st.state)) throw job_finished(id, to_string(st.state), "paused");
+    refuse_whole_jobs(st);
+    try {
+        if (store_->pause(id)) spdlog::info("job {} paused; its nodes drop its tasks, its film stays in Redis", id);
+    } catch (const StoreError& e) {
+        throw store_refusal(e);
+    }
+    return status(id);
+}
+
+api::JobStatus FarmQueue::resume(const std::string& id) {
+    const api::JobStatus st = status(id);
+    if (is_final(st.state)) throw job_finished(id, to_string(st.state), "resumed");
+    try {
+        if (store_->resume(id)) spdlog::info("job {} resumed", id);
+    } catch (const StoreError& e) {
+        throw store_refusal(e);
+    }
+    return status(id);
+}
 
 size_t FarmQueue::queue_depth() { return store_->count(JobState::queued); }
 

@@ -41,8 +41,8 @@ public:
     ~FarmQueue() override;
 
     api::JobStatus cancel(const std::string& id) override;
-    // Not yet on a farm: 409, saying so (its nodes drop a paused job's tasks, and nothing would
-    // queue them again).
+    // A render job's (a still's): its nodes drop its tasks; resumed, the tiles of its pass not
+    // yet stored are queued again (RedisJobStore::resume). A shot or a comparison: 409, so far.
     api::JobStatus pause(const std::string& id) override;
     api::JobStatus resume(const std::string& id) override;
     void shutdown() override;

@@ -153,18 +153,9 @@ api::JobStatus LocalQueue::cancel(const std::string& id) {
     return st;
 }
 
-namespace {
-
-QueueError finished_job(const std::string& id, JobState state, const char* what) {
-    return QueueError(QueueErrorKind::conflict, "job-finished", "Job finished",
-                      "job " + id + " has " + to_string(state) + "; only a queued, running or paused job can be " + what);
-}
-
-}  // namespace
-
 api::JobStatus LocalQueue::pause(const std::string& id) {
     const api::JobStatus before = status(id);  // not_found for unknown ids
-    if (is_final(before.state)) throw finished_job(id, before.state, "paused");
+    if (is_final(before.state)) throw job_finished(id, to_string(before.state), "paused");
     bool paused_queued = false;
     {
         std::lock_guard<std::mutex> lock(mutex_);
@@ -190,7 +181,7 @@ api::JobStatus LocalQueue::pause(const std::string& id) {
 
 api::JobStatus LocalQueue::resume(const std::string& id) {
     const api::JobStatus before = status(id);
-    if (is_final(before.state)) throw finished_job(id, before.state, "resumed");
+    if (is_final(before.state)) throw job_finished(id, to_string(before.state), "resumed");
     bool resumed = false;
     {
         std::lock_guard<std::mutex> lock(mutex_);

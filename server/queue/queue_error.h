@@ -46,4 +46,10 @@ inline QueueError store_refusal(const StoreError& e) {
         .with_retry_after(10);
 }
 
+// A pause, resume or other change asked of a job that has finished.
+inline QueueError job_finished(const std::string& id, const std::string& state, const char* what) {
+    return QueueError(QueueErrorKind::conflict, "job-finished", "Job finished",
+                      "job " + id + " has " + state + "; only a queued, running or paused job can be " + what);
+}
+
 }  // namespace tessera::server

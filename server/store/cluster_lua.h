@@ -139,6 +139,56 @@ inline const std::string transition_job = transition + R"lua(
 return transition(ARGV[1], ARGV[2], ARGV[3], ARGV[4], ARGV[5], ARGV[6], ARGV[7])
 )lua";
 
+// Pauses a job: queued or running → paused, keeping its film and run (transition), and when
+// (Redis's clock), so that its time limit does not count the pause. Its nodes see the state and
+// drop its tasks.
+inline const std::string pause_job = transition + R"lua(
+-- KEYS: job; ARGV: prefix, id
+if transition(ARGV[1], ARGV[2], 'paused', 'queued,running', '0', '', '') == 0 then return 0 end
+local t = redis.call('TIME')
+redis.call('HSET', KEYS[1], 'paused_ms', tonumber(t[1]) * 1000 + math.floor(tonumber(t[2]) / 1000))
+return 1
+)lua";
+
+// Resumes a paused job. One that never began is queued again with a start task; one that did
+// runs again where it stopped: the tiles of its pass not yet stored are queued again (those
+// dropped while it was paused; a duplicate of one still queued stores nothing the second time),
+// or its assembly when every tile is stored. Its run's clock moves on by the pause.
+inline const std::string resume_job = transition + R"lua(
+-- KEYS: job, film, task stream; ARGV: prefix, id
+local k = KEYS[1]
+if redis.call('HGET', k, 'state') ~= 'paused' then return 0 end
+local t = redis.call('TIME')
+local now_ms = tonumber(t[1]) * 1000 + math.floor(tonumber(t[2]) / 1000)
+local paused_ms = tonumber(redis.call('HGET', k, 'paused_ms') or '')
+redis.call('HDEL', k, 'paused_ms')
+local total = tonumber(redis.call('HGET', k, 'tiles_total') or '')
+if not total then
+  transition(ARGV[1], ARGV[2], 'queued', 'paused', '0', '', '')
+  redis.pcall('XGROUP', 'CREATE', KEYS[3], 'nodes', '0', 'MKSTREAM')
+  redis.call('XADD', KEYS[3], '*', 'job', ARGV[2], 'kind', 'start', 'pass', '0', 'tile', '0')
+  return 1
+end
+local seq = redis.call('HGET', k, 'seq')
+redis.call('ZREM', ARGV[1] .. 'jobs:paused', ARGV[2])
+redis.call('ZADD', ARGV[1] .. 'jobs:running', seq, ARGV[2])
+redis.call('HSET', k, 'state', 'running')
+if paused_ms and redis.call('HEXISTS', k, 'started_ms') == 1 then
+  redis.call('HINCRBY', k, 'started_ms', now_ms - paused_ms)
+end
+local pass = tonumber(redis.call('HGET', k, 'pass'))
+local missing = 0
+for tile = 0, total - 1 do
+  local p = redis.call('HGET', KEYS[2], 'p' .. tile)
+  if not p or tonumber(p) < pass then
+    redis.call('XADD', KEYS[3], '*', 'job', ARGV[2], 'kind', 'tile', 'pass', pass, 'tile', tile)
+    missing = missing + 1
+  end
+end
+if missing == 0 then redis.call('XADD', KEYS[3], '*', 'job', ARGV[2], 'kind', 'assemble', 'pass', pass, 'tile', 0) end
+return 1
+)lua";
+
 // Renews a claim only while it is still this consumer's: a node resumed after a long stop must
 // not take back a task another node has claimed meanwhile.
 inline const std::string renew_claim = R"lua(

@@ -37,6 +37,8 @@ return seq
 )lua"};
 
 const RedisScript kTransition{lua::transition_job};
+const RedisScript kPause{lua::pause_job};
+const RedisScript kResume{lua::resume_job};
 
 const RedisScript kRemoveFinal{R"lua(
 -- ARGV: prefix, id; KEYS: the job's cluster keys to drop with it
@@ -154,14 +156,14 @@ bool RedisJobStore::finish(const std::string& id, JobState state, double finishe
 }
 
 bool RedisJobStore::pause(const std::string& id) {
-    return locked("pause", [&] {
-        return redis_.eval(kTransition, {}, {keys::prefix, id, "paused", "queued,running", "0", "", ""}).as_int() == 1;
-    });
+    return locked("pause", [&] { return redis_.eval(kPause, {keys::job(id)}, {keys::prefix, id}).as_int() == 1; });
 }
 
 bool RedisJobStore::resume(const std::string& id) {
     return locked("resume", [&] {
-        return redis_.eval(kTransition, {}, {keys::prefix, id, "queued", "paused", "0", "", ""}).as_int() == 1;
+        const RedisValue pr = redis_.command({"HGET", keys::job(id), "priority"});
+        if (pr.is_nil()) return false;
+        return redis_.eval(kResume, {keys::job(id), keys::film(id), keys::tasks(std::stoll(pr.text))}, {keys::prefix, id}).as_int() == 1;
     });
 }
 

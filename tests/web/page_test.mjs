@@ -202,8 +202,7 @@ try {
   check(true, 'a job submitted and canceled elsewhere appears, then shows canceled (event stream)');
   // And the running one from its own page.
   await page.goto(`${base}/#/jobs/${blocker}`);
-  // Paused and resumed from its page first (one process: a farm refuses pausing so far).
-  if (!farm) {
+  // Paused and resumed from its page first.
   await page.waitForSelector('#pause-job', {state: 'visible', timeout: 10000});
   await page.click('#pause-job');
   await page.waitForFunction(() => document.querySelector('#job-view')?.dataset.state === 'paused', null, {timeout: 15000});
@@ -212,7 +211,6 @@ try {
   await page.click('#resume-job');
   await page.waitForFunction(() => ['queued', 'running'].includes(document.querySelector('#job-view')?.dataset.state), null, {timeout: 15000});
   check(true, 'a paused job is resumed from its page');
-  }
   await page.waitForSelector('#cancel-job', {state: 'visible', timeout: 10000});
   await page.click('#cancel-job');
   await page.waitForFunction(() => document.querySelector('#job-view')?.dataset.state === 'canceled', null, {timeout: 15000});

@@ -174,6 +174,66 @@ TEST_F(RenderNodeFarm, EveryPassScheduleGivesOneProcessImageBitForBit) {
     }
 }
 
+// Paused on the farm (at once, while queued or starting; mid-pass; twice) and resumed: its nodes
+// drop its tasks, its film stays in Redis, and resumed it ends with one process's image bit for
+// bit. Pass by pass (a target error never reached) and in whole tiles.
+TEST_F(RenderNodeFarm, APausedJobResumedGivesOneProcessImageBitForBit) {
+    const std::vector<Case> cases = {
+        {"pass by pass", {{"scene", "cornell_spheres"}, {"width", 64}, {"height", 48}, {"spp", 128}, {"max_depth", 3}, {"tile_size", 16},
+                          {"target_error", 1e-12}, {"denoise", true}},
+         "cornell_spheres.gltf"},
+        {"whole tiles", {{"scene", "cornell_spheres"}, {"width", 64}, {"height", 48}, {"spp", 128}, {"max_depth", 3}, {"tile_size", 16}},
+         "cornell_spheres.gltf"},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.what);
+        const std::string id = service_->submit(c.body).id;
+        int paused = 0;
+        auto pause_resume = [&](uint64_t after_samples) {
+            for (int i = 0; i < 2000 && service_->status(id).live_progress.value_or(api::JobProgress{}).samples_done < after_samples; ++i)
+                std::this_thread::sleep_for(std::chrono::milliseconds(2));
+            const api::JobStatus p = service_->pause(id);
+            if (api::is_final(p.state)) return;  // finished first: nothing to pause
+            EXPECT_EQ(p.state, api::JobState::paused);
+            ++paused;
+            std::this_thread::sleep_for(std::chrono::milliseconds(400));  // the nodes drop what they held
+            EXPECT_EQ(service_->status(id).state, api::JobState::paused);
+            EXPECT_EQ(service_->pause(id).state, api::JobState::paused) << "idempotent";
+            const api::JobStatus r = service_->resume(id);
+            EXPECT_NE(r.state, api::JobState::paused);
+        };
+        pause_resume(0);
+        pause_resume(64 * 48 * 6);
+        pause_resume(64 * 48 * 40);
+        EXPECT_GE(paused, 2) << "paused before it finished";
+        const auto t0 = std::chrono::steady_clock::now();
+        api::JobStatus s = service_->status(id);
+        while (!api::is_final(s.state) && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(120)) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+            s = service_->status(id);
+        }
+        ASSERT_EQ(s.state, api::JobState::succeeded) << api::to_json(s).dump();
+        const fs::path farm = job_results_dir((dir_ / "data").string(), id);
+        const fs::path one = run_in_one_process(c.body, std::string(TESSERA_PROJECT_SCENES) + "/" + c.scene_file, std::string("paused-") + c.what);
+        const Image a = read_image((farm / "image.exr").string()), b = read_image((one / "image.exr").string());
+        ASSERT_EQ(a.rgb.size(), b.rgb.size());
+        EXPECT_EQ(0, std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float))) << "pixels";
+        EXPECT_EQ(a.sample_count, b.sample_count);
+        if (c.body.contains("denoise")) {
+            const Image da = read_image((farm / "denoised.exr").string()), db = read_image((one / "denoised.exr").string());
+            EXPECT_EQ(0, std::memcmp(da.rgb.data(), db.rgb.data(), da.rgb.size() * sizeof(float))) << "denoised pixels";
+        }
+    }
+    // A shot or a comparison is refused on a farm, saying so; a finished job is a conflict.
+    const std::string shot = service_->submit(json{{"scene", "cornell_shot"}, {"width", 16}, {"height", 12}, {"spp", 1}, {"frames", {{"start", 0}, {"end", 48}, {"step", 24}}}}).id;
+    try {
+        service_->pause(shot);
+        if (!api::is_final(service_->status(shot).state)) ADD_FAILURE() << "a shot was paused on a farm";
+    } catch (const QueueError& e) {
+        EXPECT_TRUE(e.code == "not-on-a-farm" || e.code == "job-finished") << e.code;
+    }
+}
+
 // A shot on the farm: the node that starts it renders it through the one shot runner into the
 // shared results folder, so every frame equals one process's bit for bit; a shot whose first
 // frame an earlier run already wrote (a node that died) keeps it and renders the rest.
