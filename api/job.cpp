@@ -128,4 +128,8 @@ int priority_of(const Job& job) {
     return std::visit([](const auto& j) { return j.priority; }, job);
 }
 
+const std::vector<std::string>& after_of(const Job& job) {
+    return std::visit([](const auto& j) -> const std::vector<std::string>& { return j.after; }, job);
+}
+
 }  // namespace tessera::api

@@ -74,6 +74,8 @@ struct RenderJob {
     // A shot's motion blur: the shutter's opening and closing in frames around each frame
     // (e.g. -0.25 and 0.25); absent: none (each frame an instant).
     std::optional<std::pair<double, double>> shutter;
+    // Jobs this one runs after: it waits until every one has succeeded (JobState::waiting).
+    std::vector<std::string> after;
     // A shot's frame as the engine renders it: the job with that frame's seed.
     RenderSettings frame_settings(int frame) const;
 };
@@ -96,6 +98,7 @@ struct ComparisonJob {
     int priority = 0;
     bool standard_configs = true;  // "configs": "standard"
     std::vector<ComparisonConfigJob> configs;
+    std::vector<std::string> after;  // as a render job's
 };
 
 using Job = std::variant<RenderJob, ComparisonJob>;
@@ -119,5 +122,8 @@ Job job_from_json(const nlohmann::json& stored);
 
 const std::string& scene_of(const Job& job);
 int priority_of(const Job& job);
+const std::vector<std::string>& after_of(const Job& job);
+// The most jobs one job may run after.
+inline constexpr size_t kMaxAfter = 64;
 
 }  // namespace tessera::api

@@ -265,6 +265,40 @@ void set_passes(RenderJob& j, const json& v, const ParseContext& ctx) {
 
 json get_passes(const RenderJob& j) { return aov_names(j.render.aovs); }
 
+// "after": distinct job ids (that they exist is the queue's to check).
+template <class Job>
+void set_after(Job& j, const json& v, const ParseContext& ctx) {
+    const std::string& p = ctx.pointer;
+    if (!v.is_array()) throw InvalidJob(p, p + " must be a list of job ids");
+    if (v.size() > kMaxAfter) throw InvalidJob(p, p + " lists " + std::to_string(v.size()) + " jobs; at most " + std::to_string(kMaxAfter));
+    std::vector<std::string> ids;
+    for (size_t i = 0; i < v.size(); ++i) {
+        const std::string at = p + "/" + std::to_string(i);
+        const bool hex = v[i].is_string() && v[i].get_ref<const std::string&>().size() == 16 &&
+                         v[i].get_ref<const std::string&>().find_first_not_of("0123456789abcdef") == std::string::npos;
+        if (!hex) throw InvalidJob(at, at + " must be a job id (16 lowercase hexadecimal digits), got " + json_text(v[i]));
+        if (std::find(ids.begin(), ids.end(), v[i].get<std::string>()) != ids.end())
+            throw InvalidJob(at, p + " lists " + json_text(v[i]) + " twice");
+        ids.push_back(v[i].get<std::string>());
+    }
+    j.after = std::move(ids);
+}
+
+template <class Job>
+json get_after(const Job& j) { return j.after; }
+
+template <class Job>
+Field<Job> after_field() {
+    Field<Job> f = field<Job>("after", FieldKind::object,
+                              "Ids of jobs this one runs after: it waits (state waiting) until every one has succeeded, and "
+                              "fails (or is canceled) naming the one that failed (or was canceled).",
+                              "[]");
+    f.set = &set_after<Job>;
+    f.get = &get_after<Job>;
+    f.per_config = false;
+    return f;
+}
+
 template <class Job, auto... Path>
 void set_bool(Job& j, const json& v, const ParseContext&) {
     at<Path...>(j) = v.get<bool>();
@@ -413,6 +447,7 @@ const Field<RenderJob> kRenderFields[] = {
         f.per_config = false;
         return f;
     }(),
+    after_field<RenderJob>(),
     [] {
         Field<RenderJob> f = field<RenderJob>("reference", FieldKind::job_id, "A finished job whose image the error is measured against.",
                            "null");
@@ -517,6 +552,7 @@ const Field<ComparisonJob> kComparisonFields[] = {
         f.get = &get_configs;
         return f;
     }(),
+    after_field<ComparisonJob>(),
 };
 
 }  // namespace

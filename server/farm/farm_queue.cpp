@@ -150,6 +150,7 @@ api::JobStatus FarmQueue::cancel(const std::string& id) {
     } catch (const StoreError& e) {
         throw store_refusal(e);
     }
+    settle_waiting();
     return status(id);
 }
 
@@ -218,6 +219,7 @@ void FarmQueue::watch(std::optional<Look> first) {
             std::unique_lock<std::mutex> lock(stop_mutex_);
             if (stop_cv_.wait_for(lock, std::chrono::milliseconds(300), [&] { return stopping_; })) return;
         }
+        settle_waiting();  // jobs whose dependencies ended on the nodes
         try {
             Look now = look();
             const bool listening = events_.subscribers() > 0;

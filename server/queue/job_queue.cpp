@@ -174,13 +174,90 @@ void JobQueue::check_render_job(const api::RenderJob& job) {
 }
 
 api::JobStatus JobQueue::accept(const api::Job& job) {
+    // The jobs it runs after must be known now: a typo would otherwise wait for ever.
+    const std::vector<std::string>& after = api::after_of(job);
+    for (size_t i = 0; i < after.size(); ++i) {
+        std::optional<JobRecord> dep;
+        try {
+            dep = store_->get(after[i]);
+        } catch (const StoreError& e) {
+            throw store_refusal(e);
+        }
+        if (!dep)
+            throw QueueError(QueueErrorKind::invalid, "invalid-field", "Invalid job", "no job " + after[i] + " to run after")
+                .with_field("/after/" + std::to_string(i));
+    }
     JobRecord rec;
     rec.id = new_id();
-    rec.state = JobState::queued;
+    rec.state = after.empty() ? JobState::queued : JobState::waiting;
     rec.spec_json = json_text(api::to_json(job));  // the typed job, serialized once
     rec.priority = api::priority_of(job);
     rec.created_at = unix_time_s();
-    return enqueue(job, std::move(rec));
+    const std::string id = rec.id;
+    api::JobStatus st = enqueue(job, std::move(rec));
+    if (after.empty()) return st;
+    settle_waiting();  // the jobs it runs after may have ended already
+    return status(id);
+}
+
+void JobQueue::settle_waiting() {
+    std::lock_guard<std::mutex> lock(settle_mutex_);
+    // Until nothing changes: a job failed here fails the jobs that run after it in turn.
+    for (bool changed = true; changed;) {
+        changed = false;
+        std::vector<JobRecord> waiting;
+        try {
+            if (store_->count(JobState::waiting) == 0) return;
+            waiting = store_->list(JobState::waiting, 0, 1000);
+        } catch (const std::exception& e) {
+            spdlog::warn("waiting jobs: cannot read them: {}", e.what());
+            return;
+        }
+        std::reverse(waiting.begin(), waiting.end());  // oldest first
+        for (const JobRecord& rec : waiting) {
+            std::vector<std::string> after;
+            try {
+                after = api::after_of(api::job_from_json(json::parse(rec.spec_json)));
+            } catch (const std::exception&) {
+                continue;  // a record of another version: left as it is
+            }
+            std::optional<std::pair<JobState, std::string>> end;  // the state it takes, and why
+            bool all = true;
+            try {
+                for (const std::string& dep : after) {
+                    const std::optional<JobRecord> d = store_->get(dep);
+                    if (!d) {
+                        end = {JobState::failed, "job " + dep + ", which it runs after, is gone"};
+                    } else if (d->state == JobState::failed) {
+                        // Its reason too, bounded: a long chain would repeat every link's.
+                        const std::string why = d->error.size() > 400 ? d->error.substr(0, 400) + "…" : d->error;
+                        end = {JobState::failed, "job " + dep + ", which it runs after, failed" + (why.empty() ? "" : ": " + why)};
+                    } else if (d->state == JobState::canceled) {
+                        end = {JobState::canceled, "job " + dep + ", which it runs after, was canceled"};
+                    } else if (d->state != JobState::succeeded) {
+                        all = false;
+                        continue;
+                    } else {
+                        continue;
+                    }
+                    break;
+                }
+                if (end && store_->finish(rec.id, end->first, unix_time_s(), end->second, "")) {
+                    spdlog::info("job {} {}: {}", rec.id, to_string(end->first), end->second);
+                } else if (!end && all && store_->release(rec.id)) {
+                    spdlog::info("job {} queued: every job it runs after has succeeded", rec.id);
+                    released(rec);
+                } else {
+                    continue;
+                }
+                changed = true;
+                publish_state(rec.id);
+            } catch (const std::exception& e) {
+                ++metrics_.store_errors;
+                spdlog::error("job {}: cannot settle its wait: {}", rec.id, e.what());
+            }
+        }
+    }
 }
 
 QueueError JobQueue::refused_submission(const StoreError& e) {

@@ -98,6 +98,11 @@ public:
     // it would have had never paused. Idempotent for a queued or running job; conflict for a
     // finished one.
     virtual api::JobStatus resume(const std::string& id) = 0;
+    // Jobs waiting for others (`after`): queued once every one has succeeded; failed or
+    // canceled, naming it, once one has failed or been canceled. Called wherever a job may have
+    // ended, and at start; a store read when none waits. Thread-safe; call it holding no lock
+    // of the kind's.
+    void settle_waiting();
     void delete_results(const std::string& id);  // throws QueueError not_found / conflict
     // The path of a finished job's result file ("image.png", ...); throws QueueError
     // not_found / conflict / gone.
@@ -139,6 +144,9 @@ protected:
     // What only the kind knows of a record: its place in the queue, a running job's progress
     // and latest pass. `locked`: the caller holds the kind's own lock (see LocalQueue).
     virtual void add_live(api::JobStatus& st, const JobRecord& rec, bool locked) = 0;
+    // A waiting job the store has just queued: the kind's own queue takes it (a farm's store
+    // queued its start task already).
+    virtual void released(const JobRecord& rec) { (void)rec; }
     // Whether the store answers, for readiness ("" when it does, or when the kind has nothing to ask).
     virtual std::string store_unreachable() { return ""; }
 
@@ -171,6 +179,7 @@ private:
     std::mutex store_health_mutex_;
     std::chrono::steady_clock::time_point store_refused_at_;
     std::string store_refusal_;  // the last refused write's reason, "" once a write succeeded
+    std::mutex settle_mutex_;    // one settle_waiting at a time (its events in order)
 };
 
 // Now, in seconds since 1970: the records' times.

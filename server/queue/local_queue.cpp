@@ -28,6 +28,7 @@ LocalQueue::LocalQueue(QueueConfig config)
     for (const JobRecord& r : store_->queued_in_order()) queue_.insert({r.priority, r.seq, r.id});
     if (!queue_.empty()) spdlog::info("{} queued job(s) restored", queue_.size());
     for (int i = 0; i < std::max(1, config_.concurrent_jobs); ++i) workers_.emplace_back([this] { worker(); });
+    settle_waiting();  // jobs whose dependencies ended while the server was down
 }
 
 LocalQueue::~LocalQueue() { shutdown(); }
@@ -58,13 +59,21 @@ api::JobStatus LocalQueue::enqueue(const api::Job& job, JobRecord rec) {
     } catch (const StoreError& e) {
         throw refused_submission(e);
     }
-    queue_.insert({rec.priority, rec.seq, rec.id});
+    if (rec.state == JobState::queued) queue_.insert({rec.priority, rec.seq, rec.id});
     // Before a worker can take it: "created" comes before its "running".
     api::JobStatus st = status_of(rec, true);
     publish("created", st);
     cv_.notify_one();
     queued(rec.id, job, rec.priority);
     return st;
+}
+
+void LocalQueue::released(const JobRecord& rec) {
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        queue_.insert({rec.priority, rec.seq, rec.id});
+    }
+    cv_.notify_one();
 }
 
 api::JobStatus LocalQueue::running_status(Running& r) {
@@ -149,7 +158,10 @@ api::JobStatus LocalQueue::cancel(const std::string& id) {
         }
     }
     api::JobStatus st = status(id);
-    if (canceled_queued) publish("state", st);  // a running job's ends when its worker stops it
+    if (canceled_queued) {
+        publish("state", st);  // a running job's ends when its worker stops it
+        settle_waiting();      // jobs that run after it are canceled too
+    }
     return st;
 }
 
@@ -273,6 +285,7 @@ void LocalQueue::worker() {
             running_.erase(rec.id);
         }
         publish_state(rec.id);  // finished, failed, canceled, or queued again by a shutdown
+        settle_waiting();       // jobs that run after it
         running.reset();
         release_free_memory();  // the job's film, images and a scene the cache did not keep
     }

@@ -62,6 +62,7 @@ private:
     };
 
     api::JobStatus enqueue(const api::Job& job, JobRecord rec) override;
+    void released(const JobRecord& rec) override;
     void add_live(api::JobStatus& st, const JobRecord& rec, bool locked) override;
 
     void worker();

@@ -189,6 +189,16 @@ if missing == 0 then redis.call('XADD', KEYS[3], '*', 'job', ARGV[2], 'kind', 'a
 return 1
 )lua";
 
+// Releases a waiting job (every job it runs after has succeeded): queued, with its start task.
+inline const std::string release_job = transition + R"lua(
+-- KEYS: priorities, task stream; ARGV: prefix, id, priority
+if transition(ARGV[1], ARGV[2], 'queued', 'waiting', '0', '', '') == 0 then return 0 end
+redis.call('ZADD', KEYS[1], ARGV[3], ARGV[3])
+redis.pcall('XGROUP', 'CREATE', KEYS[2], 'nodes', '0', 'MKSTREAM')
+redis.call('XADD', KEYS[2], '*', 'job', ARGV[2], 'kind', 'start', 'pass', '0', 'tile', '0')
+return 1
+)lua";
+
 // Renews a claim only while it is still this consumer's: a node resumed after a long stop must
 // not take back a task another node has claimed meanwhile.
 inline const std::string renew_claim = R"lua(

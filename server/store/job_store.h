@@ -58,6 +58,8 @@ public:
     virtual bool pause(const std::string& id) = 0;
     // paused → queued, in its place (priority, then submission order); false if it was not paused.
     virtual bool resume(const std::string& id) = 0;
+    // waiting → queued (every job it runs after has succeeded); false if it was not waiting.
+    virtual bool release(const std::string& id) = 0;
     // Any non-final state → final state with finished_at, error and report; false if already final.
     virtual bool finish(const std::string& id, JobState state, double finished_at, const std::string& error,
                         const std::string& report_json) = 0;

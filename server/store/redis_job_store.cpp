@@ -39,6 +39,7 @@ return seq
 const RedisScript kTransition{lua::transition_job};
 const RedisScript kPause{lua::pause_job};
 const RedisScript kResume{lua::resume_job};
+const RedisScript kRelease{lua::release_job};
 
 const RedisScript kRemoveFinal{R"lua(
 -- ARGV: prefix, id; KEYS: the job's cluster keys to drop with it
@@ -164,6 +165,14 @@ bool RedisJobStore::resume(const std::string& id) {
         const RedisValue pr = redis_.command({"HGET", keys::job(id), "priority"});
         if (pr.is_nil()) return false;
         return redis_.eval(kResume, {keys::job(id), keys::film(id), keys::tasks(std::stoll(pr.text))}, {keys::prefix, id}).as_int() == 1;
+    });
+}
+
+bool RedisJobStore::release(const std::string& id) {
+    return locked("release", [&] {
+        const RedisValue pr = redis_.command({"HGET", keys::job(id), "priority"});
+        if (pr.is_nil()) return false;
+        return redis_.eval(kRelease, {keys::priorities, keys::tasks(std::stoll(pr.text))}, {keys::prefix, id, pr.text}).as_int() == 1;
     });
 }
 

@@ -29,6 +29,7 @@ public:
                 const std::string& report_json) override;
     bool pause(const std::string& id) override;
     bool resume(const std::string& id) override;
+    bool release(const std::string& id) override;
     bool requeue(const std::string& id) override;
     int requeue_all_running() override;
     std::vector<JobRecord> queued_in_order() const override;

@@ -436,6 +436,12 @@ bool SqliteJobStore::pause(const std::string& id) {
     return impl_->change("pause", "UPDATE jobs SET state = 'paused' WHERE id = ?1 AND state IN ('queued', 'running')", id) == 1;
 }
 
+bool SqliteJobStore::release(const std::string& id) {
+    std::lock_guard lock(impl_->mu);
+    impl_->ensure_file();
+    return impl_->change("release", "UPDATE jobs SET state = 'queued' WHERE id = ?1 AND state = 'waiting'", id) == 1;
+}
+
 bool SqliteJobStore::resume(const std::string& id) {
     std::lock_guard lock(impl_->mu);
     impl_->ensure_file();

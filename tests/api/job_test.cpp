@@ -1,6 +1,8 @@
 #include "api/job.h"
 
 #include <gtest/gtest.h>
+
+#include <cstdio>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -110,6 +112,33 @@ TEST(RenderJob, SeedCoversInt64AndNoMore) {
     EXPECT_EQ(pointer_of(json::parse(R"({"scene":"a","seed":-1})")), "/seed");
 }
 
+// `after`: distinct job ids, at most kMaxAfter; each refusal names its place.
+TEST(RenderJob, AfterTakesDistinctJobIds) {
+    EXPECT_EQ(parse_render_job(json::parse(R"({"scene":"x","after":["00000000000000aa"]})")).after,
+              std::vector<std::string>{"00000000000000aa"});
+    EXPECT_TRUE(parse_render_job(json::parse(R"({"scene":"x"})")).after.empty());
+    for (const auto& [body, pointer] : std::vector<std::pair<const char*, const char*>>{
+             {R"({"scene":"x","after":"00000000000000aa"})", "/after"},
+             {R"({"scene":"x","after":["00000000000000AA"]})", "/after/0"},
+             {R"({"scene":"x","after":["00000000000000aa", 5]})", "/after/1"},
+             {R"({"scene":"x","after":["00000000000000aa","00000000000000aa"]})", "/after/1"},
+             {R"({"scene":"x","after":["../../etc/passwd"]})", "/after/0"}}) {
+        try {
+            parse_render_job(json::parse(body));
+            ADD_FAILURE() << body << " was accepted";
+        } catch (const InvalidJob& e) {
+            EXPECT_EQ(e.pointer(), pointer) << body;
+        }
+    }
+    json many = {{"scene", "x"}, {"after", json::array()}};
+    for (size_t i = 0; i <= kMaxAfter; ++i) {
+        char id[17];
+        std::snprintf(id, sizeof id, "%016zx", i);
+        many["after"].push_back(id);
+    }
+    EXPECT_THROW(parse_render_job(many), InvalidJob);
+}
+
 // Every field survives to_json and back, for a job far from the defaults.
 TEST(RenderJob, RoundTripsEveryField) {
     const json body = json::parse(R"({"scene":"x.dae","width":48,"height":36,"spp":64,"light_rays":4,
@@ -117,7 +146,8 @@ TEST(RenderJob, RoundTripsEveryField) {
         "light_selection":"power","adaptive":{"batch":16,"tolerance":0.25},"tile_size":16,"seed":7,"priority":3,
         "time_limit_s":12.5,"target_error":0.125,"reference":"0123456789abcdef","max_leaf_size":4,
         "triangle_test":"moller_trumbore","integrator":"path","sampler":"independent","environment":"sky",
-        "lens_radius":0.25,"focal_distance":3.5,"passes":["variance","albedo"],"denoise":true})");
+        "lens_radius":0.25,"focal_distance":3.5,"passes":["variance","albedo"],"denoise":true,
+        "after":["00000000000000aa","0123456789abcdef"]})");
     json want = body;
     want.update({{"frames", nullptr}, {"fps", 24.0}, {"chunk", 0}, {"animation", nullptr}, {"shutter", nullptr}});
     want["passes"] = {"albedo", "variance"};  // in the table's order

@@ -44,6 +44,8 @@ protected:
         ASSERT_NE(box.find(lamp), std::string::npos) << "the lamp of scenes/cornell_box.gltf";
         box.replace(box.find(lamp), lamp.size(), "\"emissiveStrength\": 0.0");
         std::ofstream(dir_ / "scenes" / "dark_box.gltf") << box;
+        // A scene the catalog lists and no node can load: a job on it fails on the nodes.
+        std::ofstream(dir_ / "scenes" / "broken_box.gltf") << "{\"asset\": {\"version\": \"2.0\"}, \"scenes\": [{\"nodes\": [7]}]}";
         ServiceConfig cfg;
         cfg.data_dir = (dir_ / "data").string();
         cfg.project_scenes = TESSERA_PROJECT_SCENES;
@@ -232,6 +234,43 @@ TEST_F(RenderNodeFarm, APausedJobResumedGivesOneProcessImageBitForBit) {
     } catch (const QueueError& e) {
         EXPECT_TRUE(e.code == "not-on-a-farm" || e.code == "job-finished") << e.code;
     }
+}
+
+// Jobs that run after others on the farm: a chain runs in order across the nodes; a job that fails
+// on a node fails the jobs after it, each naming the job it waited for.
+TEST_F(RenderNodeFarm, AChainRunsInOrderAndAFailureFailsTheRest) {
+    const json small = {{"scene", "cornell_box"}, {"width", 32}, {"height", 24}, {"spp", 16}, {"max_depth", 2}, {"tile_size", 16}};
+    auto after = [&](json j, const std::string& id) {
+        j["after"] = json::array({id});
+        return j;
+    };
+    auto wait_final = [&](const std::string& id) {
+        const auto t0 = std::chrono::steady_clock::now();
+        api::JobStatus s = service_->status(id);
+        while (!api::is_final(s.state) && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60)) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+            s = service_->status(id);
+        }
+        return s;
+    };
+    const std::string a = service_->submit(small).id;
+    const std::string b = service_->submit(after(small, a)).id;
+    const std::string c = service_->submit(after(small, b)).id;
+    json bad = small;
+    bad["scene"] = "broken_box";
+    const std::string d = service_->submit(bad).id;
+    const std::string e = service_->submit(after(small, d)).id;
+    const std::string f = service_->submit(after(small, e)).id;
+    const api::JobStatus sa = wait_final(a), sb = wait_final(b), sc = wait_final(c);
+    ASSERT_EQ(sc.state, api::JobState::succeeded) << api::to_json(sc).dump();
+    EXPECT_GE(sb.started_at, sa.finished_at);
+    EXPECT_GE(sc.started_at, sb.finished_at);
+    EXPECT_EQ(wait_final(d).state, api::JobState::failed);
+    const api::JobStatus se = wait_final(e), sf = wait_final(f);
+    EXPECT_EQ(se.state, api::JobState::failed);
+    EXPECT_NE(se.error.find("job " + d + ", which it runs after, failed"), std::string::npos) << se.error;
+    EXPECT_EQ(sf.state, api::JobState::failed);
+    EXPECT_NE(sf.error.find("job " + e), std::string::npos) << sf.error;
 }
 
 // A shot on the farm: the node that starts it renders it through the one shot runner into the
