@@ -4,6 +4,7 @@
 import { api, jobPath } from '/ui/api.js';
 import { facts, h, setText } from '/ui/dom.js';
 import { downloadLink } from '/ui/downloads.js';
+import { taskLog } from '/ui/task_log.js';
 import { openEventStream } from '/ui/events.js';
 import { fmtDuration, fmtPercent, fmtSci, fmtTime, shortId } from '/ui/format.js';
 import { cancelJob, pauseJob, removeResults, resumeJob } from '/ui/job_actions.js';
@@ -97,6 +98,7 @@ function renderBody(container, first) {
   plot.id = 'convergence-plot';
   const stopReason = h('p', { class: 'muted' });
   const downloads = h('div');
+  const log = taskLog(first.id);
   const reportBox = h('div', { class: 'report-grid' });
   const viewport = h('div', { class: 'viewport', tabindex: '0', role: 'region', 'aria-label': 'Image (scrolls when zoomed)' }, image.img, placeholder);
 
@@ -110,6 +112,7 @@ function renderBody(container, first) {
     h('section', { class: 'card', 'aria-labelledby': 'downloads-h' },
       h('h2', { id: 'downloads-h' }, 'Downloads'), downloads),
     reportBox,
+    log.el,
     h('details', { class: 'card settings' }, h('summary', {}, 'Settings'),
       facts(Object.entries(first.settings).map(([k, v]) => [k, settingValue(v)]), 'facts mono-values')));
 
@@ -198,6 +201,7 @@ function renderBody(container, first) {
 
   function update(j, prev) {
     job = j;
+    log.refresh(prev !== j.state);
     if (j.latest_pass) pass(j.latest_pass);
     if (prev !== j.state) {
       if (j.state === 'succeeded') loadReport();

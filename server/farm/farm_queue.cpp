@@ -192,6 +192,17 @@ api::JobStatus FarmQueue::resume(const std::string& id) {
     return status(id);
 }
 
+std::string FarmQueue::job_log(const std::string& id, size_t from) {
+    status(id);
+    try {
+        std::string out;
+        for (const std::string& line : redis_->task_log(id, from)) out += line + "\n";
+        return out;
+    } catch (const StoreError& e) {
+        throw store_refusal(e);
+    }
+}
+
 size_t FarmQueue::queue_depth() { return store_->count(JobState::queued); }
 
 FarmQueue::Look FarmQueue::look() {

@@ -45,6 +45,8 @@ public:
     // yet stored are queued again (RedisJobStore::resume). A shot or a comparison: 409, so far.
     api::JobStatus pause(const std::string& id) override;
     api::JobStatus resume(const std::string& id) override;
+    // The nodes' records in Redis (RenderNode keeps the newest kMaxTaskRecords).
+    std::string job_log(const std::string& id, size_t from) override;
     void shutdown() override;
     size_t queue_depth() override;
     SceneCacheCounts scene_cache_counts() const override;

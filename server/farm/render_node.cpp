@@ -29,6 +29,7 @@
 #include "engine/render/film_codec.h"
 #include "server/farm/tile_image_codec.h"
 #include "server/farm/shot_chunks.h"
+#include "server/queue/task_log.h"
 #include "server/store/job_results.h"
 #include "server/queue/scene_cache.h"
 
@@ -41,6 +42,8 @@ using nlohmann::json;
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+thread_local bool t_dropped = false;  // this thread's task was dropped (RenderNode::Impl::dropped)
 
 double now_s() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
 long long now_ms() {
@@ -319,34 +322,72 @@ struct RenderNode::Impl {
     }
 
     void run_task(Redis& r, const Task& t, std::atomic<bool>& cancel, const std::atomic<bool>& lost, std::atomic<bool>& acked) {
-        try {
-            // A first delivery needs no count; a task taken over from a silent node counts the
-            // takeovers, so a task that kills every node that takes it fails its job.
-            if (t.reclaimed) {
-                const std::string what = t.kind == "tile" ? "tile " + std::to_string(t.tile) + " of pass " + std::to_string(t.pass)
-                                                          : "the " + t.kind + " task" + (t.kind == "assemble" ? " of pass " + std::to_string(t.pass) : "");
-                const long long taken =
-                    r.command({"HINCRBY", keys::deliveries(t.job), t.kind + ":" + std::to_string(t.pass) + ":" + std::to_string(t.tile), "1"}).as_int();
-                if (taken + 1 > cfg.max_deliveries)
-                    throw JobFailure(what + " was delivered " + std::to_string(taken + 1) +
-                                     " times: the nodes that took it stopped answering (crashed, killed, out of memory?)");
+        // The job's log (task_log.h): this task, with what this thread logged while it ran it.
+        TaskRecord log;
+        log.task = t.kind;
+        log.node = name;
+        log.start = now_s();
+        if (t.kind == "tile" || t.kind == "assemble") log.pass = t.pass;
+        if (t.kind == "tile") log.tile = t.tile;
+        if (t.kind == "frames") log.frame = t.pass;  // the chunk's first frame (an index into the shot's frames)
+        t_dropped = false;
+        bool failed = false, acked_here = false;
+        {
+            TaskLogCapture capture(log);
+            try {
+                // A first delivery needs no count; a task taken over from a silent node counts the
+                // takeovers, so a task that kills every node that takes it fails its job.
+                if (t.reclaimed) {
+                    const std::string what = t.kind == "tile" ? "tile " + std::to_string(t.tile) + " of pass " + std::to_string(t.pass)
+                                                              : "the " + t.kind + " task" + (t.kind == "assemble" ? " of pass " + std::to_string(t.pass) : "");
+                    const long long taken =
+                        r.command({"HINCRBY", keys::deliveries(t.job), t.kind + ":" + std::to_string(t.pass) + ":" + std::to_string(t.tile), "1"}).as_int();
+                    log.attempt = int(taken) + 1;
+                    if (taken + 1 > cfg.max_deliveries)
+                        throw JobFailure(what + " was delivered " + std::to_string(taken + 1) +
+                                         " times: the nodes that took it stopped answering (crashed, killed, out of memory?)");
+                }
+                if (t.kind == "tile") acked_here = tile(r, t, cancel, acked);
+                else if (t.kind == "assemble") assemble(r, t);
+                else if (t.kind == "start") begin(r, t, cancel);
+                else if (t.kind == "frames") shot_chunk(r, t, cancel);
+                else spdlog::warn("node {}: unknown task kind '{}' dropped", name, t.kind);
+            } catch (const RedisError&) {
+                throw;
+            } catch (const SceneError& e) {
+                failed = true;
+                log.errors.push_back(std::string("scene: ") + e.what());
+                fail_job(r, t.job, std::string("scene: ") + e.what());
+            } catch (const std::exception& e) {
+                failed = true;
+                log.errors.push_back(e.what());
+                fail_job(r, t.job, e.what());
             }
-            if (t.kind == "tile") {
-                if (tile(r, t, cancel, acked)) return;
-            } else if (t.kind == "assemble") assemble(r, t);
-            else if (t.kind == "start") begin(r, t, cancel);
-            else if (t.kind == "frames") shot_chunk(r, t, cancel);
-            else spdlog::warn("node {}: unknown task kind '{}' dropped", name, t.kind);
-        } catch (const RedisError&) {
-            throw;
-        } catch (const SceneError& e) {
-            fail_job(r, t.job, std::string("scene: ") + e.what());
-        } catch (const std::exception& e) {
-            fail_job(r, t.job, e.what());
         }
+        log.end = now_s();
+        log.outcome = failed ? "failed" : (cancel || lost || stopping) ? "interrupted" : t_dropped ? "dropped" : "done";
+        record(r, t.job, log);
+        if (acked_here) return;
         if (!stopping && !lost) {
             acked = true;
             ack(r, t);
+        }
+    }
+
+    // A task that finds its work done or not wanted (a duplicate, a job no longer running).
+    void dropped() {
+        ++metrics.duplicates;
+        t_dropped = true;
+    }
+
+    // Appends a task to its job's log in Redis, keeping the newest kMaxTaskRecords. A log that
+    // cannot be written is not the task's failure.
+    void record(Redis& r, const std::string& job, const TaskRecord& log) {
+        try {
+            r.pipeline({{"RPUSH", keys::task_log(job), api::json_text(to_json(log))},
+                        {"LTRIM", keys::task_log(job), std::to_string(-kMaxTaskRecords), "-1"}});
+        } catch (const RedisError& e) {
+            spdlog::warn("node {}: job {}: the task's log line was not stored: {}", name, job, e.what());
         }
     }
 
@@ -358,7 +399,7 @@ struct RenderNode::Impl {
         const auto* as_render = info ? std::get_if<api::RenderJob>(&info->job) : nullptr;
         const bool whole = info && (std::holds_alternative<api::ComparisonJob>(info->job) || (as_render && as_render->frames));
         const bool rerun = st.text == "running" && whole;
-        if (st.text != "queued" && !rerun) { ++metrics.duplicates; return; }
+        if (st.text != "queued" && !rerun) { dropped(); return; }
         if (!info) return;
         ++metrics.starts;
         if (const auto* cj = std::get_if<api::ComparisonJob>(&info->job)) return compare(r, t, *cj, cancel);
@@ -527,7 +568,7 @@ struct RenderNode::Impl {
     // Returns whether the task was acknowledged (the commit script does it with the result).
     bool tile(Redis& r, const Task& t, std::atomic<bool>& cancel, std::atomic<bool>& acked) {
         const FarmRun run = run_state(r, t.job, t.pass);
-        if (run.state != "running" || run.pass != t.pass) { ++metrics.duplicates; return false; }
+        if (run.state != "running" || run.pass != t.pass) { dropped(); return false; }
         const auto info = job_info(r, t.job);
         if (!info) return false;
         const PassPlan& plan = info->plan;
@@ -580,14 +621,14 @@ struct RenderNode::Impl {
             metrics.rays += commit.stats.rays();
             metrics.render_micros += uint64_t(commit.seconds * 1e6);
         } else {
-            ++metrics.duplicates;  // another node stored it first: the same film, dropped
+            dropped();  // another node stored it first: the same film, dropped
         }
         return true;
     }
 
     void assemble(Redis& r, const Task& t) {
         const FarmRun run = read_run(r, t.job);
-        if (run.state != "running" || run.pass != t.pass) { ++metrics.duplicates; return; }
+        if (run.state != "running" || run.pass != t.pass) { dropped(); return; }
         const auto info = job_info(r, t.job);
         if (!info) return;
         const RenderSettings& s = info->settings;

@@ -132,6 +132,7 @@ std::string allowed_methods(const std::string& path) {
         {std::regex(R"(/v1/jobs/[^/:]+:(pause|resume))"), "POST"},
         {std::regex(R"(/v1/jobs/[^/]+)"), "GET, HEAD, DELETE"},
         {std::regex(R"(/v1/jobs/[^/]+/results)"), "DELETE"},
+        {std::regex(R"(/v1/jobs/[^/]+/log)"), "GET, HEAD"},
         {std::regex("/v1/jobs/[^/]+/(" + job_files_re() + ")"), "GET, HEAD"},
         {std::regex("/v1/jobs/[^/]+/frames/-?[0-9]{1,8}/(" + render_files_re() + ")"), "GET, HEAD"},
     };
@@ -661,6 +662,10 @@ void HttpApi::routes() {
     s.Delete(R"(/v1/jobs/([^/]+)/results)", [this](const httplib::Request& req, httplib::Response& res) {
         queue_.delete_results(req.matches[1]);
         res.status = 204;
+    });
+    s.Get(R"(/v1/jobs/([^/]+)/log)", [this](const httplib::Request& req, httplib::Response& res) {
+        const size_t from = size_param(req, "from", 0, 0, 1'000'000'000);
+        res.set_content(queue_.job_log(req.matches[1], from), "application/x-ndjson");
     });
     s.Get("/v1/job-schema", [this](const httplib::Request&, httplib::Response& res) {
         res.set_content(json_text(api::job_schema(queue_.config().job_limits)), "application/json");

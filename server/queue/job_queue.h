@@ -98,6 +98,8 @@ public:
     // it would have had never paused. Idempotent for a queued or running job; conflict for a
     // finished one.
     virtual api::JobStatus resume(const std::string& id) = 0;
+    // The job's log (task_log.h) as JSON lines, from its `from`th task on; throws not_found.
+    virtual std::string job_log(const std::string& id, size_t from) = 0;
     // Jobs waiting for others (`after`): queued once every one has succeeded; failed or
     // canceled, naming it, once one has failed or been canceled. Called wherever a job may have
     // ended, and at start; a store read when none waits. Thread-safe; call it holding no lock

@@ -1,5 +1,7 @@
 #include "server/queue/local_queue.h"
 
+#include "server/queue/task_log.h"
+
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
@@ -222,6 +224,11 @@ api::JobStatus LocalQueue::resume(const std::string& id) {
     return st;
 }
 
+std::string LocalQueue::job_log(const std::string& id, size_t from) {
+    status(id);  // not_found for unknown ids
+    return read_task_log((fs::path(job_dir(id)) / "log.jsonl").string(), from);
+}
+
 size_t LocalQueue::queue_depth() {
     std::lock_guard<std::mutex> lock(mutex_);
     return queue_.size();
@@ -271,7 +278,6 @@ void LocalQueue::worker() {
     JobRecord rec;
     std::shared_ptr<Running> running;
     while (take_next(rec, running)) {
-        spdlog::info("job {} running (attempt {})", rec.id, rec.attempts);
         publish("state", running_status(*running));
         try {
             run(rec, *running);
@@ -327,8 +333,33 @@ std::string LocalQueue::scene_source(const std::string& scene) {
 void LocalQueue::run(const JobRecord& rec, Running& running) {
     std::string error;
     api::JobOutcome outcome;
+    // The job's log: this run as one task (a shot's frames each a task of their own), with what
+    // the server logged meanwhile.
+    const std::string log_path = (fs::path(job_dir(rec.id)) / "log.jsonl").string();
+    TaskRecord task;
+    task.task = "render";
+    task.node = "local";
+    task.start = unix_time_s();
+    task.attempt = rec.attempts;
+    std::optional<TaskLogCapture> capture(std::in_place, task);
+    // Written before the job's state changes: a job seen finished has its whole log.
+    auto log_task = [&](const char* how) {
+        capture.reset();
+        std::error_code ec;
+        fs::create_directories(job_dir(rec.id), ec);  // a job that failed before it had a folder
+        task.end = unix_time_s();
+        task.outcome = how;
+        task.lines.push_back(std::string(error.empty() ? "info: " : "error: ") + "job " + how +
+                             (error.empty() ? "" : ": " + loggable(error, 2000)) + " after " +
+                             std::to_string(task.end - task.start) + " s");
+        if (!error.empty()) task.errors.push_back(error);
+        append_task_record(log_path, task);
+    };
+    spdlog::info("job {} running (attempt {})", rec.id, rec.attempts);
     try {
         const api::Job job = api::job_from_json(json::parse(rec.spec_json));
+        if (std::holds_alternative<api::ComparisonJob>(job)) task.task = "comparison";
+        else if (std::get<api::RenderJob>(job).frames) task.task = "shot";
         api::RunOptions opt;
         opt.scene_source = scene_source(api::scene_of(job));
         opt.load_limits = config_.load_limits;
@@ -378,6 +409,19 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
             publish("pass", running_status(running), &ps);
         };
         cb.frame = [&](const api::FrameDone& f) {
+            // The frame's task: what was logged since the last one.
+            TaskRecord fr;
+            fr.task = "frame";
+            fr.frame = f.frame;
+            fr.node = "local";
+            fr.end = unix_time_s();
+            fr.start = fr.end - f.seconds;
+            fr.attempt = rec.attempts;
+            fr.outcome = "done";
+            std::swap(fr.lines, task.lines);
+            std::swap(fr.warnings, task.warnings);
+            std::swap(fr.errors, task.errors);
+            append_task_record(log_path, fr);
             {
                 std::lock_guard<std::mutex> lock(running.pass_mutex);
                 if (running.shot) {
@@ -405,6 +449,7 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
     }
     if (error.empty() && outcome.stopped) {
         // A cancel wins over a pause, and both over a shutdown (which would queue the job again).
+        log_task(running.cancel ? "canceled" : running.pause ? "paused" : "interrupted");
         if (running.cancel) {
             if (until_stored(rec.id, "canceled", [&] { store_->finish(rec.id, JobState::canceled, unix_time_s(), "", ""); })) {
                 remove_checkpoints(job_dir(rec.id));
@@ -425,6 +470,7 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         return;
     }
     if (!error.empty()) {
+        log_task("failed");
         remove_checkpoints(job_dir(rec.id));
         if (until_stored(rec.id, "failed", [&] { store_->finish(rec.id, JobState::failed, unix_time_s(), error, ""); }))
             spdlog::error("job {} failed: {}", rec.id, loggable(error, 2000));
@@ -434,6 +480,8 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         metrics_.rays += outcome.render->stats.rays();
         metrics_.render_micros += uint64_t(outcome.render->stats.render_seconds * 1e6);
     }
+    if (outcome.render) task.warnings.insert(task.warnings.end(), outcome.render->scene_build.warnings.begin(), outcome.render->scene_build.warnings.end());
+    log_task("done");
     const std::string summary = json_text(outcome.summary);
     if (until_stored(rec.id, "succeeded", [&] { store_->finish(rec.id, JobState::succeeded, unix_time_s(), "", summary); }))
         spdlog::info("job {} succeeded in {:.3f} s", rec.id, outcome.render ? outcome.render->timings.total_s : 0.0);

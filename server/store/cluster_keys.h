@@ -27,6 +27,8 @@ inline std::string node_tiles(const std::string& id) { return prefix + "nodetile
 inline std::string node_seconds(const std::string& id) { return prefix + "nodeseconds:" + id; }
 // A job's convergence curve: one JSON point per pass.
 inline std::string curve(const std::string& id) { return prefix + "curve:" + id; }
+// The job's log, a task a line (JSON, server/queue/task_log.h), oldest first.
+inline std::string task_log(const std::string& id) { return prefix + "log:" + id; }
 // What a job's scene is (SceneRef::encode), written by the API node before the job is queued.
 inline std::string job_scene(const std::string& id) { return prefix + "jobscene:" + id; }
 // A job's environment map, when it names one (SceneRef::encode of the .exr/.hdr file, whose

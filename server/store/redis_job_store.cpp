@@ -176,6 +176,14 @@ bool RedisJobStore::release(const std::string& id) {
     });
 }
 
+std::vector<std::string> RedisJobStore::task_log(const std::string& id, size_t from) const {
+    return locked("task log", [&] {
+        std::vector<std::string> lines;
+        for (const auto& v : redis_.command({"LRANGE", keys::task_log(id), std::to_string(from), "-1"}).items) lines.push_back(v.text);
+        return lines;
+    });
+}
+
 bool RedisJobStore::requeue(const std::string& id) {
     return locked("requeue", [&] {
         return redis_.eval(kTransition, {}, {keys::prefix, id, "queued", "running", "0", "", ""}).as_int() == 1;
@@ -212,7 +220,7 @@ bool RedisJobStore::remove_final(const std::string& id) {
     return locked("remove", [&] {
         return redis_.eval(kRemoveFinal,
                            {keys::film(id), keys::deliveries(id), keys::node_tiles(id), keys::node_seconds(id), keys::curve(id),
-                            keys::job_scene(id), keys::job_environment(id), keys::sums(id), keys::shot_chunks(id), keys::shot_done(id)},
+                            keys::job_scene(id), keys::job_environment(id), keys::sums(id), keys::shot_chunks(id), keys::shot_done(id), keys::task_log(id)},
                            {keys::prefix, id})
                    .as_int() == 1;
     });

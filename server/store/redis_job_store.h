@@ -30,6 +30,8 @@ public:
     bool pause(const std::string& id) override;
     bool resume(const std::string& id) override;
     bool release(const std::string& id) override;
+    // The job's task log (keys::task_log), from its `from`th line on.
+    std::vector<std::string> task_log(const std::string& id, size_t from) const;
     bool requeue(const std::string& id) override;
     int requeue_all_running() override;
     std::vector<JobRecord> queued_in_order() const override;

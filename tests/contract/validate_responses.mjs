@@ -82,7 +82,12 @@ async function call(method, path, {body, type, auth = true, headers = {}} = {}) 
   if (resp.content) {
     const media = Object.entries(resp.content).find(([k]) => k.split(';')[0].trim() === ctype);
     if (!media) fail(`${where}: Content-Type '${ctype}' not among ${Object.keys(resp.content).join(', ')}`);
-    else if (media[1].schema && ctype.endsWith('json')) validate(media[1].schema, text, where);
+    else if (ctype === 'application/x-ndjson') {
+      // JSON lines: each line against the media's `x-line-schema`.
+      const line = resolve(media[1]['x-line-schema']);
+      if (!line) fail(`${where}: JSON lines with no x-line-schema`);
+      else for (const l of text.split('\n').filter((l) => l)) validate(line, l, where);
+    } else if (media[1].schema && ctype.endsWith('json')) validate(media[1].schema, text, where);
   } else if (bytes.length > 0) {
     fail(`${where}: a body where the spec documents none`);
   }
@@ -251,6 +256,8 @@ for (const f of files.slice(0, 3)) {
   const r = expect(await call('GET', `/v1/jobs/${running.id}/${f}`), 200, `${f} of a running job's latest pass`);
   if (!r.headers.get('x-tessera-pass') || !r.headers.get('x-tessera-pass-spp')) fail(`${f} of a running job: no X-Tessera-Pass headers`);
 }
+// The log: JSON lines, each a task (404 for an unknown job).
+expect(await call('GET', '/v1/jobs/0123456789abcdef/log'), 404, 'the log of an unknown job');
 // Paused (200, idempotent) and resumed (200); GET there is a 405; a finished job's is a 409.
 expect(await call('POST', '/v1/jobs/0123456789abcdef:pause'), 404, 'pause an unknown job');
 expect(await call('POST', '/v1/jobs/0123456789abcdef:resume'), 404, 'resume an unknown job');
@@ -272,8 +279,15 @@ for (const f of files) expect(await call('GET', `/v1/jobs/${unstarted.id}/${f}`)
 await call('DELETE', `/v1/jobs/${unstarted.id}`);
 await call('DELETE', `/v1/jobs/${blocker.id}`);
 
-// A finished job: every file, then deleted (204) and gone (410).
+// A finished job: its log (a task at least), every file, then deleted (204) and gone (410).
 await waitState(job.id, ['succeeded']);
+{
+  const log = expect(await call('GET', `/v1/jobs/${job.id}/log`), 200, 'the log of a finished job');
+  const lines = log.text.split('\n').filter((l) => l);
+  if (lines.length < 1 || JSON.parse(lines[0]).outcome !== 'done') fail(`the log of a finished job: ${log.text.slice(0, 300)}`);
+  const rest = expect(await call('GET', `/v1/jobs/${job.id}/log?from=${lines.length}`), 200, 'the log from its end');
+  if (rest.text !== '') fail(`the log from its end is not empty: ${rest.text.slice(0, 200)}`);
+}
 for (const f of files) {
   const r = expect(await call('GET', `/v1/jobs/${job.id}/${f}`), 200, f);
   if (r.headers.get('x-tessera-pass')) fail(`${f} of a finished job carries X-Tessera-Pass`);

@@ -257,6 +257,13 @@ try {
     await shot('shot');
   }
 
+  // 6c. The job's log: opened, a row a task, with how it ended.
+  await page.goto(`${base}/#/jobs/${id}`);
+  await page.waitForSelector('#job-log summary');
+  await page.click('#job-log summary');
+  await page.waitForSelector('#job-log tbody tr[data-outcome="done"]', {timeout: 10000});
+  check(true, "the job's log shows its tasks");
+
   // 7. A phone's width: nothing wider than the screen.
   await page.setViewportSize({width: 375, height: 800});
   await page.goto(`${base}/#/jobs/${id}`);

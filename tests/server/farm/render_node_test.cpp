@@ -8,6 +8,9 @@
 #include "server/farm/render_node.h"
 
 #include <gtest/gtest.h>
+
+#include <map>
+#include <sstream>
 #include <unistd.h>
 
 #include <chrono>
@@ -173,6 +176,23 @@ TEST_F(RenderNodeFarm, EveryPassScheduleGivesOneProcessImageBitForBit) {
         EXPECT_EQ(fr["convergence"]["points"].size(), orep["convergence"]["points"].size());
         EXPECT_EQ(fr["scene"]["built"], orep["scene"]["built"]) << "the same light (the default sky where there is none)";
         EXPECT_EQ(fr["nodes"].size() >= 1, true) << "the farm's report names its nodes";
+        // Its log: the start, every tile of every pass and each assembly, by named nodes; the
+        // start with the line its node logged.
+        std::istringstream log(service_->job_log(id, 0));
+        std::map<std::string, int> tasks;
+        bool start_line = false;
+        for (std::string line; std::getline(log, line);) {
+            const json t = json::parse(line);
+            if (t["outcome"] != "done") continue;
+            ++tasks[t["task"].get<std::string>()];
+            EXPECT_EQ(t["node"].get<std::string>().rfind("test-node-", 0), 0u) << line;
+            if (t["task"] == "start")
+                for (const auto& l : t["lines"]) start_line = start_line || l.get<std::string>().find("tiles per pass") != std::string::npos;
+        }
+        EXPECT_EQ(tasks["start"], 1);
+        EXPECT_GE(tasks["tile"], 1);
+        EXPECT_EQ(tasks["assemble"] >= 1, true);
+        EXPECT_TRUE(start_line) << "the node's own line in its task";
     }
 }
 

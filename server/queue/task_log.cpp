@@ -1,0 +1,85 @@
+#include "server/queue/task_log.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <memory>
+#include <mutex>
+
+#include <spdlog/sinks/sink.h>
+#include <spdlog/spdlog.h>
+
+#include "api/json_text.h"
+
+namespace tessera::server {
+
+namespace {
+
+thread_local TaskRecord* t_record = nullptr;  // the innermost capture's
+
+void keep(std::vector<std::string>& v, const std::string& line) {
+    if (v.size() < kMaxTaskLines) v.push_back(line);
+    else if (v.size() == kMaxTaskLines) v.push_back("… further lines not kept");
+}
+
+// A sink beside the console's: it hands each line to the capture of the thread that logs it.
+class CaptureSink final : public spdlog::sinks::sink {
+public:
+    void log(const spdlog::details::log_msg& msg) override {
+        TaskRecord* r = t_record;
+        if (!r) return;
+        const std::string_view payload(msg.payload.data(), std::min<size_t>(msg.payload.size(), 2048));
+        const auto level = spdlog::level::to_string_view(msg.level);
+        std::string line(level.data(), level.size());
+        line += ": ";
+        line += payload;
+        keep(r->lines, line);
+        if (msg.level == spdlog::level::warn) keep(r->warnings, std::string(payload));
+        if (msg.level >= spdlog::level::err) keep(r->errors, std::string(payload));
+    }
+    void flush() override {}
+    void set_pattern(const std::string&) override {}
+    void set_formatter(std::unique_ptr<spdlog::formatter>) override {}
+};
+
+// Installed before main, while one thread runs: the default logger's sinks are not to be
+// changed once threads log.
+const bool kInstalled = [] {
+    spdlog::default_logger()->sinks().push_back(std::make_shared<CaptureSink>());
+    return true;
+}();
+
+}  // namespace
+
+nlohmann::json to_json(const TaskRecord& r) {
+    auto opt = [](const std::optional<int>& v) { return v ? nlohmann::json(*v) : nlohmann::json(nullptr); };
+    return {{"task", r.task}, {"pass", opt(r.pass)}, {"tile", opt(r.tile)}, {"frame", opt(r.frame)}, {"node", r.node},
+            {"start", r.start}, {"end", r.end}, {"attempt", r.attempt}, {"outcome", r.outcome},
+            {"warnings", r.warnings}, {"errors", r.errors}, {"lines", r.lines}};
+}
+
+TaskLogCapture::TaskLogCapture(TaskRecord& into) : outer_(t_record) {
+    (void)kInstalled;
+    t_record = &into;
+}
+
+TaskLogCapture::~TaskLogCapture() { t_record = outer_; }
+
+void append_task_record(const std::string& path, const TaskRecord& r) {
+    const std::string line = api::json_text(to_json(r)) + "\n";
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+    bool ok = fd >= 0 && ::write(fd, line.data(), line.size()) == ssize_t(line.size());
+    if (fd >= 0) ok = ::close(fd) == 0 && ok;
+    if (!ok) spdlog::warn("cannot append to the job log {}", path);
+}
+
+std::string read_task_log(const std::string& path, size_t from) {
+    std::ifstream in(path, std::ios::binary);
+    std::string out, line;
+    for (size_t n = 0; std::getline(in, line); ++n)
+        if (n >= from && !line.empty()) out += line + "\n";
+    return out;
+}
+
+}  // namespace tessera::server

@@ -1,0 +1,52 @@
+#pragma once
+// A job's log, task by task: what each task was (one process's run of the job or a frame of its
+// shot; a farm node's start, tile, assembly or chunk of frames), which node ran it, when, at
+// which attempt, how it ended, and the lines the server logged while it ran it.
+// GET /v1/jobs/{id}/log serves it as JSON lines, one task a line, oldest first.
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace tessera::server {
+
+struct TaskRecord {
+    std::string task;                     // render, shot, comparison, frame; start, tile, assemble, frames
+    std::optional<int> pass, tile, frame;  // where the task has them
+    std::string node;                     // the render node's name; "local" for one process
+    double start = 0, end = 0;            // unix seconds
+    int attempt = 1;                      // the job's start (one process) or the task's delivery (farm)
+    std::string outcome;                  // done, failed, canceled, paused, interrupted, dropped
+    std::vector<std::string> warnings, errors, lines;
+};
+
+nlohmann::json to_json(const TaskRecord& r);
+
+// What a task keeps: lines beyond these are counted in one last line, and a line is cut at 2 KiB.
+inline constexpr size_t kMaxTaskLines = 200;
+// The most task records a farm keeps per job (the oldest go first).
+inline constexpr long long kMaxTaskRecords = 20000;
+
+// Collects what this thread logs (through spdlog, at the logger's level) into `into` while it
+// lives: every line in `lines`, warnings and errors also apart. Nested, the innermost collects.
+class TaskLogCapture {
+public:
+    explicit TaskLogCapture(TaskRecord& into);
+    ~TaskLogCapture();
+    TaskLogCapture(const TaskLogCapture&) = delete;
+    TaskLogCapture& operator=(const TaskLogCapture&) = delete;
+
+private:
+    TaskRecord* outer_;
+};
+
+// Appends one record to a one-process job's log file (a line, written whole with O_APPEND).
+// Logged, not thrown, when the disk refuses: a log must not fail its job.
+void append_task_record(const std::string& path, const TaskRecord& r);
+
+// Lines `from` onwards of a log file (empty when there is none).
+std::string read_task_log(const std::string& path, size_t from);
+
+}  // namespace tessera::server
