@@ -128,6 +128,10 @@ int priority_of(const Job& job) {
     return std::visit([](const auto& j) { return j.priority; }, job);
 }
 
+const std::optional<NotifySpec>& notify_of(const Job& job) {
+    return std::visit([](const auto& j) -> const std::optional<NotifySpec>& { return j.notify; }, job);
+}
+
 const std::vector<std::string>& after_of(const Job& job) {
     return std::visit([](const auto& j) -> const std::vector<std::string>& { return j.after; }, job);
 }

@@ -56,6 +56,14 @@ struct FrameSet {
 uint64_t frame_seed(uint64_t seed, int frame);
 
 // One image, or a shot: the scene, how to render it, and its place in the queue.
+// Where a job's status is POSTed when it ends (and after each frame of a shot, with `frames`),
+// signed by the server (server/queue/notifier.h).
+struct NotifySpec {
+    std::string url;      // http://host[:port]/path
+    bool frames = false;  // a shot's frames too
+    bool operator==(const NotifySpec&) const = default;
+};
+
 struct RenderJob {
     std::string scene;
     RenderSettings render;             // engine settings; `threads` is the runner's, not the job's
@@ -76,6 +84,7 @@ struct RenderJob {
     std::optional<std::pair<double, double>> shutter;
     // Jobs this one runs after: it waits until every one has succeeded (JobState::waiting).
     std::vector<std::string> after;
+    std::optional<NotifySpec> notify;
     // A shot's frame as the engine renders it: the job with that frame's seed.
     RenderSettings frame_settings(int frame) const;
 };
@@ -99,6 +108,7 @@ struct ComparisonJob {
     bool standard_configs = true;  // "configs": "standard"
     std::vector<ComparisonConfigJob> configs;
     std::vector<std::string> after;  // as a render job's
+    std::optional<NotifySpec> notify;
 };
 
 using Job = std::variant<RenderJob, ComparisonJob>;
@@ -123,6 +133,7 @@ Job job_from_json(const nlohmann::json& stored);
 const std::string& scene_of(const Job& job);
 int priority_of(const Job& job);
 const std::vector<std::string>& after_of(const Job& job);
+const std::optional<NotifySpec>& notify_of(const Job& job);
 // The most jobs one job may run after.
 inline constexpr size_t kMaxAfter = 64;
 

@@ -287,6 +287,62 @@ void set_after(Job& j, const json& v, const ParseContext& ctx) {
 template <class Job>
 json get_after(const Job& j) { return j.after; }
 
+// "notify": {"url": "http://host[:port]/path", "frames": false} or null. Whether the server may
+// call the URL is the queue's to check (its allow list).
+template <class Job>
+void set_notify(Job& j, const json& v, const ParseContext& ctx) {
+    const std::string& p = ctx.pointer;
+    if (v.is_null()) {
+        j.notify.reset();
+        return;
+    }
+    if (!v.is_object()) throw InvalidJob(p, p + " must be {\"url\": \"http://host[:port]/path\", \"frames\": false} or null");
+    NotifySpec n;
+    for (const auto& [k, x] : v.items()) {
+        const std::string at = p + "/" + k;
+        if (k == "url") {
+            if (!x.is_string()) throw InvalidJob(at, at + " must be a string");
+            n.url = x.template get<std::string>();
+        } else if (k == "frames") {
+            if (!x.is_boolean()) throw InvalidJob(at, at + " must be true or false");
+            n.frames = x.template get<bool>();
+        } else {
+            throw InvalidJob(at, "unknown field " + at + " (expected url, frames)");
+        }
+    }
+    const std::string at = p + "/url";
+    if (n.url.empty()) throw InvalidJob(at, at + " is required");
+    if (n.url.size() > 2048) throw InvalidJob(at, at + " is longer than 2048 characters");
+    if (n.url.rfind("http://", 0) != 0) throw InvalidJob(at, at + " must be an http:// URL (https is not supported yet)");
+    for (unsigned char c : n.url)
+        if (c <= 0x20 || c >= 0x7f) throw InvalidJob(at, at + " holds a space or a character outside printable ASCII");
+    const std::string rest = n.url.substr(7);
+    const std::string authority = rest.substr(0, rest.find('/'));
+    if (authority.empty()) throw InvalidJob(at, at + " names no host");
+    if (authority.find('@') != std::string::npos) throw InvalidJob(at, at + " must not carry a user or password");
+    j.notify = std::move(n);
+}
+
+template <class Job>
+json get_notify(const Job& j) {
+    if (!j.notify) return nullptr;
+    return {{"url", j.notify->url}, {"frames", j.notify->frames}};
+}
+
+template <class Job>
+Field<Job> notify_field() {
+    Field<Job> f = field<Job>("notify", FieldKind::object,
+                              "{url, frames}: the job's status is POSTed to url when it ends (and after each frame of a shot, "
+                              "with frames), signed with HMAC-SHA256 in X-Tessera-Signature; only URLs the server's --notify-allow "
+                              "admits.",
+                              "null");
+    f.nullable = true;
+    f.set = &set_notify<Job>;
+    f.get = &get_notify<Job>;
+    f.per_config = false;
+    return f;
+}
+
 template <class Job>
 Field<Job> after_field() {
     Field<Job> f = field<Job>("after", FieldKind::object,
@@ -448,6 +504,7 @@ const Field<RenderJob> kRenderFields[] = {
         return f;
     }(),
     after_field<RenderJob>(),
+    notify_field<RenderJob>(),
     [] {
         Field<RenderJob> f = field<RenderJob>("reference", FieldKind::job_id, "A finished job whose image the error is measured against.",
                            "null");
@@ -553,6 +610,7 @@ const Field<ComparisonJob> kComparisonFields[] = {
         return f;
     }(),
     after_field<ComparisonJob>(),
+    notify_field<ComparisonJob>(),
 };
 
 }  // namespace

@@ -72,6 +72,19 @@ int serve_command(int argc, char** argv) {
            "a running job's film is written to its folder every this many seconds of rendering (0: only when it "
            "stops); after a crash or restart it continues from there")
         ->check(CLI::Range(0.0, 86400.0));
+    option("notify-secret", o.service.notify.secret,
+           "the key of the HMAC-SHA256 that signs jobs' notifications (X-Tessera-Signature); without it jobs asking for "
+           "notifications are refused. Give it as TESSERA_NOTIFY_SECRET rather than on the command line, which others "
+           "may read")
+        ->type_name("KEY");
+    option("notify-allow", o.service.notify.allow,
+           "where notifications may be sent: host, *.domain or *, each with :port or :* (none: port 80), comma-separated; "
+           "an address of this server's own network (loopback, private, link-local) only by an entry naming the host itself")
+        ->type_name("HOSTS")
+        ->delimiter(',');
+    option("notify-attempts", o.service.notify.max_attempts, "tries of a notification the receiver fails (5xx, 408, 429, no answer), "
+                                                            "1 s apart doubling")
+        ->check(CLI::Range(1, 20));
     option("max-queued", o.service.max_queued, "queued jobs before 429")->check(CLI::Range(1, 10'000'000));
     option("max-body", o.http.max_job_body, "bytes of a job request body")->type_name("BYTES")->check(CLI::Range(256LL, 1LL << 30));
     option("max-upload", o.http.max_upload, "bytes of a scene upload")->type_name("BYTES")->check(CLI::Range(1024LL, 1LL << 34));

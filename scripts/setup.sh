@@ -23,6 +23,8 @@ packages=(
   # the server's durable job records (one process), and a render farm's queue: Redis 7 and
   # its C client hiredis; the farm tests start a real redis-server
   libsqlite3-dev redis-server libhiredis-dev
+  # notifications are signed with HMAC-SHA256 (OpenSSL's libcrypto)
+  libssl-dev
   # Intel Embree 3, the reference our BVH is measured against (bvh "embree")
   libembree-dev
   # libFuzzer comes with clang's runtime

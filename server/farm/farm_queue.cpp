@@ -1,5 +1,7 @@
 #include "server/farm/farm_queue.h"
 
+#include "api/json_text.h"
+
 #include <algorithm>
 #include <chrono>
 
@@ -39,12 +41,24 @@ FarmQueue::FarmQueue(const ServiceConfig& config) : JobQueue(config) {
     } catch (const std::exception& e) {
         spdlog::warn("events: cannot read the farm's jobs: {}", e.what());
     }
+    start_notifier("api");
     watcher_ = std::thread([this, first = std::move(first)]() mutable { watch(std::move(first)); });
 }
+
+void FarmQueue::record_task(const std::string& job, const TaskRecord& task) {
+    try {
+        redis_->append_task_log(job, api::json_text(to_json(task)));
+    } catch (const std::exception& e) {
+        spdlog::warn("job {}: a notification's log line was not stored: {}", job, e.what());
+    }
+}
+
+bool FarmQueue::claim_notification(const std::string& id, const std::string& event) { return redis_->claim_once("notified:" + id + ":" + event); }
 
 FarmQueue::~FarmQueue() { shutdown(); }
 
 void FarmQueue::shutdown() {
+    stop_notifier();
     accepting_ = false;
     {
         std::lock_guard<std::mutex> lock(stop_mutex_);
@@ -247,11 +261,15 @@ void FarmQueue::watch(std::optional<Look> first) {
                 }
             seen = std::move(now);
             baseline = false;
-            if (!listening) continue;
+            // Records are read for listeners, and for a job's end (its notification, which one
+            // API node sends: claim_notification).
             for (const auto& [id, type] : changes) {
+                if (!listening && std::string(type) == "progress") continue;
                 const std::optional<JobRecord> rec = store_->get(id);
                 if (!rec) continue;
                 const api::JobStatus st = status_of(*rec);
+                if (api::is_final(st.state)) notify(st);
+                if (!listening) continue;
                 publish(type, st);
                 // New to us after it started: created, then the state it has reached.
                 if (std::string(type) == "created" && rec->state != JobState::queued) publish("state", st);

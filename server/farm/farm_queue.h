@@ -45,8 +45,10 @@ public:
     // yet stored are queued again (RedisJobStore::resume). A shot or a comparison: 409, so far.
     api::JobStatus pause(const std::string& id) override;
     api::JobStatus resume(const std::string& id) override;
-    // The nodes' records in Redis (RenderNode keeps the newest kMaxTaskRecords).
+    // The nodes' records in Redis (RenderNode keeps the newest keys::max_task_records).
     std::string job_log(const std::string& id, size_t from) override;
+    void record_task(const std::string& job, const TaskRecord& task) override;
+    bool claim_notification(const std::string& id, const std::string& event) override;
     void shutdown() override;
     size_t queue_depth() override;
     SceneCacheCounts scene_cache_counts() const override;

@@ -380,12 +380,12 @@ struct RenderNode::Impl {
         t_dropped = true;
     }
 
-    // Appends a task to its job's log in Redis, keeping the newest kMaxTaskRecords. A log that
+    // Appends a task to its job's log in Redis, keeping the newest keys::max_task_records. A log that
     // cannot be written is not the task's failure.
     void record(Redis& r, const std::string& job, const TaskRecord& log) {
         try {
             r.pipeline({{"RPUSH", keys::task_log(job), api::json_text(to_json(log))},
-                        {"LTRIM", keys::task_log(job), std::to_string(-kMaxTaskRecords), "-1"}});
+                        {"LTRIM", keys::task_log(job), std::to_string(-keys::max_task_records), "-1"}});
         } catch (const RedisError& e) {
             spdlog::warn("node {}: job {}: the task's log line was not stored: {}", name, job, e.what());
         }

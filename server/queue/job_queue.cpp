@@ -187,6 +187,18 @@ api::JobStatus JobQueue::accept(const api::Job& job) {
             throw QueueError(QueueErrorKind::invalid, "invalid-field", "Invalid job", "no job " + after[i] + " to run after")
                 .with_field("/after/" + std::to_string(i));
     }
+    // A notification's URL must be one this server may call, now (and again when it sends).
+    if (const auto& n = api::notify_of(job)) {
+        if (!notifier_)
+            throw QueueError(QueueErrorKind::invalid, "invalid-field", "Invalid job",
+                             "this server sends no notifications (it was started without --notify-secret)").with_field("/notify");
+        try {
+            admitted_address(n->url, notifier_->policy());
+        } catch (const std::invalid_argument& e) {
+            throw QueueError(QueueErrorKind::invalid, "invalid-field", "Invalid job", std::string("notify.url: ") + e.what())
+                .with_field("/notify/url");
+        }
+    }
     JobRecord rec;
     rec.id = new_id();
     rec.state = after.empty() ? JobState::queued : JobState::waiting;
@@ -198,6 +210,31 @@ api::JobStatus JobQueue::accept(const api::Job& job) {
     if (after.empty()) return st;
     settle_waiting();  // the jobs it runs after may have ended already
     return status(id);
+}
+
+void JobQueue::start_notifier(const std::string& node) {
+    if (config_.notify.secret.empty()) return;
+    notifier_ = std::make_unique<Notifier>(config_.notify, node, [this](const std::string& job, const TaskRecord& t) { record_task(job, t); });
+}
+
+void JobQueue::stop_notifier() {
+    if (notifier_) notifier_->stop();
+}
+
+void JobQueue::notify(const api::JobStatus& st, const std::string& event) {
+    if (!notifier_ || !st.settings.is_object()) return;
+    const json n = st.settings.value("notify", json());
+    if (!n.is_object() || !n.contains("url") || !n["url"].is_string()) return;
+    const std::string what = event.empty() ? to_string(st.state) : event;
+    if (what == "frame" && !n.value("frames", false)) return;
+    try {
+        if (!claim_notification(st.id, what)) return;
+    } catch (const std::exception& e) {
+        spdlog::warn("job {}: the {} notification cannot be claimed: {}", st.id, what, e.what());
+        return;
+    }
+    const json body = {{"event", what}, {"sent_at", unix_time_s()}, {"job", api::to_json(st)}};
+    notifier_->send(st.id, n["url"].get<std::string>(), what, json_text(body));
 }
 
 void JobQueue::settle_waiting() {
@@ -463,7 +500,9 @@ void JobQueue::publish(const char* type, const api::JobStatus& status, const api
 
 void JobQueue::publish_state(const std::string& id) {
     try {
-        publish("state", status(id));
+        const api::JobStatus st = status(id);
+        publish("state", st);
+        if (api::is_final(st.state)) notify(st);
     } catch (const std::exception& e) {
         spdlog::warn("job {}: no state event: {}", id, e.what());
     }

@@ -25,6 +25,7 @@
 #include "engine/scene/scene_description.h"
 #include "engine/render/image.h"
 #include "server/queue/job_events.h"
+#include "server/queue/notifier.h"
 #include "server/queue/queue_error.h"
 #include "server/queue/scene_catalog.h"
 #include "server/store/job_store.h"
@@ -46,6 +47,7 @@ struct QueueConfig {
     // A running job's film is written to its folder this often (seconds of rendering; 0: only
     // when it is stopped): after a crash, kill -9 or a restart it continues from there.
     double checkpoint_s = 30;
+    NotifyPolicy notify;  // --notify-secret, --notify-allow (notifier.h)
 };
 
 struct QueueMetrics {
@@ -146,6 +148,16 @@ protected:
     // What only the kind knows of a record: its place in the queue, a running job's progress
     // and latest pass. `locked`: the caller holds the kind's own lock (see LocalQueue).
     virtual void add_live(api::JobStatus& st, const JobRecord& rec, bool locked) = 0;
+    // Starts the notifier when the server has a secret (the kind's constructor, last: its
+    // record writes the kind's log); stop_notifier() in the kind's shutdown, first.
+    void start_notifier(const std::string& node);
+    void stop_notifier();
+    // Puts a notification attempt in the job's log.
+    virtual void record_task(const std::string& job, const TaskRecord& task) = 0;
+    // Whether this process sends the job's `event` notification (a farm's API nodes: one of them).
+    virtual bool claim_notification(const std::string& id, const std::string& event) { (void)id; (void)event; return true; }
+    // Sends the job's notification for `event` (its final state when empty) if it asked for one.
+    void notify(const api::JobStatus& st, const std::string& event = "");
     // A waiting job the store has just queued: the kind's own queue takes it (a farm's store
     // queued its start task already).
     virtual void released(const JobRecord& rec) { (void)rec; }
@@ -182,6 +194,7 @@ private:
     std::chrono::steady_clock::time_point store_refused_at_;
     std::string store_refusal_;  // the last refused write's reason, "" once a write succeeded
     std::mutex settle_mutex_;    // one settle_waiting at a time (its events in order)
+    std::unique_ptr<Notifier> notifier_;
 };
 
 // Now, in seconds since 1970: the records' times.

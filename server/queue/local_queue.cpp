@@ -31,11 +31,17 @@ LocalQueue::LocalQueue(QueueConfig config)
     if (!queue_.empty()) spdlog::info("{} queued job(s) restored", queue_.size());
     for (int i = 0; i < std::max(1, config_.concurrent_jobs); ++i) workers_.emplace_back([this] { worker(); });
     settle_waiting();  // jobs whose dependencies ended while the server was down
+    start_notifier("local");
+}
+
+void LocalQueue::record_task(const std::string& job, const TaskRecord& task) {
+    append_task_record((fs::path(job_dir(job)) / "log.jsonl").string(), task);
 }
 
 LocalQueue::~LocalQueue() { shutdown(); }
 
 void LocalQueue::shutdown() {
+    stop_notifier();
     {
         std::lock_guard<std::mutex> lock(mutex_);
         accepting_ = false;
@@ -162,6 +168,7 @@ api::JobStatus LocalQueue::cancel(const std::string& id) {
     api::JobStatus st = status(id);
     if (canceled_queued) {
         publish("state", st);  // a running job's ends when its worker stops it
+        notify(st);
         settle_waiting();      // jobs that run after it are canceled too
     }
     return st;
@@ -432,7 +439,9 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
                 running.pass_image.reset();
                 running.pass_denoised.reset();
             }
-            publish("frame", running_status(running));
+            const api::JobStatus frame_status = running_status(running);
+            publish("frame", frame_status);
+            notify(frame_status, "frame");
         };
         outcome = api::run_job(job, opt, api::RunOutputs::in_directory(dir), cb);
     } catch (const SceneError& e) {

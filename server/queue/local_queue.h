@@ -64,6 +64,7 @@ private:
 
     api::JobStatus enqueue(const api::Job& job, JobRecord rec) override;
     void released(const JobRecord& rec) override;
+    void record_task(const std::string& job, const TaskRecord& task) override;
     void add_live(api::JobStatus& st, const JobRecord& rec, bool locked) override;
 
     void worker();

@@ -26,8 +26,6 @@ nlohmann::json to_json(const TaskRecord& r);
 
 // What a task keeps: lines beyond these are counted in one last line, and a line is cut at 2 KiB.
 inline constexpr size_t kMaxTaskLines = 200;
-// The most task records a farm keeps per job (the oldest go first).
-inline constexpr long long kMaxTaskRecords = 20000;
 
 // Collects what this thread logs (through spdlog, at the logger's level) into `into` while it
 // lives: every line in `lines`, warnings and errors also apart. Nested, the innermost collects.

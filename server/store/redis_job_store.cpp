@@ -184,6 +184,17 @@ std::vector<std::string> RedisJobStore::task_log(const std::string& id, size_t f
     });
 }
 
+void RedisJobStore::append_task_log(const std::string& id, const std::string& line) {
+    locked("task log", [&] {
+        redis_.pipeline({{"RPUSH", keys::task_log(id), line}, {"LTRIM", keys::task_log(id), std::to_string(-keys::max_task_records), "-1"}});
+        return 0;
+    });
+}
+
+bool RedisJobStore::claim_once(const std::string& what) {
+    return locked("claim", [&] { return !redis_.command({"SET", keys::prefix + "claim:" + what, "1", "NX", "EX", "604800"}).is_nil(); });
+}
+
 bool RedisJobStore::requeue(const std::string& id) {
     return locked("requeue", [&] {
         return redis_.eval(kTransition, {}, {keys::prefix, id, "queued", "running", "0", "", ""}).as_int() == 1;

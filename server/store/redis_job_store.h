@@ -32,6 +32,10 @@ public:
     bool release(const std::string& id) override;
     // The job's task log (keys::task_log), from its `from`th line on.
     std::vector<std::string> task_log(const std::string& id, size_t from) const;
+    void append_task_log(const std::string& id, const std::string& line);
+    // Whether this call is the first to claim `what` (SET NX, kept a week): one API node of
+    // many does a thing once.
+    bool claim_once(const std::string& what);
     bool requeue(const std::string& id) override;
     int requeue_all_running() override;
     std::vector<JobRecord> queued_in_order() const override;

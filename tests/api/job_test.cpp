@@ -139,6 +139,31 @@ TEST(RenderJob, AfterTakesDistinctJobIds) {
     EXPECT_THROW(parse_render_job(many), InvalidJob);
 }
 
+// `notify`: an http URL with no user, a boolean `frames`, nothing else; each refusal names its place.
+TEST(RenderJob, NotifyTakesAnHttpUrl) {
+    const RenderJob j = parse_render_job(json::parse(R"({"scene":"x","notify":{"url":"http://h:81/p?q=1"}})"));
+    ASSERT_TRUE(j.notify);
+    EXPECT_EQ(j.notify->url, "http://h:81/p?q=1");
+    EXPECT_FALSE(j.notify->frames);
+    EXPECT_FALSE(parse_render_job(json::parse(R"({"scene":"x","notify":null})")).notify);
+    for (const auto& [body, pointer] : std::vector<std::pair<const char*, const char*>>{
+             {R"({"scene":"x","notify":"http://h/"})", "/notify"},
+             {R"({"scene":"x","notify":{}})", "/notify/url"},
+             {R"({"scene":"x","notify":{"url":"https://h/"}})", "/notify/url"},
+             {R"({"scene":"x","notify":{"url":"http://u:p@h/"}})", "/notify/url"},
+             {R"({"scene":"x","notify":{"url":"http://h/a b"}})", "/notify/url"},
+             {R"({"scene":"x","notify":{"url":"http:///x"}})", "/notify/url"},
+             {R"({"scene":"x","notify":{"url":"http://h/","frames":"yes"}})", "/notify/frames"},
+             {R"({"scene":"x","notify":{"url":"http://h/","secret":"x"}})", "/notify/secret"}}) {
+        try {
+            parse_render_job(json::parse(body));
+            ADD_FAILURE() << body << " was accepted";
+        } catch (const InvalidJob& e) {
+            EXPECT_EQ(e.pointer(), pointer) << body;
+        }
+    }
+}
+
 // Every field survives to_json and back, for a job far from the defaults.
 TEST(RenderJob, RoundTripsEveryField) {
     const json body = json::parse(R"({"scene":"x.dae","width":48,"height":36,"spp":64,"light_rays":4,
@@ -147,7 +172,7 @@ TEST(RenderJob, RoundTripsEveryField) {
         "time_limit_s":12.5,"target_error":0.125,"reference":"0123456789abcdef","max_leaf_size":4,
         "triangle_test":"moller_trumbore","integrator":"path","sampler":"independent","environment":"sky",
         "lens_radius":0.25,"focal_distance":3.5,"passes":["variance","albedo"],"denoise":true,
-        "after":["00000000000000aa","0123456789abcdef"]})");
+        "after":["00000000000000aa","0123456789abcdef"],"notify":{"url":"http://hooks.test:8080/done","frames":true}})");
     json want = body;
     want.update({{"frames", nullptr}, {"fps", 24.0}, {"chunk", 0}, {"animation", nullptr}, {"shutter", nullptr}});
     want["passes"] = {"albedo", "variance"};  // in the table's order

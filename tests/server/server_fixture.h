@@ -53,6 +53,7 @@ protected:
         cfg.max_queued = max_queued_;
         cfg.max_store_bytes = max_store_bytes_;
         cfg.scene_dirs = scene_dirs_;
+        cfg.notify = notify_;
         service_ = open_job_queue(cfg);
         std::ofstream(dir_ / "openapi.yaml") << "openapi: 3.0.3\n";
         api_ = std::make_unique<HttpApi>(*service_, limits_, (dir_ / "openapi.yaml").string());
@@ -119,6 +120,7 @@ protected:
     std::vector<std::string> scene_dirs_;
     std::filesystem::path dir_;
     size_t max_queued_ = 1000;
+    NotifyPolicy notify_;  // set before start(): the server's --notify-secret and --notify-allow
     int64_t max_store_bytes_ = 0;
     std::unique_ptr<JobQueue> service_;
     std::unique_ptr<HttpApi> api_;

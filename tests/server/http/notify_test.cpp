@@ -1,0 +1,186 @@
+// Signed notifications through a real server to real receivers on loopback (httplib servers
+// started here): signed with HMAC-SHA256, retried while the receiver answers 500, each attempt
+// in the job's log; a URL outside the allow list, a redirect out of it, or an address of the
+// server's own network that the list does not name is never contacted.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "server/queue/notifier.h"
+#include "tests/server/server_fixture.h"
+
+namespace tessera::server {
+namespace {
+
+using nlohmann::json;
+
+// A webhook receiver on a free loopback port: it records every request and answers `status`
+// for the first `failures` of them, then 200 (or redirects everything, with `redirect`).
+class Receiver {
+public:
+    explicit Receiver(int failures = 0, std::string redirect = "") : failures_(failures), redirect_(std::move(redirect)) {
+        server_.Post(".*", [this](const httplib::Request& req, httplib::Response& res) {
+            std::lock_guard<std::mutex> lock(mutex_);
+            got_.push_back(req);
+            if (!redirect_.empty()) {
+                res.status = 302;
+                res.set_header("Location", redirect_);
+            } else {
+                res.status = int(got_.size()) <= failures_ ? 500 : 200;
+            }
+        });
+        port_ = server_.bind_to_any_port("127.0.0.1");
+        thread_ = std::thread([this] { server_.listen_after_bind(); });
+    }
+    ~Receiver() {
+        server_.stop();
+        thread_.join();
+    }
+    int port() const { return port_; }
+    std::string url(const std::string& path = "/hook") const { return "http://127.0.0.1:" + std::to_string(port_) + path; }
+    std::vector<httplib::Request> requests() {
+        std::lock_guard<std::mutex> lock(mutex_);
+        return got_;
+    }
+    // Waits until it has `n` requests (or 20 s).
+    std::vector<httplib::Request> wait_for(size_t n) {
+        for (int i = 0; i < 2000 && requests().size() < n; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        return requests();
+    }
+
+private:
+    int failures_;
+    std::string redirect_;
+    httplib::Server server_;
+    int port_ = 0;
+    std::thread thread_;
+    std::mutex mutex_;
+    std::vector<httplib::Request> got_;
+};
+
+std::vector<json> log_lines(httplib::Client& c, const std::string& id) {
+    std::vector<json> out;
+    std::istringstream in(c.Get("/v1/jobs/" + id + "/log")->body);
+    for (std::string line; std::getline(in, line);) out.push_back(json::parse(line));
+    return out;
+}
+
+json with_notify(json job, const std::string& url, bool frames = false) {
+    job["notify"] = {{"url", url}, {"frames", frames}};
+    return job;
+}
+
+// RFC 4231, test case 2.
+TEST(Notifier, HmacSha256MatchesTheRfc) {
+    EXPECT_EQ(hmac_sha256_hex("Jefe", "what do ya want for nothing?"), "5bdcc146bf60754e6a042426089575c75a003f089d2739839dec58b964ec3843");
+}
+
+TEST(Notifier, UrlsAndTheAllowList) {
+    EXPECT_EQ(parse_http_url("http://Example.COM:8080/a?b").host, "example.com");
+    EXPECT_EQ(parse_http_url("http://example.com").path, "/");
+    EXPECT_EQ(parse_http_url("http://[::1]:9/x").port, 9);
+    for (const char* bad : {"https://x/", "http://", "http://u:p@x/", "http://x:99999/", "http://x:a/", "http://[::1/"})
+        EXPECT_THROW(parse_http_url(bad), std::invalid_argument) << bad;
+    NotifyPolicy p;
+    p.allow = {"*:8080", "127.0.0.1:9000"};
+    EXPECT_EQ(admitted_address("http://127.0.0.1:9000/h", p), "127.0.0.1");
+    // A wildcard does not admit the server's own network, whatever the name.
+    EXPECT_THROW(admitted_address("http://127.0.0.1:8080/h", p), std::invalid_argument);
+    EXPECT_THROW(admitted_address("http://localhost:8080/h", p), std::invalid_argument);
+    EXPECT_THROW(admitted_address("http://10.1.2.3:8080/h", p), std::invalid_argument);
+    EXPECT_THROW(admitted_address("http://169.254.169.254:8080/latest", p), std::invalid_argument);
+    EXPECT_THROW(admitted_address("http://[::ffff:127.0.0.1]:8080/h", p), std::invalid_argument);
+    EXPECT_THROW(admitted_address("http://127.0.0.1:9001/h", p), std::invalid_argument) << "another port";
+    p.allow = {"*.hooks.test:*"};
+    EXPECT_THROW(admitted_address("http://evilhooks.test/h", p), std::invalid_argument);
+}
+
+class Notify : public Server {};
+
+TEST_F(Notify, ASignedNotificationIsRetriedUntilTheReceiverTakesIt) {
+    Receiver hook(2);  // 500, 500, then 200
+    notify_.secret = "s3cret";
+    notify_.allow = {"127.0.0.1:" + std::to_string(hook.port())};
+    notify_.first_retry_s = 0.1;
+    start();
+    const std::string id = submit(with_notify(kSmallJob, hook.url("/hook?x=1")));
+    wait_state(id, {"succeeded"});
+    const auto got = hook.wait_for(3);
+    ASSERT_EQ(got.size(), 3u);
+    for (const auto& r : got) {
+        EXPECT_EQ(r.path, "/hook");
+        EXPECT_EQ(r.get_header_value("X-Tessera-Signature"), "sha256=" + hmac_sha256_hex("s3cret", r.body));
+        EXPECT_EQ(r.get_header_value("X-Tessera-Event"), "succeeded");
+        EXPECT_EQ(r.get_header_value("X-Tessera-Delivery"), got[0].get_header_value("X-Tessera-Delivery")) << "one delivery, retried";
+        const json body = json::parse(r.body);
+        EXPECT_EQ(body["event"], "succeeded");
+        EXPECT_EQ(body["job"]["id"], id);
+        EXPECT_EQ(body["job"]["state"], "succeeded");
+    }
+    EXPECT_NE(got[0].get_header_value("X-Tessera-Signature"), "sha256=" + hmac_sha256_hex("another key", got[0].body));
+    // Each attempt in the job's log.
+    std::vector<std::string> outcomes;
+    for (int i = 0; i < 100; ++i) {
+        outcomes.clear();
+        for (const json& t : log_lines(*client_, id))
+            if (t["task"] == "notify") outcomes.push_back(t["outcome"]);
+        if (outcomes.size() == 3) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    EXPECT_EQ(outcomes, (std::vector<std::string>{"failed", "failed", "done"}));
+    EXPECT_EQ(hook.requests().size(), 3u) << "nothing after the receiver took it";
+}
+
+TEST_F(Notify, NothingOutsideTheAllowListIsEverContacted) {
+    Receiver outside;                     // not in the list
+    Receiver redirector(0, outside.url());  // in the list, redirecting out of it
+    notify_.secret = "s3cret";
+    notify_.allow = {"127.0.0.1:" + std::to_string(redirector.port()), "*:" + std::to_string(outside.port())};
+    notify_.first_retry_s = 0.05;
+    start();
+    // Outside the list, or inside it by a wildcard only (its own network): refused at submission.
+    expect_problem(post_job(with_notify(kSmallJob, "http://127.0.0.1:1/hook")), 400, "/notify/url");
+    expect_problem(post_job(with_notify(kSmallJob, outside.url())), 400, "/notify/url");
+    expect_problem(post_job(with_notify(kSmallJob, "ftp://127.0.0.1/")), 400, "/notify/url");
+    // A redirect out of the list: not followed, not retried.
+    const std::string id = submit(with_notify(kSmallJob, redirector.url()));
+    wait_state(id, {"succeeded"});
+    ASSERT_EQ(redirector.wait_for(1).size(), 1u);
+    std::this_thread::sleep_for(std::chrono::milliseconds(400));
+    EXPECT_EQ(redirector.requests().size(), 1u) << "a redirect is not retried";
+    EXPECT_TRUE(outside.requests().empty()) << "the redirect was followed";
+    bool logged = false;
+    for (const json& t : log_lines(*client_, id))
+        if (t["task"] == "notify")
+            for (const auto& e : t["errors"]) logged = logged || e.get<std::string>().find("redirects are not followed") != std::string::npos;
+    EXPECT_TRUE(logged);
+}
+
+TEST_F(Notify, WithoutASecretNotificationsAreRefused) {
+    start();
+    expect_problem(post_job(with_notify(kSmallJob, "http://127.0.0.1:9/x")), 400, "/notify");
+}
+
+TEST_F(Notify, AShotsFramesWhenAsked) {
+    Receiver hook;
+    notify_.secret = "k";
+    notify_.allow = {"127.0.0.1:" + std::to_string(hook.port())};
+    start();
+    const json shot = {{"scene", "cornell_shot"}, {"width", 16}, {"height", 12}, {"spp", 1}, {"max_depth", 1},
+                       {"frames", {{"start", 0}, {"end", 48}, {"step", 24}}}};
+    const std::string id = submit(with_notify(shot, hook.url(), true));
+    wait_state(id, {"succeeded"});
+    const auto got = hook.wait_for(4);
+    ASSERT_EQ(got.size(), 4u);
+    for (int i = 0; i < 3; ++i) EXPECT_EQ(got[size_t(i)].get_header_value("X-Tessera-Event"), "frame");
+    EXPECT_EQ(got[3].get_header_value("X-Tessera-Event"), "succeeded");
+}
+
+}  // namespace
+}  // namespace tessera::server
