@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <tuple>
 #include <fstream>
+#include <mutex>
 
 #include "api/comparison.h"
 #include "api/shot_runner.h"
@@ -268,7 +269,12 @@ JobOutcome render_prepared(const RenderJob& job, const RenderSettings& render_se
     if (!out.checkpoint.empty()) {
         resume = read_checkpoint(out.checkpoint);
         if (resume) rcb.resume = &*resume;
-        rcb.on_checkpoint = [&](const RenderCheckpoint& c) { write_checkpoint(out.checkpoint, c); };
+        // One write at a time: a write slower than the interval skips the next checkpoint rather
+        // than race it on the same file.
+        rcb.on_checkpoint = [&, writing = std::make_shared<std::mutex>()](const RenderCheckpoint& c) {
+            std::unique_lock<std::mutex> lock(*writing, std::try_to_lock);
+            if (lock.owns_lock()) write_checkpoint(out.checkpoint, c);
+        };
         rcb.checkpoint_seconds = opt.checkpoint_seconds;
     }
     const RenderResult result = render(scene, settings, rcb);
@@ -289,7 +295,10 @@ JobOutcome render_prepared(const RenderJob& job, const RenderSettings& render_se
     done.tiles_total = tiles_total;
     JobOutcome written = write_render(done, opt, out);
     // The results are written: the render is not continued from here again.
-    if (!out.checkpoint.empty()) std::filesystem::remove(out.checkpoint);
+    if (!out.checkpoint.empty()) {
+        std::filesystem::remove(out.checkpoint);
+        std::filesystem::remove(out.checkpoint + ".part");
+    }
     return written;
 }
 

@@ -113,6 +113,7 @@ struct FrameDone {
     int frame = 0;         // its number
     double seconds = 0;    // posing, building, rendering and writing it
     nlohmann::json entry;  // its line in the shot's report
+    bool kept = false;     // written by an earlier run of the job (resume_frames), not rendered now
 };
 
 struct RunCallbacks {

@@ -211,7 +211,7 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
                 render_s += kept->render_s;
                 entries.push_back(kept->entry);
                 ++resumed;
-                if (cb.frame) cb.frame(FrameDone{i, n, 0.0, kept->entry});
+                if (cb.frame) cb.frame(FrameDone{i, n, 0.0, kept->entry, true});
                 continue;
             }
         }

@@ -4,40 +4,21 @@ import { api } from '/ui/api.js';
 import { shortId } from '/ui/format.js';
 import { toast, toastError } from '/ui/notify.js';
 
-// Resolves to the job's new status, or null when the request failed (already reported).
-export async function cancelJob(id) {
+// An action on a job: resolves to its new status, or null when the request failed (reported).
+async function act(id, request, done, failed) {
   try {
-    const job = await api.cancelJob(id);
-    toast(`Job ${shortId(id)} canceled.`);
+    const job = await request(id);
+    toast(`Job ${shortId(id)} ${done}`);
     return job;
   } catch (e) {
-    toastError(e, `Could not cancel job ${shortId(id)}: `);
+    toastError(e, `Could not ${failed} job ${shortId(id)}: `);
     return null;
   }
 }
 
-// Pause or resume: resolves to the job's new status, or null when the request failed (reported).
-export async function pauseJob(id) {
-  try {
-    const job = await api.pauseJob(id);
-    toast(`Job ${shortId(id)} paused: it keeps its samples until resumed.`);
-    return job;
-  } catch (e) {
-    toastError(e, `Could not pause job ${shortId(id)}: `);
-    return null;
-  }
-}
-
-export async function resumeJob(id) {
-  try {
-    const job = await api.resumeJob(id);
-    toast(`Job ${shortId(id)} resumed.`);
-    return job;
-  } catch (e) {
-    toastError(e, `Could not resume job ${shortId(id)}: `);
-    return null;
-  }
-}
+export const cancelJob = (id) => act(id, api.cancelJob, 'canceled.', 'cancel');
+export const pauseJob = (id) => act(id, api.pauseJob, 'paused: it keeps its samples until resumed.', 'pause');
+export const resumeJob = (id) => act(id, api.resumeJob, 'resumed.', 'resume');
 
 // Resolves to true once the files are gone; asks first, because nothing brings them back.
 export async function removeResults(id) {

@@ -22,18 +22,9 @@ static_assert(std::is_trivially_copyable_v<glm::dvec3> && sizeof(glm::dvec3) == 
 static_assert(std::is_trivially_copyable_v<RunningStats>);
 
 template <class T>
-void put(std::string& out, const std::vector<T>& v) {
-    out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
-}
-
+void put(std::string& out, const std::vector<T>& v) { put_raw(out, v); }
 template <class T>
-void get(const std::string& in, size_t& at, std::vector<T>& v) {
-    const size_t bytes = v.size() * sizeof(T);
-    if (bytes == 0) return;
-    if (in.size() - at < bytes) throw std::runtime_error("tile film: truncated");
-    std::memcpy(static_cast<void*>(v.data()), in.data() + at, bytes);
-    at += bytes;
-}
+void get(const std::string& in, size_t& at, std::vector<T>& v) { get_raw(in, at, v, "tile film"); }
 
 }  // namespace
 

@@ -136,16 +136,24 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
                     if (due) hold = true;
                 }
                 if (due) {
+                    // No exception leaves a render thread, and the others are never left held:
+                    // a checkpoint that cannot be taken (no memory for the copy) is skipped.
                     std::unique_ptr<RenderCheckpoint> c;
                     {
                         std::unique_lock<std::mutex> lock(gate);
                         gate_cv.wait(lock, [&] { return in_tile == 0; });
-                        c = snapshot();
+                        try {
+                            c = snapshot();
+                        } catch (...) {
+                        }
                         hold = false;
                         last_checkpoint = elapsed();
                     }
                     gate_cv.notify_all();
-                    callbacks.on_checkpoint(*c);
+                    try {
+                        if (c) callbacks.on_checkpoint(*c);
+                    } catch (...) {
+                    }
                 }
             }
         };
@@ -157,7 +165,12 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
         if (abort_pass && !stop_cancel) stop_time = true;
         // Stopped by `cancel` (a job paused, a server shutting down): its state before the pass's
         // end, to be continued by running the pass again.
-        if (stop_cancel && callbacks.on_checkpoint) callbacks.on_checkpoint(*snapshot());
+        if (stop_cancel && callbacks.on_checkpoint) {
+            try {
+                callbacks.on_checkpoint(*snapshot());
+            } catch (...) {  // the samples since the last checkpoint are rendered again
+            }
+        }
 
         const PassEnd end = end_pass(settings, plan, film, reference, pass, target, samples_done.load(), elapsed(), stop_time, stop_cancel);
         result.curve.points.push_back(end.point);

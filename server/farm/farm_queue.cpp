@@ -164,6 +164,7 @@ api::JobStatus FarmQueue::cancel(const std::string& id) {
     } catch (const StoreError& e) {
         throw store_refusal(e);
     }
+    publish_state(id);  // its end's event and notification, whatever the watcher sees
     settle_waiting();
     return status(id);
 }
@@ -186,6 +187,7 @@ void refuse_whole_jobs(const api::JobStatus& st) {
 api::JobStatus FarmQueue::pause(const std::string& id) {
     const api::JobStatus st = status(id);
     if (is_final(st.state)) throw job_finished(id, to_string(st.state), "paused");
+    if (st.state == JobState::waiting) throw waiting_job(id);
     refuse_whole_jobs(st);
     try {
         if (store_->pause(id)) spdlog::info("job {} paused; its nodes drop its tasks, its film stays in Redis", id);
@@ -218,6 +220,18 @@ std::string FarmQueue::job_log(const std::string& id, size_t from) {
 }
 
 size_t FarmQueue::queue_depth() { return store_->count(JobState::queued); }
+
+std::map<int, size_t, std::greater<int>> FarmQueue::queued_by_priority() {
+    std::map<int, size_t, std::greater<int>> by;
+    for (const auto& [priority, n] : redis_->queued_by_priority()) by[priority] = n;
+    return by;
+}
+
+std::vector<JobQueue::TaskBacklog> FarmQueue::task_backlog() {
+    std::vector<TaskBacklog> out;
+    for (const auto& b : redis_->task_backlog()) out.push_back({b.priority, b.lag, b.pending});
+    return out;
+}
 
 FarmQueue::Look FarmQueue::look() {
     // A look reads ids only (three sorted-set ranges) and the progress of running jobs.

@@ -51,6 +51,8 @@ public:
     bool claim_notification(const std::string& id, const std::string& event) override;
     void shutdown() override;
     size_t queue_depth() override;
+    std::map<int, size_t, std::greater<int>> queued_by_priority() override;
+    std::vector<TaskBacklog> task_backlog() override;
     SceneCacheCounts scene_cache_counts() const override;
     void release_memory() override;
     std::vector<std::pair<std::string, std::string>> render_nodes() override;

@@ -762,6 +762,8 @@ struct RenderNode::Impl {
                                 {"reclaimed", metrics.reclaimed.load()}, {"redis_errors", metrics.redis_errors.load()},
                                 {"rays", metrics.rays.load()}, {"render_seconds", double(metrics.render_micros.load()) * 1e-6},
                                 {"threads", cfg.threads}, {"scene_cache_hits", cache.hits()}, {"scene_cache_misses", cache.misses()},
+                                // Its threads with a task in hand, now (an autoscaler's figure).
+                                {"busy", std::min(1.0, double(now.size()) / double(std::max(1, cfg.threads)))},
                                 {"last_seen", now_s()}};
                 r.command({"HSET", keys::nodes, name, json_text(m)});
             } catch (const RedisError& e) {

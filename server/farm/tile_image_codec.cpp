@@ -1,5 +1,7 @@
 #include "server/farm/tile_image_codec.h"
 
+#include "engine/render/film_codec.h"
+
 #include <cstdint>
 #include <cstring>
 #include <stdexcept>
@@ -9,18 +11,9 @@ namespace tessera::server {
 namespace {
 
 template <class T>
-void put(std::string& out, const std::vector<T>& v) {
-    out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
-}
-
+void put(std::string& out, const std::vector<T>& v) { put_raw(out, v); }
 template <class T>
-void get(const std::string& in, size_t& at, std::vector<T>& v) {
-    const size_t bytes = v.size() * sizeof(T);
-    if (bytes == 0) return;
-    if (in.size() - at < bytes) throw std::runtime_error("tile image: truncated");
-    std::memcpy(static_cast<void*>(v.data()), in.data() + at, bytes);
-    at += bytes;
-}
+void get(const std::string& in, size_t& at, std::vector<T>& v) { get_raw(in, at, v, "tile image"); }
 
 constexpr char kImageMagic[4] = {'T', 'T', 'I', '1'};
 

@@ -751,6 +751,19 @@ std::string HttpApi::metrics_text() {
         m << "# HELP tessera_jobs Jobs by state.\n# TYPE tessera_jobs gauge\n";
         for (const auto& [state, n] : counts) m << "tessera_jobs{state=\"" << state << "\"} " << n << "\n";
         m << "# HELP tessera_queue_depth Jobs waiting to run.\n# TYPE tessera_queue_depth gauge\ntessera_queue_depth " << depth << "\n";
+        m << "# HELP tessera_queue_depth_by_priority Queued jobs by priority.\n# TYPE tessera_queue_depth_by_priority gauge\n";
+        for (const auto& [priority, n] : queue_.queued_by_priority())
+            m << "tessera_queue_depth_by_priority{priority=\"" << priority << "\"} " << n << "\n";
+        // A farm's task streams, as KEDA's redis-streams scaler reads them (docs/scaling.md).
+        const auto backlog = queue_.task_backlog();
+        if (!backlog.empty()) {
+            m << "# HELP tessera_tasks_lag Tasks no render node has taken yet, by priority stream.\n# TYPE tessera_tasks_lag gauge\n";
+            for (const auto& b : backlog)
+                if (b.lag >= 0) m << "tessera_tasks_lag{priority=\"" << b.priority << "\"} " << b.lag << "\n";
+            m << "# HELP tessera_tasks_pending Tasks taken by a render node and not yet done, by priority stream.\n"
+              << "# TYPE tessera_tasks_pending gauge\n";
+            for (const auto& b : backlog) m << "tessera_tasks_pending{priority=\"" << b.priority << "\"} " << b.pending << "\n";
+        }
     } catch (const StoreError& e) {
         store_up = false;
         spdlog::warn("metrics without the job store's figures: {}", loggable(e.what(), 200));
@@ -786,6 +799,23 @@ std::string HttpApi::metrics_text() {
                     if (j.is_object() && j.contains(key)) m << "tessera_node_" << key << "_total{node=\"" << name << "\"} " << json_text(j[key]) << "\n";
                 }
             }
+            // Busy: a node's threads with a task in hand at its last heartbeat; the farm's, over
+            // the threads of the nodes seen in the last 30 s.
+            m << "# HELP tessera_node_busy_fraction A render node's threads with a task in hand, at its last heartbeat.\n"
+              << "# TYPE tessera_node_busy_fraction gauge\n";
+            double busy_threads = 0, threads = 0;
+            const double now = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+            for (const auto& [name, text] : nodes) {
+                const json j = json::parse(text, nullptr, false);
+                if (!j.is_object() || !j.contains("busy") || !j["busy"].is_number()) continue;
+                m << "tessera_node_busy_fraction{node=\"" << name << "\"} " << json_text(j["busy"]) << "\n";
+                if (j.value("last_seen", 0.0) > now - 30 && j.value("threads", 0) > 0) {
+                    busy_threads += j["busy"].get<double>() * j["threads"].get<double>();
+                    threads += j["threads"].get<double>();
+                }
+            }
+            m << "# HELP tessera_nodes_busy_fraction The farm's render threads with a task in hand (nodes seen in the last 30 s).\n"
+              << "# TYPE tessera_nodes_busy_fraction gauge\ntessera_nodes_busy_fraction " << (threads > 0 ? busy_threads / threads : 0.0) << "\n";
             m << "# HELP tessera_node_last_seen_seconds Unix time of a render node's last heartbeat.\n"
               << "# TYPE tessera_node_last_seen_seconds gauge\n";
             for (const auto& [name, text] : nodes) {

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -127,6 +128,15 @@ public:
     // writes (for 10 s after a refusal); "" when jobs are accepted. What /readyz answers.
     std::string unready_reason();
     virtual size_t queue_depth() = 0;
+    // Queued jobs by priority (what an autoscaler watches), highest first.
+    virtual std::map<int, size_t, std::greater<int>> queued_by_priority() = 0;
+    // A farm's task streams: per priority, the tasks no node has taken yet (lag) and those taken
+    // and not yet done (pending), as KEDA's redis-streams scaler reads them; empty for one process.
+    struct TaskBacklog {
+        int priority = 0;
+        long long lag = -1, pending = 0;  // lag -1: not known
+    };
+    virtual std::vector<TaskBacklog> task_backlog() { return {}; }
     std::map<std::string, size_t> counts_by_state();
     QueueMetrics& metrics() { return metrics_; }
     virtual SceneCacheCounts scene_cache_counts() const = 0;

@@ -29,9 +29,9 @@ LocalQueue::LocalQueue(QueueConfig config)
     if (requeued) spdlog::warn("{} job(s) were running when the server stopped; queued again", requeued);
     for (const JobRecord& r : store_->queued_in_order()) queue_.insert({r.priority, r.seq, r.id});
     if (!queue_.empty()) spdlog::info("{} queued job(s) restored", queue_.size());
+    start_notifier("local");  // before any job can end
     for (int i = 0; i < std::max(1, config_.concurrent_jobs); ++i) workers_.emplace_back([this] { worker(); });
     settle_waiting();  // jobs whose dependencies ended while the server was down
-    start_notifier("local");
 }
 
 void LocalQueue::record_task(const std::string& job, const TaskRecord& task) {
@@ -125,7 +125,7 @@ void remove_checkpoints(const std::string& dir) {
     std::error_code ec;
     std::vector<fs::path> found;
     for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
-        if (it->path().filename() == "checkpoint.tck") found.push_back(it->path());
+        if (it->path().filename() == "checkpoint.tck" || it->path().filename() == "checkpoint.tck.part") found.push_back(it->path());
     for (const fs::path& p : found) fs::remove(p, ec);
 }
 
@@ -177,6 +177,7 @@ api::JobStatus LocalQueue::cancel(const std::string& id) {
 api::JobStatus LocalQueue::pause(const std::string& id) {
     const api::JobStatus before = status(id);  // not_found for unknown ids
     if (is_final(before.state)) throw job_finished(id, to_string(before.state), "paused");
+    if (before.state == JobState::waiting) throw waiting_job(id);
     bool paused_queued = false;
     {
         std::lock_guard<std::mutex> lock(mutex_);
@@ -206,16 +207,14 @@ api::JobStatus LocalQueue::resume(const std::string& id) {
     bool resumed = false;
     {
         std::lock_guard<std::mutex> lock(mutex_);
-        // A running job asked to pause and not yet stopped: it runs on.
+        // A running job asked to pause and not yet paused: its worker queues it again instead.
         auto r = running_.find(id);
-        if (r != running_.end() && !r->second->cancel && !r->second->shutdown && r->second->pause) {
-            r->second->pause = false;
-            r->second->stop = false;
-        }
+        if (r != running_.end() && !r->second->cancel && !r->second->shutdown && r->second->pause) r->second->resume = true;
         try {
-            if (store_->resume(id)) {
-                const std::optional<JobRecord> rec = store_->get(id);
-                if (rec) queue_.insert(QueueKey{rec->priority, rec->seq, id});
+            // The record first (its place in the queue), then the change: a failed read changes nothing.
+            const std::optional<JobRecord> rec = store_->get(id);
+            if (rec && rec->state == JobState::paused && store_->resume(id)) {
+                queue_.insert(QueueKey{rec->priority, rec->seq, id});
                 resumed = true;
             }
         } catch (const StoreError& e) {
@@ -234,6 +233,13 @@ api::JobStatus LocalQueue::resume(const std::string& id) {
 std::string LocalQueue::job_log(const std::string& id, size_t from) {
     status(id);  // not_found for unknown ids
     return read_task_log((fs::path(job_dir(id)) / "log.jsonl").string(), from);
+}
+
+std::map<int, size_t, std::greater<int>> LocalQueue::queued_by_priority() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::map<int, size_t, std::greater<int>> by;
+    for (const QueueKey& k : queue_) ++by[k.priority];
+    return by;
 }
 
 size_t LocalQueue::queue_depth() {
@@ -295,7 +301,9 @@ void LocalQueue::worker() {
         }
         {
             std::lock_guard<std::mutex> lock(mutex_);
-            running_.erase(rec.id);
+            // Only this run's entry: a job queued again by a pause taken back may run on another
+            // worker already.
+            if (auto it = running_.find(rec.id); it != running_.end() && it->second == running) running_.erase(it);
         }
         publish_state(rec.id);  // finished, failed, canceled, or queued again by a shutdown
         settle_waiting();       // jobs that run after it
@@ -416,6 +424,11 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
             publish("pass", running_status(running), &ps);
         };
         cb.frame = [&](const api::FrameDone& f) {
+            if (f.kept) {  // written by an earlier run: logged and notified then
+                std::lock_guard<std::mutex> lock(running.pass_mutex);
+                if (running.shot) running.shot->frames_done = f.index + 1;
+                return;
+            }
             // The frame's task: what was logged since the last one.
             TaskRecord fr;
             fr.task = "frame";
@@ -458,15 +471,23 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
     }
     if (error.empty() && outcome.stopped) {
         // A cancel wins over a pause, and both over a shutdown (which would queue the job again).
-        log_task(running.cancel ? "canceled" : running.pause ? "paused" : "interrupted");
+        const bool pausing = running.pause && !running.resume;
+        log_task(running.cancel ? "canceled" : pausing ? "paused" : "interrupted");
         if (running.cancel) {
             if (until_stored(rec.id, "canceled", [&] { store_->finish(rec.id, JobState::canceled, unix_time_s(), "", ""); })) {
                 remove_checkpoints(job_dir(rec.id));
                 spdlog::info("job {} canceled while running", rec.id);
             }
-        } else if (running.pause) {
+        } else if (pausing) {
             if (until_stored(rec.id, "paused", [&] { store_->pause(rec.id); }))
                 spdlog::info("job {} paused; its film is kept in its checkpoint", rec.id);
+            // A resume that came while it was being paused (the store said "running" then): now.
+            bool again = false;
+            {
+                std::lock_guard<std::mutex> lock(mutex_);
+                again = running.resume;
+            }
+            if (again) resume(rec.id);
         } else if (until_stored(rec.id, "queued again", [&] { store_->requeue(rec.id); })) {
             if (running.shutdown) {
                 spdlog::warn("job {} interrupted by shutdown; queued again", rec.id);

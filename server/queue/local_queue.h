@@ -34,6 +34,7 @@ public:
     std::optional<LivePass> live_pass(const std::string& id) override;
     void shutdown() override;
     size_t queue_depth() override;
+    std::map<int, size_t, std::greater<int>> queued_by_priority() override;
     SceneCacheCounts scene_cache_counts() const override { return {scenes_.hits(), scenes_.misses()}; }
     void release_memory() override;
 
@@ -42,6 +43,9 @@ private:
         std::atomic<bool> stop{false};  // what the renderer checks between tiles; set with a reason below
         std::atomic<bool> cancel{false};
         std::atomic<bool> pause{false};
+        // A resume asked while the pause takes effect: the job is queued again, not paused (the
+        // stop, which the render may have acted on already, is never taken back).
+        std::atomic<bool> resume{false};
         std::atomic<bool> shutdown{false};
         std::atomic<size_t> tiles_done{0}, tiles_total{0};
         std::atomic<uint64_t> samples{0};

@@ -35,18 +35,27 @@ bool is_internal(const sockaddr* sa) {
         const uint32_t a = ntohl(reinterpret_cast<const sockaddr_in*>(sa)->sin_addr.s_addr);
         auto in = [&](uint32_t net, int bits) { return (a >> (32 - bits)) == (net >> (32 - bits)); };
         return in(0x7f000000, 8) || in(0x0a000000, 8) || in(0xac100000, 12) || in(0xc0a80000, 16) || in(0xa9fe0000, 16) ||
-               in(0x00000000, 8) || in(0x64400000, 10) || in(0xe0000000, 4) || a == 0xffffffff;
+               in(0x00000000, 8) || in(0x64400000, 10) || in(0xe0000000, 4) || in(0xf0000000, 4) || in(0xc6120000, 15) ||
+               in(0xc0000000, 24);
     }
     if (sa->sa_family == AF_INET6) {
         const in6_addr& a = reinterpret_cast<const sockaddr_in6*>(sa)->sin6_addr;
         if (IN6_IS_ADDR_LOOPBACK(&a) || IN6_IS_ADDR_UNSPECIFIED(&a) || IN6_IS_ADDR_LINKLOCAL(&a) || IN6_IS_ADDR_MULTICAST(&a)) return true;
-        if ((a.s6_addr[0] & 0xfe) == 0xfc) return true;  // fc00::/7
-        if (IN6_IS_ADDR_V4MAPPED(&a)) {
+        // Only global unicast (2000::/3) reaches outside, and the well-known NAT64 prefix
+        // (64:ff9b::/96), judged by the IPv4 address it carries, as 6to4's (2002::/16) is.
+        auto v4_at = [&](int at) {
             sockaddr_in v4{};
             v4.sin_family = AF_INET;
-            std::memcpy(&v4.sin_addr, &a.s6_addr[12], 4);
+            std::memcpy(&v4.sin_addr, &a.s6_addr[at], 4);
             return is_internal(reinterpret_cast<const sockaddr*>(&v4));
+        };
+        if (IN6_IS_ADDR_V4MAPPED(&a)) return v4_at(12);
+        if ((a.s6_addr[0] & 0xe0) != 0x20) {
+            static const unsigned char kNat64[12] = {0x00, 0x64, 0xff, 0x9b, 0, 0, 0, 0, 0, 0, 0, 0};  // 64:ff9b::/96
+            const bool nat64 = std::memcmp(a.s6_addr, kNat64, 12) == 0;
+            return nat64 ? v4_at(12) : true;  // loopback, ULA, site- and link-local, v4-compatible, ...
         }
+        if (a.s6_addr[0] == 0x20 && a.s6_addr[1] == 0x02) return v4_at(2);  // 6to4
         return false;
     }
     return true;
@@ -167,6 +176,12 @@ void Notifier::send(const std::string& job, const std::string& url, const std::s
     {
         std::lock_guard<std::mutex> lock(mutex_);
         if (stopping_) return;
+        // Bounded: past it the oldest delivery is dropped (and logged), not the server's memory.
+        if (queue_.size() >= kMaxQueued) {
+            spdlog::warn("job {}: the {} notification to {} was dropped: {} deliveries wait", queue_.front().job, queue_.front().event,
+                         queue_.front().url, queue_.size());
+            queue_.pop_front();
+        }
         queue_.push_back({job, url, event, body, new_delivery_id(), 1, std::chrono::steady_clock::now()});
     }
     cv_.notify_one();
@@ -228,23 +243,41 @@ bool Notifier::attempt(const Delivery& d) {
         client.set_read_timeout(timeout);
         client.set_write_timeout(timeout);
         client.set_follow_location(false);
+        const std::string host = t.host.find(':') != std::string::npos ? "[" + t.host + "]" : t.host;  // an IPv6 literal
         const httplib::Headers headers = {
-            {"Host", t.port == 80 ? t.host : t.host + ":" + std::to_string(t.port)},
+            {"Host", t.port == 80 ? host : host + ":" + std::to_string(t.port)},
             {"X-Tessera-Signature", "sha256=" + hmac_sha256_hex(policy_.secret, d.body)},
             {"X-Tessera-Event", d.event},
             {"X-Tessera-Delivery", d.id},
             {"User-Agent", "tessera-notify"}};
-        const auto res = client.Post(t.path, headers, d.body, "application/json");
-        if (!res) {
+        // The answer's body is not read past 4 KiB (a receiver must not fill this server's memory).
+        httplib::Request req;
+        req.method = "POST";
+        req.path = t.path;
+        req.headers = headers;
+        req.headers.emplace("Content-Type", "application/json");
+        req.body = d.body;
+        // The status comes with the headers; the body is read no further than 4 KiB (it is not
+        // used, and a receiver must not fill this server's memory or hold its thread).
+        int status = 0;
+        size_t read = 0;
+        req.response_handler = [&status](const httplib::Response& r) {
+            status = r.status;
+            return true;
+        };
+        req.content_receiver = [&read](const char*, size_t n, uint64_t, uint64_t) { return (read += n) <= 4096; };
+        const auto res = client.send(req);
+        if (res) status = res->status;
+        if (status == 0) {
             log.errors.push_back(what + ": " + httplib::to_string(res.error()));
             retry = true;
-        } else if (res->status >= 200 && res->status < 300) {
-            log.lines.push_back(what + " → " + std::to_string(res->status));
+        } else if (status >= 200 && status < 300) {
+            log.lines.push_back(what + " → " + std::to_string(status));
         } else {
             // A redirect is not followed (it could point anywhere); a client error will not mend.
-            retry = res->status >= 500 || res->status == 408 || res->status == 429;
-            log.errors.push_back(what + " → " + std::to_string(res->status) +
-                                 (res->status >= 300 && res->status < 400 ? " (redirects are not followed)" : ""));
+            retry = status >= 500 || status == 408 || status == 429;
+            log.errors.push_back(what + " → " + std::to_string(status) +
+                                 (status >= 300 && status < 400 ? " (redirects are not followed)" : ""));
         }
     } catch (const std::exception& e) {
         log.errors.push_back(what + ": refused: " + e.what());

@@ -69,6 +69,7 @@ private:
     // One attempt: whether to try again.
     bool attempt(const Delivery& d);
 
+    static constexpr size_t kMaxQueued = 10000;
     NotifyPolicy policy_;
     std::string node_;
     Record record_;

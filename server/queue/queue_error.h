@@ -46,6 +46,12 @@ inline QueueError store_refusal(const StoreError& e) {
         .with_retry_after(10);
 }
 
+// A pause asked of a job that waits for others (`after`): it has nothing to pause yet.
+inline QueueError waiting_job(const std::string& id) {
+    return QueueError(QueueErrorKind::conflict, "job-waiting", "Job waiting",
+                      "job " + id + " waits for the jobs it runs after; cancel it, or pause it once it is queued");
+}
+
 // A pause, resume or other change asked of a job that has finished.
 inline QueueError job_finished(const std::string& id, const std::string& state, const char* what) {
     return QueueError(QueueErrorKind::conflict, "job-finished", "Job finished",

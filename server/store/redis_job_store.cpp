@@ -1,6 +1,7 @@
 #include "server/store/redis_job_store.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <stdexcept>
 
@@ -188,6 +189,47 @@ void RedisJobStore::append_task_log(const std::string& id, const std::string& li
     locked("task log", [&] {
         redis_.pipeline({{"RPUSH", keys::task_log(id), line}, {"LTRIM", keys::task_log(id), std::to_string(-keys::max_task_records), "-1"}});
         return 0;
+    });
+}
+
+std::vector<std::pair<int, size_t>> RedisJobStore::queued_by_priority() const {
+    return locked("queue by priority", [&] {
+        std::map<int, size_t> by;
+        const RedisValue v = redis_.command({"ZRANGE", keys::queue, "0", "-1", "WITHSCORES"});
+        for (size_t i = 1; i < v.items.size(); i += 2) {
+            const double score = std::stod(v.items[i].text);
+            ++by[1000 - int(std::floor(score / 1e12))];
+        }
+        return std::vector<std::pair<int, size_t>>(by.begin(), by.end());
+    });
+}
+
+std::vector<RedisJobStore::StreamBacklog> RedisJobStore::task_backlog() const {
+    return locked("task backlog", [&] {
+        std::vector<StreamBacklog> out;
+        for (const auto& p : redis_.command({"ZRANGE", keys::priorities, "0", "-1"}).items) {
+            StreamBacklog b;
+            b.priority = int(p.as_int());
+            RedisValue groups;
+            try {
+                groups = redis_.command({"XINFO", "GROUPS", keys::tasks(b.priority)});
+            } catch (const RedisError&) {
+                continue;  // no stream (yet) for this priority
+            }
+            for (const RedisValue& g : groups.items) {
+                // A flat list of field, value: name, consumers, pending, last-delivered-id, entries-read, lag.
+                bool ours = false;
+                for (size_t i = 0; i + 1 < g.items.size(); i += 2)
+                    if (g.items[i].text == "name") ours = g.items[i + 1].text == keys::group;
+                if (!ours) continue;
+                for (size_t i = 0; i + 1 < g.items.size(); i += 2) {
+                    if (g.items[i].text == "pending") b.pending = g.items[i + 1].as_int();
+                    if (g.items[i].text == "lag" && !g.items[i + 1].is_nil()) b.lag = g.items[i + 1].as_int();
+                }
+            }
+            out.push_back(b);
+        }
+        return out;
     });
 }
 

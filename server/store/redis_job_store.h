@@ -36,6 +36,14 @@ public:
     // Whether this call is the first to claim `what` (SET NX, kept a week): one API node of
     // many does a thing once.
     bool claim_once(const std::string& what);
+    // Queued jobs per priority, from the run order's scores (keys::queue_score).
+    std::vector<std::pair<int, size_t>> queued_by_priority() const;
+    // Per priority stream: entries no node has read (XINFO GROUPS' lag) and read, not acknowledged.
+    struct StreamBacklog {
+        int priority = 0;
+        long long lag = -1, pending = 0;  // lag -1: Redis cannot tell (entries deleted)
+    };
+    std::vector<StreamBacklog> task_backlog() const;
     bool requeue(const std::string& id) override;
     int requeue_all_running() override;
     std::vector<JobRecord> queued_in_order() const override;

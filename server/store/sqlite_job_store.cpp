@@ -232,7 +232,6 @@ struct SqliteJobStore::Impl {
             // crash or power loss can drop the last few commits; that trade buys no fsync per commit.
             exec(db, "PRAGMA synchronous=NORMAL", "set synchronous");
             exec(db, "PRAGMA foreign_keys=ON", "set foreign_keys");
-            apply_max_bytes();
 
             Transaction tx(db, "create schema");
             const int version = user_version();  // again: another process may have upgraded meanwhile
@@ -243,6 +242,9 @@ struct SqliteJobStore::Impl {
             if (version < kSchemaVersion)
                 exec(db, ("PRAGMA user_version=" + std::to_string(kSchemaVersion)).c_str(), "set schema version");
             tx.commit();
+            // After the schema: a version 1 file's migration copies its table once, which the
+            // bound (set for the jobs, not for that copy) must not refuse.
+            apply_max_bytes();
             remember_file();
         } catch (...) {
             close();

@@ -91,6 +91,24 @@ TEST_F(FarmQueueTest, TheFarmsQueueBoundAndCancel) {
     EXPECT_FALSE(queue_->live_pass(a)) << "no one process holds a farm's passes";
 }
 
+// What an autoscaler watches (no render node here, so nothing is taken): queued jobs by
+// priority, and per priority stream the tasks no node has taken (each job's start task).
+TEST_F(FarmQueueTest, TheBacklogByPriorityForAnAutoscaler) {
+    const json small = {{"scene", "builtin:cornell_box"}, {"width", 8}, {"height", 8}, {"priority", 7}};
+    queue_->submit(small);
+    const auto by = queue_->queued_by_priority();
+    ASSERT_TRUE(by.count(7)) << "the priority-7 job";
+    EXPECT_EQ(by.at(7), 1u);
+    bool seen = false;
+    for (const auto& b : queue_->task_backlog())
+        if (b.priority == 7) {
+            seen = true;
+            EXPECT_EQ(b.lag, 1) << "its start task, not taken";
+            EXPECT_EQ(b.pending, 0);
+        }
+    EXPECT_TRUE(seen);
+}
+
 // A shot is a farm job like any other: stored with its scene published for the nodes (which
 // render it through the one shot runner: RenderNodeFarm.AShotGivesOneProcessFramesBitForBitAndResumes),
 // and its status shows its frames, none written yet.

@@ -85,6 +85,11 @@ TEST_F(Server, WaitingJobsWaitAcrossARestart) {
     const std::string a = submit(kLongJob);
     wait_state(a, {"running"});
     const std::string b = submit(after(kSmallJob, {a}));
+    // Nothing to pause yet: a conflict that says so.
+    auto p = client_->Post("/v1/jobs/" + b + ":pause", "", "application/json");
+    ASSERT_TRUE(p);
+    EXPECT_EQ(p->status, 409);
+    EXPECT_NE(p->body.find("job-waiting"), std::string::npos) << p->body;
     restart();
     EXPECT_EQ(status(b)["state"], "waiting");
     client_->Delete("/v1/jobs/" + a);

@@ -79,6 +79,17 @@ TEST_F(Pause, APausedJobFreesItsThreadsAndResumedEndsWithTheNeverPausedImage) {
     // Resuming a finished job is a conflict, as is pausing one.
     expect_problem(post(id, "resume"), 409);
     expect_problem(post(id, "pause"), 409);
+
+    // A pause taken back before it took effect: the job goes on (queued again from its
+    // checkpoint), to the same image.
+    const std::string quick = submit(kPausable);
+    wait_samples(quick, 96 * 72 * 20);
+    ASSERT_TRUE(post(quick, "pause"));
+    auto back = post(quick, "resume");
+    ASSERT_TRUE(back && back->status == 200);
+    const json ended = wait_state(quick, {"succeeded", "paused"}, 120);
+    ASSERT_EQ(ended["state"], "succeeded") << ended.dump();
+    EXPECT_TRUE(same_pixels(image_of(quick), image_of(whole)));
 }
 
 TEST_F(Pause, AQueuedJobPausedIsSkippedUntilResumed) {

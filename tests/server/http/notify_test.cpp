@@ -24,7 +24,8 @@ using nlohmann::json;
 // for the first `failures` of them, then 200 (or redirects everything, with `redirect`).
 class Receiver {
 public:
-    explicit Receiver(int failures = 0, std::string redirect = "") : failures_(failures), redirect_(std::move(redirect)) {
+    explicit Receiver(int failures = 0, std::string redirect = "", size_t body = 0)
+        : failures_(failures), redirect_(std::move(redirect)), body_(body) {
         server_.Post(".*", [this](const httplib::Request& req, httplib::Response& res) {
             std::lock_guard<std::mutex> lock(mutex_);
             got_.push_back(req);
@@ -33,6 +34,7 @@ public:
                 res.set_header("Location", redirect_);
             } else {
                 res.status = int(got_.size()) <= failures_ ? 500 : 200;
+                if (body_) res.set_content(std::string(body_, 'x'), "text/plain");
             }
         });
         port_ = server_.bind_to_any_port("127.0.0.1");
@@ -57,6 +59,7 @@ public:
 private:
     int failures_;
     std::string redirect_;
+    size_t body_;
     httplib::Server server_;
     int port_ = 0;
     std::thread thread_;
@@ -95,7 +98,12 @@ TEST(Notifier, UrlsAndTheAllowList) {
     EXPECT_THROW(admitted_address("http://localhost:8080/h", p), std::invalid_argument);
     EXPECT_THROW(admitted_address("http://10.1.2.3:8080/h", p), std::invalid_argument);
     EXPECT_THROW(admitted_address("http://169.254.169.254:8080/latest", p), std::invalid_argument);
-    EXPECT_THROW(admitted_address("http://[::ffff:127.0.0.1]:8080/h", p), std::invalid_argument);
+    for (const char* inside : {"http://[::ffff:127.0.0.1]:8080/h", "http://[64:ff9b::a9fe:a9fe]:8080/h", "http://[64:ff9b:1::a00:5]:8080/h",
+                               "http://[2002:7f00:1::]:8080/h", "http://[fec0::1]:8080/h", "http://[::1]:8080/h", "http://[fd00::5]:8080/h",
+                               "http://[::127.0.0.1]:8080/h", "http://198.18.0.1:8080/h", "http://192.0.0.8:8080/h", "http://240.0.0.1:8080/h",
+                               "http://0.0.0.0:8080/h", "http://100.64.0.1:8080/h"})
+        EXPECT_THROW(admitted_address(inside, p), std::invalid_argument) << inside;
+    EXPECT_EQ(admitted_address("http://[64:ff9b::808:808]:8080/h", p), "64:ff9b::808:808") << "NAT64 of a public address";
     EXPECT_THROW(admitted_address("http://127.0.0.1:9001/h", p), std::invalid_argument) << "another port";
     p.allow = {"*.hooks.test:*"};
     EXPECT_THROW(admitted_address("http://evilhooks.test/h", p), std::invalid_argument);
@@ -160,6 +168,24 @@ TEST_F(Notify, NothingOutsideTheAllowListIsEverContacted) {
         if (t["task"] == "notify")
             for (const auto& e : t["errors"]) logged = logged || e.get<std::string>().find("redirects are not followed") != std::string::npos;
     EXPECT_TRUE(logged);
+}
+
+// A receiver that answers 200 with a huge body: delivered (its status read), the body not.
+TEST_F(Notify, AHugeAnswerIsNotRead) {
+    Receiver hook(0, "", 64 << 20);
+    notify_.secret = "k";
+    notify_.allow = {"127.0.0.1:" + std::to_string(hook.port())};
+    start();
+    const std::string id = submit(with_notify(kSmallJob, hook.url()));
+    wait_state(id, {"succeeded"});
+    ASSERT_EQ(hook.wait_for(1).size(), 1u);
+    std::vector<std::string> outcomes;
+    for (int i = 0; i < 200 && outcomes.empty(); ++i) {
+        for (const json& t : log_lines(*client_, id))
+            if (t["task"] == "notify") outcomes.push_back(t["outcome"]);
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    EXPECT_EQ(outcomes, std::vector<std::string>{"done"});
 }
 
 TEST_F(Notify, WithoutASecretNotificationsAreRefused) {
