@@ -128,6 +128,20 @@ int priority_of(const Job& job) {
     return std::visit([](const auto& j) { return j.priority; }, job);
 }
 
+const TaskPolicy& task_policy_of(const Job& job) {
+    return std::visit([](const auto& j) -> const TaskPolicy& { return j.tasks; }, job);
+}
+
+bool valid_node_tag(const std::string& tag) {
+    if (tag.empty() || tag.size() > 32) return false;
+    for (size_t i = 0; i < tag.size(); ++i) {
+        const char c = tag[i];
+        const bool alnum = (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9');
+        if (!alnum && (i == 0 || (c != '_' && c != '.' && c != '-'))) return false;
+    }
+    return true;
+}
+
 const std::optional<NotifySpec>& notify_of(const Job& job) {
     return std::visit([](const auto& j) -> const std::optional<NotifySpec>& { return j.notify; }, job);
 }

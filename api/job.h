@@ -64,6 +64,17 @@ struct NotifySpec {
     bool operator==(const NotifySpec&) const = default;
 };
 
+// How a farm places a job's tasks and counts their failures (server/farm/render_node.cpp).
+struct TaskPolicy {
+    int max_retries = 3;      // a failed task is tried again up to this many times, on another node where there is one
+    int blocklist_after = 3;  // a node that fails this many of the job's tasks takes no more of them
+    std::vector<std::string> required_tags;  // node tags (tessera worker --tags) a node needs to take them; sorted, distinct
+    bool operator==(const TaskPolicy&) const = default;
+};
+// The most tags a job may require, and a tag's form: [a-z0-9][a-z0-9_.-]{0,31}.
+inline constexpr size_t kMaxRequires = 16;
+bool valid_node_tag(const std::string& tag);
+
 struct RenderJob {
     std::string scene;
     RenderSettings render;             // engine settings; `threads` is the runner's, not the job's
@@ -85,6 +96,7 @@ struct RenderJob {
     // Jobs this one runs after: it waits until every one has succeeded (JobState::waiting).
     std::vector<std::string> after;
     std::optional<NotifySpec> notify;
+    TaskPolicy tasks;
     // A shot's frame as the engine renders it: the job with that frame's seed.
     RenderSettings frame_settings(int frame) const;
 };
@@ -109,6 +121,7 @@ struct ComparisonJob {
     std::vector<ComparisonConfigJob> configs;
     std::vector<std::string> after;  // as a render job's
     std::optional<NotifySpec> notify;
+    TaskPolicy tasks;
 };
 
 using Job = std::variant<RenderJob, ComparisonJob>;
@@ -134,6 +147,7 @@ const std::string& scene_of(const Job& job);
 int priority_of(const Job& job);
 const std::vector<std::string>& after_of(const Job& job);
 const std::optional<NotifySpec>& notify_of(const Job& job);
+const TaskPolicy& task_policy_of(const Job& job);
 // The most jobs one job may run after.
 inline constexpr size_t kMaxAfter = 64;
 

@@ -355,6 +355,56 @@ Field<Job> after_field() {
     return f;
 }
 
+// "requires": node tags, distinct; kept sorted so that equal sets name one task lane.
+template <class Job>
+void set_requires(Job& j, const json& v, const ParseContext& ctx) {
+    const std::string& p = ctx.pointer;
+    if (!v.is_array()) throw InvalidJob(p, p + " must be a list of node tags");
+    if (v.size() > kMaxRequires)
+        throw InvalidJob(p, p + " lists " + std::to_string(v.size()) + " tags; at most " + std::to_string(kMaxRequires));
+    std::vector<std::string> tags;
+    for (size_t i = 0; i < v.size(); ++i) {
+        const std::string at = p + "/" + std::to_string(i);
+        if (!v[i].is_string() || !valid_node_tag(v[i].template get<std::string>()))
+            throw InvalidJob(at, at + " must be a node tag (1 to 32 of a-z 0-9 _ . -, starting with a letter or digit), got " +
+                                     json_text(v[i]).substr(0, 80));
+        if (std::find(tags.begin(), tags.end(), v[i].template get<std::string>()) != tags.end())
+            throw InvalidJob(at, p + " lists " + json_text(v[i]) + " twice");
+        tags.push_back(v[i].template get<std::string>());
+    }
+    std::sort(tags.begin(), tags.end());
+    j.tasks.required_tags = std::move(tags);
+}
+
+template <class Job>
+json get_requires(const Job& j) { return j.tasks.required_tags; }
+
+// The farm's task policy: retries, blocklists and the tags a node needs.
+template <class Job>
+Field<Job> requires_field() {
+    Field<Job> f = field<Job>("requires", FieldKind::object,
+                              "Node tags a render node needs to take the job's tasks (tessera worker --tags); a job no live "
+                              "node can take stays queued and says so in its status.",
+                              "[]");
+    f.set = &set_requires<Job>;
+    f.get = &get_requires<Job>;
+    f.per_config = false;
+    return f;
+}
+
+template <class Job>
+Field<Job> max_retries_field() {
+    return not_per_config(integer<Job, &Job::tasks, &TaskPolicy::max_retries>(
+        "max_retries", 0, 100, "3",
+        "Times a failed task is tried again, on another node where there is one, before the job fails with every reason."));
+}
+
+template <class Job>
+Field<Job> blocklist_after_field() {
+    return not_per_config(integer<Job, &Job::tasks, &TaskPolicy::blocklist_after>(
+        "blocklist_after", 1, 100, "3", "Failed tasks of this job after which a node takes no more of them."));
+}
+
 template <class Job, auto... Path>
 void set_bool(Job& j, const json& v, const ParseContext&) {
     at<Path...>(j) = v.get<bool>();
@@ -505,6 +555,9 @@ const Field<RenderJob> kRenderFields[] = {
     }(),
     after_field<RenderJob>(),
     notify_field<RenderJob>(),
+    requires_field<RenderJob>(),
+    max_retries_field<RenderJob>(),
+    blocklist_after_field<RenderJob>(),
     [] {
         Field<RenderJob> f = field<RenderJob>("reference", FieldKind::job_id, "A finished job whose image the error is measured against.",
                            "null");
@@ -611,6 +664,9 @@ const Field<ComparisonJob> kComparisonFields[] = {
     }(),
     after_field<ComparisonJob>(),
     notify_field<ComparisonJob>(),
+    requires_field<ComparisonJob>(),
+    max_retries_field<ComparisonJob>(),
+    blocklist_after_field<ComparisonJob>(),
 };
 
 }  // namespace

@@ -78,6 +78,8 @@ json to_json(const ShotProgress& p) {
     return j;
 }
 
+json to_json(const TaskFailures& f) { return {{"failures", f.failures}, {"blocklisted", f.blocklisted}, {"latest", f.latest}}; }
+
 json to_json(const JobStatus& s) {
     json j;
     j["id"] = s.id;
@@ -107,6 +109,9 @@ json to_json(const JobStatus& s) {
     j["nodes"] = has_summary && s.summary.contains("nodes") ? s.summary["nodes"] : json(nullptr);
     // Continued from a checkpoint: what it kept; null for a job rendered in one go.
     j["recovered"] = has_summary && s.summary.contains("recovered") ? s.summary["recovered"] : json(nullptr);
+    // A farm's: tasks that failed and where, and why no node can take the job now.
+    j["task_failures"] = s.task_failures ? to_json(*s.task_failures) : json(nullptr);
+    j["unplaceable"] = s.unplaceable.empty() ? json(nullptr) : json(s.unplaceable);
     const std::string self = "/v1/jobs/" + s.id;
     j["links"] = {{"self", self}, {"image_png", self + "/image.png"}, {"image_exr", self + "/image.exr"},
                   {"rate_png", self + "/rate.png"}, {"report", self + "/report.json"}};

@@ -58,6 +58,15 @@ struct ShotProgress {
 constexpr size_t kStatusFrameList = 2000;
 nlohmann::json to_json(const ShotProgress& p);
 
+// A farm job's failed tasks: failures counted, the nodes that take no more of its tasks, and the
+// latest reasons (node: task: error).
+struct TaskFailures {
+    long long failures = 0;
+    std::vector<std::string> blocklisted;
+    std::vector<std::string> latest;  // oldest first
+};
+nlohmann::json to_json(const TaskFailures& f);
+
 struct JobStatus {
     std::string id;
     JobState state = JobState::queued;
@@ -70,6 +79,8 @@ struct JobStatus {
     std::optional<JobProgress> live_progress;  // a running job's, from its renderer
     std::optional<PassSummary> latest_pass;    // a running job's, once a pass has finished
     std::optional<ShotProgress> shot;          // a shot's frames (a finished one's come from its summary)
+    std::optional<TaskFailures> task_failures;  // a farm job some of whose tasks failed
+    std::string unplaceable;   // a queued or running farm job no live node can take: why ("" when one can)
     nlohmann::json summary;    // the finished job's status_summary (timings, stats, progress), or null
 };
 

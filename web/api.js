@@ -90,6 +90,7 @@ export const api = {
   deleteResults: (id, opts) => request(jobPath(id, 'results'), { ...opts, method: 'DELETE' }).then(() => true),
   report: (id, opts) => getJson(jobPath(id, 'report.json'), opts),
   scenes: (opts) => getJson('/v1/scenes', opts),
+  nodes: (opts) => getJson('/v1/nodes', opts),
   jobSchema: (opts) => getJson('/v1/job-schema', opts),
   uploadScene: (name, file, opts) => getJson(`/v1/scenes${query({ name })}`, {
     ...opts, method: 'POST', body: file, headers: { 'Content-Type': 'application/octet-stream' },

@@ -249,6 +249,8 @@ export function mount(root, { id }) {
     const pct = h('span', { class: 'pct' });
     const detail = h('span', { class: 'muted' });
     const error = h('div', { class: 'notice error', role: 'alert', hidden: true });
+    const placement = h('div', { id: 'job-placement', class: 'notice', hidden: true });
+    const failures = h('div', { id: 'task-failures', class: 'notice', hidden: true });
     const cancel = h('button', { type: 'button', id: 'cancel-job', class: 'danger' }, 'Cancel job');
     const pause = h('button', { type: 'button', id: 'pause-job', class: 'secondary' }, 'Pause');
     const resume = h('button', { type: 'button', id: 'resume-job', class: 'secondary' }, 'Resume');
@@ -276,9 +278,9 @@ export function mount(root, { id }) {
         h('p', { class: 'meta' }, h('strong', {}, isComparison(j) ? `Comparison of ${j.settings.scene}` : j.settings.scene),
           ` · ${jobSize(j)}`, j.settings.spp ? ` · ${j.settings.spp} spp` : '', ' · ', h('span', { class: 'mono', title: 'Job id' }, j.id)),
         h('div', { class: 'status-line' }, badge, h('span', { class: 'progress-wrap' }, progress, pct), detail),
-        times, error,
+        times, error, placement, failures,
         h('div', { class: 'actions' }, pause, resume, cancel, remove, compare)));
-    return { badge, progress, pct, detail, error, cancel, pause, resume, remove, compare, times, state: null };
+    return { badge, progress, pct, detail, error, placement, failures, cancel, pause, resume, remove, compare, times, state: null };
   }
 
   function tick() {
@@ -319,6 +321,17 @@ export function mount(root, { id }) {
     ui.compare.hidden = j.state !== 'succeeded' || isComparison(j);
     ui.error.hidden = !j.error;
     setText(ui.error, j.error ? `The job failed: ${j.error}` : '');
+    // A farm's: why no node takes it now, and the tasks that failed (and where).
+    ui.placement.hidden = !j.unplaceable;
+    setText(ui.placement, j.unplaceable ? `No render node can take it now: ${j.unplaceable}` : '');
+    const tf = j.task_failures;
+    ui.failures.hidden = !tf;
+    if (tf) {
+      ui.failures.replaceChildren(
+        h('p', {}, `${tf.failures} failed task${tf.failures === 1 ? '' : 's'}`,
+          tf.blocklisted.length ? `; blocklisted: ${tf.blocklisted.join(', ')}` : '', '. The latest:'),
+        h('ul', {}, tf.latest.map((r) => h('li', { class: 'mono' }, r))));
+    }
     setText(ui.times, [`Submitted ${fmtTime(j.created_at)}`, j.started_at ? `started ${fmtTime(j.started_at)}` : null,
       j.finished_at ? `finished ${fmtTime(j.finished_at)}` : null, `priority ${j.priority}`].filter(Boolean).join(' · '));
     tick();

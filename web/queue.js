@@ -9,6 +9,7 @@ import {
   STATES, elapsedSeconds, isActive, isFinal, jobSize, jobTitle, remainingSeconds, stateBadge, stateLabel,
 } from '/ui/job_info.js';
 import { announce, toastError } from '/ui/notify.js';
+import { renderNodes } from '/ui/render_nodes.js';
 
 const PAGE = 50;
 const STALE_MS = 5000;
@@ -56,7 +57,8 @@ export function mount(root, { query }) {
     errorBox,
     h('div', { class: 'table-scroll' }, table),
     empty,
-    h('div', { class: 'list-foot' }, summary, more));
+    h('div', { class: 'list-foot' }, summary, more),
+    renderNodes({ signal }));
 
   function matches(job) {
     return !filter || job.state === filter;

@@ -18,6 +18,7 @@ std::unique_ptr<JobQueue> open_job_queue(const ServiceConfig& config) {
     QueueConfig local = config;
     local.scene_cache_mb = config.node.scene_cache_mb;
     local.scene_cache_idle_s = config.node.scene_cache_idle_s;
+    local.tags = config.node.tags;
     return std::make_unique<LocalQueue>(local);
 }
 
@@ -140,8 +141,68 @@ api::JobStatus FarmQueue::enqueue(const api::Job& job, JobRecord rec) {
     return status_of(rec);
 }
 
+namespace {
+
+double now_unix() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
+
+// Why no live node can take a job's tasks now; "" when one can.
+std::string unplaceable(const std::vector<FarmNode>& nodes, const std::vector<std::string>& need, const api::TaskFailures* failures) {
+    const double now = now_unix();
+    std::vector<const FarmNode*> live;
+    for (const FarmNode& n : nodes)
+        if (is_live(n, now)) live.push_back(&n);
+    if (live.empty()) return "no render node is live (none has sent a heartbeat in the last " + std::to_string(int(kNodeLiveSeconds)) + " s)";
+    std::string offered;
+    size_t tagged = 0, able = 0;
+    for (const FarmNode* n : live) {
+        if (!has_tags(*n, need)) {
+            offered += (offered.empty() ? "" : ", ") + n->name + " [" + api::json_text(n->tags).substr(1);
+            offered.pop_back();
+            offered += "]";
+            continue;
+        }
+        ++tagged;
+        const bool listed = failures && std::find(failures->blocklisted.begin(), failures->blocklisted.end(), n->name) != failures->blocklisted.end();
+        if (!listed) ++able;
+    }
+    if (able > 0) return "";
+    if (tagged == 0)
+        return "no live render node has every tag the job requires (" + api::json_text(need) + "); live nodes: " + offered;
+    return "every live render node that has its tags is blocklisted for it";
+}
+
+}  // namespace
+
+std::vector<FarmNode> FarmQueue::farm_nodes() {
+    std::lock_guard lock(nodes_mutex_);
+    if (std::chrono::steady_clock::now() - nodes_read_ > std::chrono::seconds(1)) {
+        nodes_ = parse_farm_nodes(redis_->nodes());
+        nodes_read_ = std::chrono::steady_clock::now();
+    }
+    return nodes_;
+}
+
+nlohmann::json FarmQueue::node_report() {
+    nlohmann::json out = nlohmann::json::array();
+    const double now = now_unix();
+    try {
+        for (const FarmNode& n : parse_farm_nodes(redis_->nodes())) out.push_back(to_json(n, now));
+    } catch (const StoreError& e) {
+        throw store_refusal(e);
+    }
+    return out;
+}
+
 void FarmQueue::add_live(api::JobStatus& st, const JobRecord& rec, bool) {
     try {
+        st.task_failures = redis_->task_failures(rec.id);  // kept until the job is removed
+        if (rec.state == JobState::queued || rec.state == JobState::running) {
+            std::vector<std::string> need;
+            if (st.settings.is_object() && st.settings.contains("requires") && st.settings["requires"].is_array())
+                for (const auto& t : st.settings["requires"]) need.push_back(t.get<std::string>());
+            std::sort(need.begin(), need.end());
+            st.unplaceable = unplaceable(farm_nodes(), need, st.task_failures ? &*st.task_failures : nullptr);
+        }
         if (rec.state == JobState::queued) {
             // Not in the run order any more: taken meanwhile, starting.
             const long long pos = redis_->queue_position(rec.id);

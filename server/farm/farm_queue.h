@@ -4,6 +4,7 @@
 // publishes the job's scene and environment map bytes to Redis, so nodes need not share the
 // catalog's folders. It renders nothing itself: it turns what it sees change in Redis into
 // events while someone listens.
+#include <chrono>
 #include <condition_variable>
 #include <map>
 #include <mutex>
@@ -14,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "server/farm/farm_nodes.h"
 #include "server/farm/render_node.h"
 #include "server/queue/job_queue.h"
 #include "server/store/redis_job_store.h"
@@ -56,6 +58,7 @@ public:
     SceneCacheCounts scene_cache_counts() const override;
     void release_memory() override;
     std::vector<std::pair<std::string, std::string>> render_nodes() override;
+    nlohmann::json node_report() override;
 
 private:
     api::JobStatus enqueue(const api::Job& job, JobRecord rec) override;
@@ -71,6 +74,12 @@ private:
     // `first`: the first look, taken before the server answers anyone, so that a job submitted
     // as soon as it listens is new to the watcher (none: Redis did not answer then).
     void watch(std::optional<Look> first);
+
+    // The farm's nodes, read at most once a second (a list of jobs asks for each one's placement).
+    std::vector<FarmNode> farm_nodes();
+    std::mutex nodes_mutex_;
+    std::vector<FarmNode> nodes_;
+    std::chrono::steady_clock::time_point nodes_read_{};
 
     RedisJobStore* redis_ = nullptr;   // store_
     std::unique_ptr<RenderNode> node_;  // serve --redis … --render

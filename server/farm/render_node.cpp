@@ -9,6 +9,7 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <set>
 
 #include <spdlog/spdlog.h>
 
@@ -25,6 +26,7 @@
 #include "engine/scene/environment.h"
 #include "server/store/cluster_keys.h"
 #include "server/store/cluster_lua.h"
+#include "server/farm/farm_nodes.h"
 #include "server/farm/farm_records.h"
 #include "engine/render/film_codec.h"
 #include "server/farm/tile_image_codec.h"
@@ -44,6 +46,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 thread_local bool t_dropped = false;  // this thread's task was dropped (RenderNode::Impl::dropped)
+thread_local bool t_passed = false;   // this thread handed a task to other nodes since its last read
 
 double now_s() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
 long long now_ms() {
@@ -53,8 +56,19 @@ long long now_ms() {
 struct Task {
     std::string stream, id, job, kind;
     int pass = 0, tile = 0;
+    int attempt = 1;          // 1 + the times the task failed before
+    std::string avoid;        // the nodes that failed it, comma-separated
     bool reclaimed = false;  // taken over from a silent node (not a first delivery)
     std::string key() const { return stream + " " + id; }
+    // The lane its stream serves (cluster_keys.h).
+    std::string lane() const { return stream.substr(std::min(stream.size(), keys::lane_tasks("").size())); }
+    // What it is, for a reason a person reads.
+    std::string what() const {
+        if (kind == "tile") return "tile " + std::to_string(tile) + " of pass " + std::to_string(pass);
+        if (kind == "assemble") return "the assembly of pass " + std::to_string(pass);
+        if (kind == "frames") return "the chunk of " + std::to_string(tile) + " frames from frame index " + std::to_string(pass);
+        return "the " + kind + " task";
+    }
 };
 
 // An entry as XREADGROUP and XAUTOCLAIM return it: [id, [field, value, ...]].
@@ -71,6 +85,8 @@ std::optional<Task> parse_entry(const std::string& stream, const RedisValue& e) 
         else if (k == "kind") t.kind = v;
         else if (k == "pass") t.pass = std::atoi(v.c_str());
         else if (k == "tile") t.tile = std::atoi(v.c_str());
+        else if (k == "attempt") t.attempt = std::max(1, std::atoi(v.c_str()));
+        else if (k == "avoid") t.avoid = v;
     }
     return t;
 }
@@ -87,6 +103,13 @@ const RedisScript kTransition{lua::transition_job};
 const RedisScript kRenew{lua::renew_claim};
 const RedisScript kAddChunks{lua::add_chunks};
 const RedisScript kChunkDone{lua::chunk_done};
+const RedisScript kFailTask{lua::fail_task};
+const RedisScript kPassOn{lua::pass_on};
+const RedisScript kStrand{lua::strand_job};
+
+bool lists(const std::string& comma_separated, const std::string& name) {
+    return (',' + comma_separated + ',').find(',' + name + ',') != std::string::npos;
+}
 
 // A job as a node runs it: parsed once per node (the stored job never changes).
 struct JobInfo {
@@ -137,6 +160,11 @@ struct RenderNode::Impl {
         Clock::time_point read;
     };
     std::map<std::string, SeenRun> states;
+    // Jobs that blocklisted this node (it hands their tasks to others), and the farm's nodes as
+    // last read (for a second each): who else could take a task.
+    std::set<std::string> blocked_jobs;
+    std::vector<FarmNode> peers;
+    Clock::time_point peers_read{};
 
     explicit Impl(NodeConfig c)
         : cfg(std::move(c)),
@@ -156,8 +184,13 @@ struct RenderNode::Impl {
             auto it = jobs.find(id);
             if (it != jobs.end()) return it->second;
         }
-        const auto v = r.pipeline({{"HGET", keys::job(id), "spec"}, {"GET", keys::job_scene(id)}, {"GET", keys::job_environment(id)}});
+        const auto v = r.pipeline({{"HGET", keys::job(id), "spec"}, {"GET", keys::job_scene(id)}, {"GET", keys::job_environment(id)},
+                                   {"SISMEMBER", keys::blocklist(id), name}});
         if (v[0].is_nil()) return nullptr;
+        if (v[3].as_int() == 1) {  // blocklisted by an earlier run of this node (the same name)
+            std::lock_guard lock(mu);
+            blocked_jobs.insert(id);
+        }
         auto info = std::make_shared<JobInfo>();
         info->job = api::job_from_json(json::parse(v[0].text));
         if (!v[1].is_nil()) info->ref = SceneRef::decode(v[1].text);
@@ -208,7 +241,10 @@ struct RenderNode::Impl {
 
     std::vector<std::string> streams(Redis& r) {
         std::vector<std::string> s;
-        for (const auto& p : r.command({"ZREVRANGEBYSCORE", keys::priorities, "+inf", "-inf"}).items) s.push_back(keys::tasks(std::stoll(p.text)));
+        for (const auto& lane : r.command({"ZREVRANGEBYSCORE", keys::priorities, "+inf", "-inf"}).items) {
+            const std::vector<std::string> need = keys::lane_tags(lane.text);
+            if (std::includes(cfg.tags.begin(), cfg.tags.end(), need.begin(), need.end())) s.push_back(keys::lane_tasks(lane.text));
+        }
         return s;
     }
 
@@ -274,6 +310,10 @@ struct RenderNode::Impl {
         int backoff_ms = 100;
         while (!stopping) {
             if (local.empty()) {
+                // Tasks handed to other nodes: give them a moment to read them before this
+                // node reads its lanes again (it would read them back first).
+                if (t_passed) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+                t_passed = false;
                 try {
                     fetch(r, consumer, local, last_reclaim, cached_streams, streams_read, task_seconds);
                     backoff_ms = 100;
@@ -331,9 +371,15 @@ struct RenderNode::Impl {
         if (t.kind == "tile") log.tile = t.tile;
         if (t.kind == "frames") log.frame = t.pass;  // the chunk's first frame (an index into the shot's frames)
         t_dropped = false;
+        if (hand_over(r, t, lost)) {
+            acked = true;
+            return;
+        }
+        log.attempt = t.attempt;
         bool failed = false, acked_here = false;
         {
             TaskLogCapture capture(log);
+            std::string retry;  // the task's failure, not the job's: another node may do it
             try {
                 // A first delivery needs no count; a task taken over from a silent node counts the
                 // takeovers, so a task that kills every node that takes it fails its job.
@@ -354,14 +400,24 @@ struct RenderNode::Impl {
                 else spdlog::warn("node {}: unknown task kind '{}' dropped", name, t.kind);
             } catch (const RedisError&) {
                 throw;
-            } catch (const SceneError& e) {
-                failed = true;
-                log.errors.push_back(std::string("scene: ") + e.what());
-                fail_job(r, t.job, std::string("scene: ") + e.what());
-            } catch (const std::exception& e) {
+            } catch (const JobFailure& e) {
                 failed = true;
                 log.errors.push_back(e.what());
                 fail_job(r, t.job, e.what());
+            } catch (const SceneError& e) {
+                // A node's own limits or files may refuse what another takes.
+                failed = true;
+                retry = std::string("scene: ") + e.what();
+            } catch (const std::exception& e) {
+                failed = true;
+                retry = e.what();
+            }
+            if (!retry.empty()) {
+                log.errors.push_back(retry);
+                if (!cancel && !stopping) {
+                    task_failed(r, t, retry, lost);
+                    acked_here = true;  // the failure script settled the delivery
+                }
             }
         }
         log.end = now_s();
@@ -372,6 +428,99 @@ struct RenderNode::Impl {
             acked = true;
             ack(r, t);
         }
+    }
+
+    // The live nodes that could take a task of `lane`, this one first; the farm's nodes are read
+    // at most once a second.
+    std::vector<std::string> takers(Redis& r, const std::string& lane) {
+        std::vector<FarmNode> ns;
+        bool fresh;
+        {
+            std::lock_guard lock(mu);
+            fresh = Clock::now() - peers_read < std::chrono::seconds(1);
+            if (fresh) ns = peers;
+        }
+        if (!fresh) {
+            std::vector<std::pair<std::string, std::string>> hash;
+            const RedisValue v = r.command({"HGETALL", keys::nodes});
+            for (size_t i = 0; i + 1 < v.items.size(); i += 2) hash.emplace_back(v.items[i].text, v.items[i + 1].text);
+            ns = parse_farm_nodes(hash);
+            std::lock_guard lock(mu);
+            peers = ns;
+            peers_read = Clock::now();
+        }
+        const std::vector<std::string> tags = keys::lane_tags(lane);
+        const double now = now_s();
+        std::vector<std::string> out = {name};
+        for (const FarmNode& n : ns)
+            if (n.name != name && is_live(n, now) && has_tags(n, tags)) out.push_back(n.name);
+        return out;
+    }
+
+    // Leaves a task to the other nodes where it should: its job blocklisted this node, or this
+    // node failed the task before and a live node that has not can take it. A blocklisted node
+    // that finds no other node for the task fails the job with every reason. Returns whether the
+    // task left this node.
+    bool hand_over(Redis& r, const Task& t, const std::atomic<bool>& lost) {
+        bool blocked;
+        {
+            std::lock_guard lock(mu);
+            blocked = blocked_jobs.count(t.job) > 0;
+        }
+        if (!blocked && !lists(t.avoid, name)) return false;
+        if (lost) return true;  // another node holds it now
+        std::set<std::string> listed;
+        for (const auto& v : r.command({"SMEMBERS", keys::blocklist(t.job)}).items) listed.insert(v.text);
+        std::vector<std::string> others;
+        for (const std::string& n : takers(r, t.lane()))
+            if (n != name && !listed.count(n) && (blocked || !lists(t.avoid, n))) others.push_back(n);
+        if (others.empty()) {
+            if (!blocked) return false;  // no node that has not failed it: it runs here again
+            if (r.eval(kStrand, {keys::job(t.job), keys::failure_reasons(t.job), keys::blocklist(t.job)},
+                       {keys::prefix, t.job, redis_number(now_s())}).as_int() == 1)
+                spdlog::error("node {}: job {} failed: every live node that could take its tasks is blocklisted for it", name, t.job);
+            ack(r, t);
+            return true;
+        }
+        r.eval(kPassOn, {t.stream}, {t.id, t.job, t.kind, std::to_string(t.pass), std::to_string(t.tile), std::to_string(t.attempt), t.avoid});
+        ++metrics.passed_on;
+        t_passed = true;
+        return true;
+    }
+
+    // A task failed here for a reason that is not the job's: counted against the task and this
+    // node, and queued again for another node, or the job fails with every reason (fail_task).
+    void task_failed(Redis& r, const Task& t, const std::string& error, const std::atomic<bool>& lost) {
+        ++metrics.failed_tasks;
+        if (lost) return;  // another node took it over meanwhile: the delivery is not ours to settle
+        api::TaskPolicy policy;
+        try {
+            if (const auto info = job_info(r, t.job)) policy = api::task_policy_of(info->job);
+        } catch (const RedisError&) {
+            throw;
+        } catch (const std::exception&) {
+            // The defaults, for a job whose record this node cannot read.
+        }
+        std::string reason = name + ": " + t.what() + ": " + error;
+        if (reason.size() > 400) reason = reason.substr(0, 400) + "...";
+        std::vector<std::string> args = {keys::prefix, t.job, t.id, t.kind + ":" + std::to_string(t.pass) + ":" + std::to_string(t.tile),
+                                         name, reason, std::to_string(policy.max_retries), std::to_string(policy.blocklist_after),
+                                         redis_number(now_s()), t.kind, std::to_string(t.pass), std::to_string(t.tile), t.avoid, t.what()};
+        for (std::string& n : takers(r, t.lane())) args.push_back(std::move(n));
+        const RedisValue v = r.eval(kFailTask,
+                                    {keys::job(t.job), keys::failures(t.job), keys::failure_reasons(t.job), keys::blocklist(t.job), t.stream,
+                                     keys::node_failed_tasks, keys::node_blocklisted_jobs},
+                                    args);
+        const long long outcome = v.items.size() == 2 ? v.items[0].as_int() : 0;
+        if (v.items.size() == 2 && v.items[1].as_int() == 1) {
+            std::lock_guard lock(mu);
+            if (blocked_jobs.size() > 4096) blocked_jobs.clear();
+            if (blocked_jobs.insert(t.job).second)
+                spdlog::warn("node {}: blocklisted for job {}: {} of its tasks failed here; it takes no more of them", name, t.job,
+                             policy.blocklist_after);
+        }
+        if (outcome == 2) spdlog::error("node {}: job {} failed: {} failed and no retry is left", name, t.job, t.what());
+        else if (outcome == 1) spdlog::warn("node {}: {} of job {} failed (attempt {}), queued again: {}", name, t.what(), t.job, t.attempt, error);
     }
 
     // A task that finds its work done or not wanted (a duplicate, a job no longer running).
@@ -757,7 +906,12 @@ struct RenderNode::Impl {
                     const std::string st = r.command({"HGET", keys::job(h.task.job), "state"}).text;
                     if (st != "running" && st != "queued") *h.cancel = true;  // canceled (or gone): stop within a row
                 }
-                const json m = {{"tiles", metrics.tiles.load()}, {"assemblies", metrics.assemblies.load()}, {"frames", metrics.frames.load()}, {"shot_opens", metrics.shot_opens.load()},
+                // Failures counted against this node across jobs (the scripts keep them in Redis,
+                // so that a node restarted under its name is still known by them).
+                const auto counts = r.pipeline({{"HGET", keys::node_failed_tasks, name}, {"HGET", keys::node_blocklisted_jobs, name}});
+                const json m = {{"tiles", metrics.tiles.load()}, {"tags", cfg.tags}, {"passed_on", metrics.passed_on.load()},
+                                {"failed_tasks", counts[0].is_nil() ? 0 : counts[0].as_int()},
+                                {"blocklisted_jobs", counts[1].is_nil() ? 0 : counts[1].as_int()}, {"assemblies", metrics.assemblies.load()}, {"frames", metrics.frames.load()}, {"shot_opens", metrics.shot_opens.load()},
                                 {"starts", metrics.starts.load()}, {"duplicates", metrics.duplicates.load()},
                                 {"reclaimed", metrics.reclaimed.load()}, {"redis_errors", metrics.redis_errors.load()},
                                 {"rays", metrics.rays.load()}, {"render_seconds", double(metrics.render_micros.load()) * 1e-6},

@@ -10,7 +10,9 @@
 // Delivery is at least once: a task is acknowledged after its result is stored; a task whose
 // node went silent past the visibility timeout is claimed by another node (a node renews the
 // claims it holds while it works); a task delivered more than `max_deliveries` times fails its
-// job with that reason. Every store checks the job's state and pass, so a late duplicate
+// job with that reason. A task that fails on a node is queued again for another (the job's
+// max_retries), a node that fails blocklist_after of a job's tasks takes no more of them, and a
+// node reads only the lanes whose tags it has (cluster_keys.h). Every store checks the job's state and pass, so a late duplicate
 // changes nothing, and a tile rendered twice is the same tile (per-pixel random streams).
 #include <atomic>
 #include <cstdint>
@@ -31,6 +33,7 @@ struct NodeConfig {
     int threads = 1;                  // tiles rendered at once, one per thread
     int visibility_ms = 10000;        // silence after which another node takes a task over
     int max_deliveries = 5;
+    std::vector<std::string> tags;   // what the node offers to jobs' `requires` (sorted)
     int64_t scene_cache_mb = 2048;   // prepared scenes kept between tiles and jobs
     double scene_cache_idle_s = 30;  // and dropped after this long unused
     LoadLimits load_limits;
@@ -41,6 +44,7 @@ struct NodeMetrics {
     std::atomic<uint64_t> frames{0};  // a shot's frames rendered here (not those kept from an earlier run)
     std::atomic<uint64_t> shot_opens{0};  // a shot's scene file opened here (once per shot, kept across its chunks)
     std::atomic<uint64_t> rays{0}, render_micros{0};
+    std::atomic<uint64_t> failed_tasks{0}, passed_on{0};  // tasks that failed here; handed to other nodes
 };
 
 class RenderNode {

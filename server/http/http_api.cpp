@@ -126,7 +126,7 @@ const char* content_type(const std::string& file) {
 std::string allowed_methods(const std::string& path) {
     // As routes() registers them; httplib answers HEAD with a GET route.
     static const std::vector<std::pair<std::regex, std::string>> table = {
-        {std::regex(R"(/healthz|/readyz|/metrics|/v1/openapi\.yaml|/v1/job-schema|/v1/events|/|/ui/[^/]+)"), "GET, HEAD"},
+        {std::regex(R"(/healthz|/readyz|/metrics|/v1/openapi\.yaml|/v1/job-schema|/v1/events|/v1/nodes|/|/ui/[^/]+)"), "GET, HEAD"},
         {std::regex(R"(/v1/jobs|/v1/scenes)"), "GET, HEAD, POST"},
         {std::regex(R"(/v1/comparisons)"), "POST"},
         {std::regex(R"(/v1/jobs/[^/:]+:(pause|resume))"), "POST"},
@@ -667,6 +667,9 @@ void HttpApi::routes() {
         const size_t from = size_param(req, "from", 0, 0, 1'000'000'000);
         res.set_content(queue_.job_log(req.matches[1], from), "application/x-ndjson");
     });
+    s.Get("/v1/nodes", [this](const httplib::Request&, httplib::Response& res) {
+        send_json(res, 200, {{"nodes", queue_.node_report()}});
+    });
     s.Get("/v1/job-schema", [this](const httplib::Request&, httplib::Response& res) {
         res.set_content(json_text(api::job_schema(queue_.config().job_limits)), "application/json");
     });
@@ -791,7 +794,10 @@ std::string HttpApi::metrics_text() {
             const std::pair<const char*, const char*> series[] = {
                 {"tiles", "Tiles a render node stored."}, {"duplicates", "Tasks a render node found done or taken (late duplicates)."},
                 {"reclaimed", "Tasks a render node took over from silent nodes."}, {"rays", "Rays a render node traced."},
-                {"render_seconds", "Seconds a render node spent in tiles."}, {"redis_errors", "Redis errors a render node retried."}};
+                {"render_seconds", "Seconds a render node spent in tiles."}, {"redis_errors", "Redis errors a render node retried."},
+                {"failed_tasks", "Tasks that failed on a render node, every job's (kept in Redis across its restarts)."},
+                {"blocklisted_jobs", "Jobs that blocklisted a render node: it failed blocklist_after of their tasks."},
+                {"passed_on", "Tasks a render node handed to others (blocklisted for their job, or failed them before)."}};
             for (const auto& [key, help] : series) {
                 m << "# HELP tessera_node_" << key << "_total " << help << "\n# TYPE tessera_node_" << key << "_total counter\n";
                 for (const auto& [name, text] : nodes) {

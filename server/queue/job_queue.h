@@ -40,6 +40,7 @@ struct QueueConfig {
     int render_threads = 0;                // 0: all cores
     int64_t max_store_bytes = 0;           // the job store's size bound (0: none)
     int concurrent_jobs = 1;
+    std::vector<std::string> tags;         // one process's node tags (--tags): a job requiring others is refused
     size_t max_queued = 1000;
     api::JobLimits job_limits;
     LoadLimits load_limits;
@@ -144,6 +145,8 @@ public:
     virtual void release_memory();
     // A farm's render nodes and their last heartbeat's metrics (JSON text); empty for one process.
     virtual std::vector<std::pair<std::string, std::string>> render_nodes() { return {}; }
+    // GET /v1/nodes: a farm's render nodes (FarmNode's JSON), failing ones flagged; one process: none.
+    virtual nlohmann::json node_report() { return nlohmann::json::array(); }
     JobStore& store() { return *store_; }
     SceneCatalog& catalog() { return catalog_; }
     const QueueConfig& config() const { return config_; }

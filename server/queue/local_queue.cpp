@@ -57,6 +57,15 @@ void LocalQueue::shutdown() {
 }
 
 api::JobStatus LocalQueue::enqueue(const api::Job& job, JobRecord rec) {
+    // No other node will ever come to one process: a job it cannot take is refused, not queued.
+    const std::vector<std::string>& need = api::task_policy_of(job).required_tags;
+    for (const std::string& tag : need)
+        if (std::find(config_.tags.begin(), config_.tags.end(), tag) == config_.tags.end())
+            throw QueueError(QueueErrorKind::invalid, "no-node-has-tags", "No node can take the job",
+                             "the job requires the node tag '" + tag + "'; this server renders on one process" +
+                                 (config_.tags.empty() ? std::string(" without tags") : " tagged " + api::json_text(config_.tags)) +
+                                 " (serve --tags): submit it to a farm with a node that has it")
+                .with_field("/requires");
     std::lock_guard<std::mutex> lock(mutex_);
     if (queue_.size() >= config_.max_queued)
         throw QueueError(QueueErrorKind::queue_full, "queue-full", "The queue is full",
@@ -347,6 +356,7 @@ std::string LocalQueue::scene_source(const std::string& scene) {
 
 void LocalQueue::run(const JobRecord& rec, Running& running) {
     std::string error;
+    bool input_error = false;
     api::JobOutcome outcome;
     // The job's log: this run as one task (a shot's frames each a task of their own), with what
     // the server logged meanwhile.
@@ -458,7 +468,12 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         };
         outcome = api::run_job(job, opt, api::RunOutputs::in_directory(dir), cb);
     } catch (const SceneError& e) {
+        // Not final: a scene or map may fail to read for a while (a folder remounted, a file
+        // being replaced); a bad one fails each run the same way, which the error then says.
         error = std::string("scene: ") + e.what();
+    } catch (const api::InvalidJob& e) {
+        error = e.what();
+        input_error = true;
     } catch (const std::exception& e) {
         error = e.what();
     }
@@ -499,6 +514,40 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         }
         return;
     }
+    if (!error.empty() && !input_error && !running.cancel) {
+        // Not the job's input: run it again (from its checkpoint) up to its max_retries.
+        int max_retries = api::TaskPolicy{}.max_retries;
+        try {
+            max_retries = api::task_policy_of(api::job_from_json(json::parse(rec.spec_json))).max_retries;
+        } catch (const std::exception&) {
+        }
+        std::vector<std::string> reasons;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            failures_[rec.id].push_back(error);
+            reasons = failures_[rec.id];
+            if (int(reasons.size()) > max_retries) failures_.erase(rec.id);
+        }
+        if (int(reasons.size()) <= max_retries) {
+            log_task("failed");
+            if (until_stored(rec.id, "queued again", [&] { store_->requeue(rec.id); })) {
+                spdlog::warn("job {} failed (run {} of at most {}), queued again: {}", rec.id, reasons.size(), max_retries + 1,
+                             loggable(error, 2000));
+                std::lock_guard<std::mutex> lock(mutex_);
+                queue_.insert(QueueKey{rec.priority, rec.seq, rec.id});
+                cv_.notify_one();
+            }
+            return;
+        }
+        if (reasons.size() > 1) {
+            // The last reason first (what a reader greps for), then the earlier runs' where they differ.
+            std::string earlier;
+            for (size_t i = 0; i + 1 < reasons.size(); ++i)
+                if (reasons[i] != reasons.back()) earlier += "; run " + std::to_string(i + 1) + ": " + reasons[i];
+            error += " (failed " + std::to_string(reasons.size()) + " times, more than the job's max_retries (" + std::to_string(max_retries) +
+                     ")" + (earlier.empty() ? ", each time so" : earlier) + ")";
+        }
+    }
     if (!error.empty()) {
         log_task("failed");
         remove_checkpoints(job_dir(rec.id));
@@ -511,6 +560,10 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         metrics_.render_micros += uint64_t(outcome.render->stats.render_seconds * 1e6);
     }
     if (outcome.render) task.warnings.insert(task.warnings.end(), outcome.render->scene_build.warnings.begin(), outcome.render->scene_build.warnings.end());
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        failures_.erase(rec.id);
+    }
     log_task("done");
     const std::string summary = json_text(outcome.summary);
     if (until_stored(rec.id, "succeeded", [&] { store_->finish(rec.id, JobState::succeeded, unix_time_s(), "", summary); }))

@@ -90,6 +90,9 @@ private:
     std::condition_variable pause_cv_;  // the queue stops (ends a worker's pause before a retry)
     std::set<QueueKey> queue_;
     std::map<std::string, std::shared_ptr<Running>> running_;
+    // Runs of a job that failed for a reason other than its input, with the reasons: the job is
+    // queued again until they pass its max_retries (under mutex_; a restart forgets them).
+    std::map<std::string, std::vector<std::string>> failures_;
     bool stopping_ = false;
     std::vector<std::thread> workers_;
 };

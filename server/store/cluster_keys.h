@@ -1,7 +1,9 @@
 #pragma once
 // The names of everything a render farm keeps in Redis, in one place: the job store, the task
 // streams and the render nodes agree on them here.
+#include <algorithm>
 #include <string>
+#include <vector>
 
 namespace tessera::server::keys {
 
@@ -11,9 +13,29 @@ inline const std::string seq = prefix + "seq";
 inline const std::string all_jobs = prefix + "jobs";  // zset seq → id
 inline std::string jobs_in(const std::string& state) { return prefix + "jobs:" + state; }
 inline const std::string queue = prefix + "queue";  // zset run order → id (queued jobs)
-// Tasks: one stream per priority in use; `priorities` lists them (score = priority).
+// Tasks: one stream per lane in use; `priorities` lists the lanes (score = priority). A lane is
+// a priority, with the node tags its jobs require after a '|' ("5", "5|avx512,bigmem"): a node
+// reads only the lanes whose tags it has, so no task waits behind a node that cannot take it.
 inline const std::string priorities = prefix + "priorities";
-inline std::string tasks(long long priority) { return prefix + "tasks:" + std::to_string(priority); }
+inline std::string lane(long long priority, const std::vector<std::string>& tags) {
+    std::string l = std::to_string(priority);
+    for (size_t i = 0; i < tags.size(); ++i) l += (i ? "," : "|") + tags[i];
+    return l;
+}
+// The tags a lane requires (sorted, as the job lists them).
+inline std::vector<std::string> lane_tags(const std::string& lane) {
+    std::vector<std::string> tags;
+    const size_t bar = lane.find('|');
+    if (bar == std::string::npos) return tags;
+    for (size_t at = bar + 1; at <= lane.size();) {
+        const size_t comma = std::min(lane.find(',', at), lane.size());
+        if (comma > at) tags.push_back(lane.substr(at, comma - at));
+        at = comma + 1;
+    }
+    return tags;
+}
+inline std::string lane_tasks(const std::string& lane) { return prefix + "tasks:" + lane; }
+inline std::string tasks(long long priority) { return lane_tasks(std::to_string(priority)); }
 inline const std::string group = "nodes";
 // A render job's film, tile by tile: field t<i> the tile's encoded film, p<i> its pass.
 inline std::string film(const std::string& id) { return prefix + "film:" + id; }
@@ -22,6 +44,15 @@ inline std::string film(const std::string& id) { return prefix + "film:" + id; }
 inline std::string sums(const std::string& id) { return prefix + "sums:" + id; }
 // Deliveries of each task of a job (field: pass:tile), to fail a job whose task keeps dying.
 inline std::string deliveries(const std::string& id) { return prefix + "deliveries:" + id; }
+// Failures of a job's tasks (task:<kind>:<pass>:<tile> and node:<name> → count), their reasons
+// (a list, a line each, oldest first) and the nodes that take no more of its tasks (a set).
+inline std::string failures(const std::string& id) { return prefix + "failures:" + id; }
+inline std::string failure_reasons(const std::string& id) { return prefix + "reasons:" + id; }
+inline std::string blocklist(const std::string& id) { return prefix + "blocklist:" + id; }
+inline constexpr long long max_failure_reasons = 50;
+// Per node across jobs: tasks failed, and jobs that blocklisted it (hash name → count).
+inline const std::string node_failed_tasks = prefix + "nodefailed";
+inline const std::string node_blocklisted_jobs = prefix + "nodeblocked";
 // Tiles and seconds per node for a job's report.
 inline std::string node_tiles(const std::string& id) { return prefix + "nodetiles:" + id; }
 inline std::string node_seconds(const std::string& id) { return prefix + "nodeseconds:" + id; }

@@ -191,12 +191,91 @@ return 1
 
 // Releases a waiting job (every job it runs after has succeeded): queued, with its start task.
 inline const std::string release_job = transition + R"lua(
--- KEYS: priorities, task stream; ARGV: prefix, id, priority
+-- KEYS: priorities, the lane's task stream; ARGV: prefix, id, priority, lane
 if transition(ARGV[1], ARGV[2], 'queued', 'waiting', '0', '', '') == 0 then return 0 end
-redis.call('ZADD', KEYS[1], ARGV[3], ARGV[3])
+redis.call('ZADD', KEYS[1], ARGV[3], ARGV[4])
 redis.pcall('XGROUP', 'CREATE', KEYS[2], 'nodes', '0', 'MKSTREAM')
 redis.call('XADD', KEYS[2], '*', 'job', ARGV[2], 'kind', 'start', 'pass', '0', 'tile', '0')
 return 1
+)lua";
+
+// A task failed on a node (its error was not the job's: another node may do it). The failure is
+// counted for the task and the node, with its reason; a node that failed `blocklist_after` of the
+// job's tasks is blocklisted for it. The task is queued again (naming the nodes that failed it,
+// so that another takes it where there is one) unless it failed more than `max_retries` times or
+// no live node that could take it is left: then the job fails with every reason. Acknowledges
+// and deletes the failed delivery in every case. Returns {0 job no longer running, 1 queued
+// again, 2 job failed; 1 when this node is now blocklisted for the job}.
+inline const std::string fail_task = transition + R"lua(
+-- KEYS: job, failures, reasons, blocklist, stream, node failed tasks, node blocklisted jobs
+-- ARGV: prefix, id, entry, task key, node, reason, max_retries, blocklist_after, now, kind,
+--       pass, tile, avoid, what the task is, then every live node whose tags the job's lane needs
+local st = redis.call('HGET', KEYS[1], 'state')
+redis.call('XACK', KEYS[5], 'nodes', ARGV[3])
+redis.call('XDEL', KEYS[5], ARGV[3])
+if st ~= 'queued' and st ~= 'running' then return {0, 0} end
+local node = ARGV[5]
+local tries = redis.call('HINCRBY', KEYS[2], 'task:' .. ARGV[4], 1)
+local mine = redis.call('HINCRBY', KEYS[2], 'node:' .. node, 1)
+redis.call('HINCRBY', KEYS[2], 'total', 1)
+redis.call('RPUSH', KEYS[3], ARGV[6])
+redis.call('LTRIM', KEYS[3], -50, -1)
+redis.call('HINCRBY', KEYS[6], node, 1)
+local blocked = 0
+if mine >= tonumber(ARGV[8]) then
+  blocked = 1
+  if redis.call('SADD', KEYS[4], node) == 1 then redis.call('HINCRBY', KEYS[7], node, 1) end
+end
+local why = nil
+if tries > tonumber(ARGV[7]) then
+  why = ARGV[14] .. ' failed ' .. tries .. " times, more than the job's max_retries (" .. ARGV[7] .. ')'
+else
+  local left = 0
+  for i = 15, #ARGV do
+    if redis.call('SISMEMBER', KEYS[4], ARGV[i]) == 0 then left = left + 1 end
+  end
+  if left == 0 then
+    local b = redis.call('SMEMBERS', KEYS[4])
+    table.sort(b)
+    why = 'no live render node can take its tasks: ' .. table.concat(b, ', ') .. ' failed ' .. ARGV[8] ..
+          ' of them each (blocklist_after) and no other node has the tags it requires'
+  end
+end
+if why then
+  transition(ARGV[1], ARGV[2], 'failed', 'queued,running', ARGV[9],
+             why .. '. Failures: ' .. table.concat(redis.call('LRANGE', KEYS[3], 0, -1), '; '), '')
+  return {2, blocked}
+end
+local avoid = ARGV[13]
+if not string.find(',' .. avoid .. ',', ',' .. node .. ',', 1, true) then
+  if avoid == '' then avoid = node else avoid = avoid .. ',' .. node end
+end
+redis.call('XADD', KEYS[5], '*', 'job', ARGV[2], 'kind', ARGV[10], 'pass', ARGV[11], 'tile', ARGV[12],
+           'attempt', tries + 1, 'avoid', avoid)
+return {1, blocked}
+)lua";
+
+// A node hands a task to the others (it is blocklisted for the job, or failed this task before
+// and another node can take it): the same task queued again, its delivery acknowledged, at once.
+inline const std::string pass_on = R"lua(
+-- KEYS: stream; ARGV: entry, job, kind, pass, tile, attempt, avoid
+redis.call('XADD', KEYS[1], '*', 'job', ARGV[2], 'kind', ARGV[3], 'pass', ARGV[4], 'tile', ARGV[5],
+           'attempt', ARGV[6], 'avoid', ARGV[7])
+redis.call('XACK', KEYS[1], 'nodes', ARGV[1])
+redis.call('XDEL', KEYS[1], ARGV[1])
+return 1
+)lua";
+
+// A job whose every live node that could take its tasks is blocklisted: failed, with every
+// reason (a node blocklisted for it holds one of its tasks and finds no other to pass it to).
+inline const std::string strand_job = transition + R"lua(
+-- KEYS: job, reasons, blocklist; ARGV: prefix, id, now
+local b = redis.call('SMEMBERS', KEYS[3])
+table.sort(b)
+return transition(ARGV[1], ARGV[2], 'failed', 'queued,running', ARGV[3],
+                  'no live render node can take its tasks: ' .. table.concat(b, ', ') ..
+                  ' are blocklisted for it and no other node has the tags it requires. Failures: ' ..
+                  table.concat(redis.call('LRANGE', KEYS[2], 0, -1), '; '), '')
 )lua";
 
 // Renews a claim only while it is still this consumer's: a node resumed after a long stop must

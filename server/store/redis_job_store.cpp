@@ -17,7 +17,9 @@ constexpr size_t kMaxListLimit = 1000;
 
 // Fields by name from job_hash.h; the record's own checks and its queueing here.
 const RedisScript kInsert{job_hash_lua_prologue() + R"lua(
--- KEYS: job, seq, all jobs, prefix of per-state sets, queue, priorities, task stream
+-- KEYS: job, seq, all jobs, prefix of per-state sets, queue, priorities, the lane's task stream;
+-- ARGV: the fields, then the lane
+local lane = ARGV[#job_fields + 1]
 if redis.call('EXISTS', KEYS[1]) == 1 then return redis.error_reply('UNIQUE constraint: job id ' .. job.id .. ' exists') end
 local seq = redis.call('INCR', KEYS[2])
 local hash = {'seq', seq}
@@ -25,12 +27,14 @@ for _, name in ipairs(job_fields) do
   hash[#hash + 1] = name
   hash[#hash + 1] = job[name]
 end
+hash[#hash + 1] = 'lane'
+hash[#hash + 1] = lane
 redis.call('HSET', KEYS[1], unpack(hash))
 redis.call('ZADD', KEYS[3], seq, job.id)
 redis.call('ZADD', KEYS[4] .. job.state, seq, job.id)
 if job.state == 'queued' then
   redis.call('ZADD', KEYS[5], string.format('%.0f', (1000 - tonumber(job.priority)) * 1e12 + seq), job.id)
-  redis.call('ZADD', KEYS[6], job.priority, job.priority)
+  redis.call('ZADD', KEYS[6], job.priority, lane)
   redis.pcall('XGROUP', 'CREATE', KEYS[7], 'nodes', '0', 'MKSTREAM')
   redis.call('XADD', KEYS[7], '*', 'job', job.id, 'kind', 'start', 'pass', '0', 'tile', '0')
 end
@@ -77,6 +81,33 @@ void RedisJobStore::set_max_bytes(int64_t max_bytes) {
     max_bytes_ = max_bytes;
 }
 
+namespace {
+
+// The job's lane (cluster_keys.h): its priority and the node tags it requires.
+std::string lane_of(const JobRecord& rec) {
+    std::vector<std::string> tags;
+    try {
+        const nlohmann::json spec = nlohmann::json::parse(rec.spec_json);
+        if (spec.is_object() && spec.contains("requires") && spec["requires"].is_array())
+            for (const auto& t : spec["requires"])
+                if (t.is_string()) tags.push_back(t.get<std::string>());
+    } catch (const nlohmann::json::exception&) {
+        // A record without a readable spec requires nothing: the priority's own lane.
+    }
+    std::sort(tags.begin(), tags.end());
+    return keys::lane(rec.priority, tags);
+}
+
+// A stored job's lane; a record written before lanes existed is in its priority's.
+std::string stored_lane(Redis& redis, const std::string& id, std::string& priority) {
+    const RedisValue v = redis.command({"HMGET", keys::job(id), "priority", "lane"});
+    if (v.items.size() < 2 || v.items[0].is_nil()) return "";
+    priority = v.items[0].text;
+    return v.items[1].is_nil() ? priority : v.items[1].text;
+}
+
+}  // namespace
+
 void RedisJobStore::insert(JobRecord& rec) {
     locked("insert", [&] {
         if (max_bytes_ > 0) {
@@ -87,10 +118,13 @@ void RedisJobStore::insert(JobRecord& rec) {
                 throw StoreError("job store: insert: Redis holds " + std::to_string(used) + " bytes, the bound is " +
                                      std::to_string(max_bytes_), true);
         }
+        const std::string lane = lane_of(rec);
+        std::vector<std::string> args = job_hash_arguments(rec);
+        args.push_back(lane);
         const RedisValue seq = redis_.eval(kInsert,
                                            {keys::job(rec.id), keys::seq, keys::all_jobs, keys::jobs_in(""), keys::queue,
-                                            keys::priorities, keys::tasks(rec.priority)},
-                                           job_hash_arguments(rec));
+                                            keys::priorities, keys::lane_tasks(lane)},
+                                           args);
         rec.seq = seq.as_int();
         return 0;
     });
@@ -163,17 +197,19 @@ bool RedisJobStore::pause(const std::string& id) {
 
 bool RedisJobStore::resume(const std::string& id) {
     return locked("resume", [&] {
-        const RedisValue pr = redis_.command({"HGET", keys::job(id), "priority"});
-        if (pr.is_nil()) return false;
-        return redis_.eval(kResume, {keys::job(id), keys::film(id), keys::tasks(std::stoll(pr.text))}, {keys::prefix, id}).as_int() == 1;
+        std::string priority;
+        const std::string lane = stored_lane(redis_, id, priority);
+        if (lane.empty()) return false;
+        return redis_.eval(kResume, {keys::job(id), keys::film(id), keys::lane_tasks(lane)}, {keys::prefix, id}).as_int() == 1;
     });
 }
 
 bool RedisJobStore::release(const std::string& id) {
     return locked("release", [&] {
-        const RedisValue pr = redis_.command({"HGET", keys::job(id), "priority"});
-        if (pr.is_nil()) return false;
-        return redis_.eval(kRelease, {keys::priorities, keys::tasks(std::stoll(pr.text))}, {keys::prefix, id, pr.text}).as_int() == 1;
+        std::string priority;
+        const std::string lane = stored_lane(redis_, id, priority);
+        if (lane.empty()) return false;
+        return redis_.eval(kRelease, {keys::priorities, keys::lane_tasks(lane)}, {keys::prefix, id, priority, lane}).as_int() == 1;
     });
 }
 
@@ -206,13 +242,15 @@ std::vector<std::pair<int, size_t>> RedisJobStore::queued_by_priority() const {
 
 std::vector<RedisJobStore::StreamBacklog> RedisJobStore::task_backlog() const {
     return locked("task backlog", [&] {
-        std::vector<StreamBacklog> out;
-        for (const auto& p : redis_.command({"ZRANGE", keys::priorities, "0", "-1"}).items) {
+        // Summed over a priority's lanes.
+        std::map<int, StreamBacklog> by;
+        const RedisValue lanes = redis_.command({"ZRANGE", keys::priorities, "0", "-1", "WITHSCORES"});
+        for (size_t l = 0; l + 1 < lanes.items.size(); l += 2) {
             StreamBacklog b;
-            b.priority = int(p.as_int());
+            b.priority = int(std::stod(lanes.items[l + 1].text));
             RedisValue groups;
             try {
-                groups = redis_.command({"XINFO", "GROUPS", keys::tasks(b.priority)});
+                groups = redis_.command({"XINFO", "GROUPS", keys::lane_tasks(lanes.items[l].text)});
             } catch (const RedisError&) {
                 continue;  // no stream (yet) for this priority
             }
@@ -227,8 +265,14 @@ std::vector<RedisJobStore::StreamBacklog> RedisJobStore::task_backlog() const {
                     if (g.items[i].text == "lag" && !g.items[i + 1].is_nil()) b.lag = g.items[i + 1].as_int();
                 }
             }
-            out.push_back(b);
+            auto [it, first] = by.try_emplace(b.priority, b);
+            if (!first) {
+                it->second.pending += b.pending;
+                it->second.lag = it->second.lag < 0 || b.lag < 0 ? -1 : it->second.lag + b.lag;
+            }
         }
+        std::vector<StreamBacklog> out;
+        for (auto& [p, b] : by) out.push_back(b);
         return out;
     });
 }
@@ -273,7 +317,8 @@ bool RedisJobStore::remove_final(const std::string& id) {
     return locked("remove", [&] {
         return redis_.eval(kRemoveFinal,
                            {keys::film(id), keys::deliveries(id), keys::node_tiles(id), keys::node_seconds(id), keys::curve(id),
-                            keys::job_scene(id), keys::job_environment(id), keys::sums(id), keys::shot_chunks(id), keys::shot_done(id), keys::task_log(id)},
+                            keys::job_scene(id), keys::job_environment(id), keys::sums(id), keys::shot_chunks(id), keys::shot_done(id), keys::task_log(id),
+                            keys::failures(id), keys::failure_reasons(id), keys::blocklist(id)},
                            {keys::prefix, id})
                    .as_int() == 1;
     });
@@ -310,6 +355,27 @@ std::optional<RedisJobStore::LiveProgress> RedisJobStore::live_progress(const st
         p.samples = uint64_t(v.items[2].as_int());
         p.pass = int(v.items[3].as_int());
         return p;
+    });
+}
+
+std::optional<api::TaskFailures> RedisJobStore::task_failures(const std::string& id) const {
+    return locked("task failures", [&]() -> std::optional<api::TaskFailures> {
+        const auto v = redis_.pipeline({{"HGET", keys::failures(id), "total"}, {"SMEMBERS", keys::blocklist(id)},
+                                        {"LRANGE", keys::failure_reasons(id), "-5", "-1"}});
+        if (v[0].is_nil()) return std::nullopt;
+        api::TaskFailures f;
+        f.failures = v[0].as_int();
+        for (const auto& n : v[1].items) f.blocklisted.push_back(n.text);
+        std::sort(f.blocklisted.begin(), f.blocklisted.end());
+        for (const auto& r : v[2].items) f.latest.push_back(r.text);
+        return f;
+    });
+}
+
+std::string RedisJobStore::lane(const std::string& id) const {
+    return locked("lane", [&] {
+        std::string priority;
+        return stored_lane(redis_, id, priority);
     });
 }
 

@@ -68,6 +68,10 @@ public:
     };
     // A running job's progress across all nodes (tiles of the current pass, samples overall).
     std::optional<LiveProgress> live_progress(const std::string& id) const;
+    // The failures of a job's tasks (keys::failures), or none when no task failed.
+    std::optional<api::TaskFailures> task_failures(const std::string& id) const;
+    // The job's lane (cluster_keys.h); "" for a job not stored.
+    std::string lane(const std::string& id) const;
     // The render nodes' last heartbeats: name → their metrics (JSON text).
     std::vector<std::pair<std::string, std::string>> nodes() const;
 

@@ -164,6 +164,35 @@ TEST(RenderJob, NotifyTakesAnHttpUrl) {
     }
 }
 
+// `requires`: distinct node tags of one form, at most 16; each refusal names its place.
+TEST(RenderJob, RequiresTakesDistinctNodeTags) {
+    EXPECT_EQ(parse_render_job(json::parse(R"({"scene":"x","requires":["b.2","a-1","c_3"]})")).tasks.required_tags,
+              (std::vector<std::string>{"a-1", "b.2", "c_3"}));
+    json many = json::array();
+    for (int i = 0; i < 17; ++i) many.push_back("t" + std::to_string(i));
+    for (const auto& [body, pointer] : std::vector<std::pair<json, const char*>>{
+             {json::parse(R"({"scene":"x","requires":"gpu"})"), "/requires"},
+             {json::parse(R"({"scene":"x","requires":["gpu","gpu"]})"), "/requires/1"},
+             {json::parse(R"({"scene":"x","requires":["GPU"]})"), "/requires/0"},
+             {json::parse(R"({"scene":"x","requires":[""]})"), "/requires/0"},
+             {json::parse(R"({"scene":"x","requires":["-x"]})"), "/requires/0"},
+             {json::parse(R"({"scene":"x","requires":["a,b"]})"), "/requires/0"},
+             {json::parse(R"({"scene":"x","requires":["a|b"]})"), "/requires/0"},
+             {json::parse(R"({"scene":"x","requires":[7]})"), "/requires/0"},
+             {json::parse(R"({"scene":"x","requires":["aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa"]})"), "/requires/0"},
+             {json{{"scene", "x"}, {"requires", many}}, "/requires"},
+             {json::parse(R"({"scene":"x","max_retries":-1})"), "/max_retries"},
+             {json::parse(R"({"scene":"x","max_retries":101})"), "/max_retries"},
+             {json::parse(R"({"scene":"x","blocklist_after":0})"), "/blocklist_after"}}) {
+        try {
+            parse_render_job(body);
+            ADD_FAILURE() << body.dump() << " was accepted";
+        } catch (const InvalidJob& e) {
+            EXPECT_EQ(e.pointer(), pointer) << body.dump();
+        }
+    }
+}
+
 // Every field survives to_json and back, for a job far from the defaults.
 TEST(RenderJob, RoundTripsEveryField) {
     const json body = json::parse(R"({"scene":"x.dae","width":48,"height":36,"spp":64,"light_rays":4,
@@ -172,10 +201,12 @@ TEST(RenderJob, RoundTripsEveryField) {
         "time_limit_s":12.5,"target_error":0.125,"reference":"0123456789abcdef","max_leaf_size":4,
         "triangle_test":"moller_trumbore","integrator":"path","sampler":"independent","environment":"sky",
         "lens_radius":0.25,"focal_distance":3.5,"passes":["variance","albedo"],"denoise":true,
-        "after":["00000000000000aa","0123456789abcdef"],"notify":{"url":"http://hooks.test:8080/done","frames":true}})");
+        "after":["00000000000000aa","0123456789abcdef"],"notify":{"url":"http://hooks.test:8080/done","frames":true},
+        "requires":["gpu","bigmem"],"max_retries":0,"blocklist_after":7})");
     json want = body;
     want.update({{"frames", nullptr}, {"fps", 24.0}, {"chunk", 0}, {"animation", nullptr}, {"shutter", nullptr}});
     want["passes"] = {"albedo", "variance"};  // in the table's order
+    want["requires"] = {"bigmem", "gpu"};     // sorted: one set of tags, one lane
     const json back = to_json(parse_render_job(body));
     EXPECT_EQ(back, want) << back.dump();
     EXPECT_EQ(to_json(std::get<RenderJob>(job_from_json(back))), back);

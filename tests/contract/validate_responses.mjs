@@ -188,6 +188,7 @@ expect(await call('GET', '/ui/app.js', {auth: false}), 200, 'a script of the pag
 expect(await call('GET', '/ui/style.css', {auth: false}), 200, 'the style of the page');
 expect(await call('GET', '/ui/no-such-file.js', {auth: false}), 404, 'a file the page does not have');
 expect(await call('GET', '/v1/job-schema'), 200, 'the job schema');
+expect(await call('GET', '/v1/nodes'), 200, 'the render nodes (one process: none)');
 
 // Events: a job submitted while the stream is open is seen created; a job filter that names
 // no job is 404; an id this server never gave out gets a reset.
@@ -223,6 +224,7 @@ expect(await call('POST', '/v1/jobs', {body: '{not json'}), 400, 'malformed JSON
 expect(await call('POST', '/v1/jobs', {body: [1]}), 400, 'not an object');
 expect(await call('POST', '/v1/jobs', {body: {scene: 'cornell_box', spp: 'x'}}), 400, 'mistyped field');
 expect(await call('POST', '/v1/jobs', {body: {scene: 'no_such_scene'}}), 404, 'unknown scene');
+expect(await call('POST', '/v1/jobs', {body: {scene: 'cornell_box', requires: ['bigmem']}}), 400, 'node tags one process lacks');
 expect(await call('POST', '/v1/jobs', {body: {scene: 'cornell_box', note: 'x'.repeat(600)}}), 413, 'body over --max-body');
 expect(await call('POST', '/v1/jobs', {body: small, type: 'text/plain'}), 415, 'not JSON');
 // A catalog scene is read when the job runs, not at submission: a broken one fails the job

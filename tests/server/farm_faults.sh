@@ -8,6 +8,11 @@
 #   redis_restart     kill -9 of Redis after the AOF's fsync window, restarted from its AOF mid-job
 #   cancel_priority   a high-priority job overtakes a running low one; cancel stops a running job
 #   poison_task       a task whose nodes keep dying fails its job with the reason, instead of looping
+#   blocklist         a node that fails every task (its --max-triangles refuses the scene) is
+#                     blocklisted for the job; the other finishes it, the same image; the node is
+#                     counted in /v1/nodes and /metrics
+#   tags              a job that requires tags no live node has waits, saying so; a node started
+#                     with them takes it, and only it renders the job
 #   random_kills      3 nodes (API + render each), 50 jobs, random kill -9 and restarts: every job
 #                     accounted for, every image identical to one process's
 #   environment       a job with an environment map: published through Redis, the same image
@@ -124,6 +129,45 @@ kill_api_node)
   same_image api2 "$id" "$ref"
   code=$(api -o /dev/null -w '%{http_code}' "$(url api2)/v1/jobs/$id/report.json")
   [ "$code" = 200 ] || fail "report.json through api2: $code"
+  ;;
+blocklist)
+  ref=$(reference "$job")
+  start_api api
+  # The good node first, live (its heartbeat seen): a node alone that fails is the only node
+  # that could take the job, which then fails for want of one.
+  start_worker good
+  for _ in $(seq 1 100); do api "$(url api)/v1/nodes" | grep -q '"name":"good"' && break; sleep 0.1; done
+  start_worker bad --max-triangles 1
+  id=$(submit api "${job%\}},\"blocklist_after\":2}")
+  [ -n "$id" ] || fail "job not accepted"
+  wait_state_on api "$id" 120 succeeded
+  same_image api "$id" "$ref"
+  status=$(api "$(url api)/v1/jobs/$id")
+  echo "$status" | grep -q '"blocklisted":\["bad"\]' || fail "the status does not name the blocklisted node: $status"
+  echo "$status" | grep -q '"latest":\["bad: ' || fail "the status does not give the reasons: $status"
+  api "$(url api)/v1/jobs/$id/report.json" | grep -q '"node":"bad"' && fail "the failing node stored a tile"
+  api "$(url api)/v1/jobs/$id/log" | grep '"outcome":"failed"' | grep -q '"node":"bad"' || fail "the log has no failed task of the node"
+  for _ in $(seq 1 100); do
+    api "$(url api)/v1/nodes" | grep -q '"blocklisted_jobs":1,"busy":[0-9.e-]*,"failed_tasks":[1-9]' && break
+    sleep 0.1
+  done
+  api "$(url api)/v1/nodes" | grep -q '"blocklisted_jobs":1' || fail "/v1/nodes does not count the blocklisting: $(api "$(url api)/v1/nodes")"
+  api "$(url api)/metrics" | grep -q '^tessera_node_blocklisted_jobs_total{node="bad"} 1' || fail "/metrics does not count it"
+  ;;
+tags)
+  ref=$(reference "$job")
+  start_api api
+  start_worker plain
+  id=$(submit api "${job%\}},\"requires\":[\"bigmem\"]}")
+  [ -n "$id" ] || fail "job not accepted"
+  sleep 2
+  [ "$(state_on api "$id")" = queued ] || fail "a node without the tag took the job"
+  api "$(url api)/v1/jobs/$id" | grep -q '"unplaceable":"no live render node has every tag the job requires' || fail "the status does not say why it waits: $(api "$(url api)/v1/jobs/$id")"
+  start_worker big --tags gpu,bigmem
+  wait_state_on api "$id" 120 succeeded
+  same_image api "$id" "$ref"
+  api "$(url api)/v1/jobs/$id/report.json" | grep -q '"node":"plain"' && fail "the node without the tag rendered a tile"
+  api "$(url api)/v1/nodes" | grep -q '"tags":\["bigmem","gpu"\]' || fail "/v1/nodes does not list the tags"
   ;;
 poison_task)
   # --max-deliveries 1: the first takeover is already one delivery too many.

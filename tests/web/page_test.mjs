@@ -80,6 +80,16 @@ try {
   await page.press('#token-input', 'Enter');
   await page.waitForSelector('#queue', {timeout: 10000});
   check(await page.isHidden('#token-form').catch(() => true), 'the token form goes once the token is taken');
+  // A farm's render nodes under the queue (the API node renders too: one live node); one
+  // process has none, and no panel.
+  if (farm) {
+    await page.waitForSelector('#render-nodes tr[data-node]', {state: 'visible', timeout: 15000});
+    const live = await page.textContent('#render-nodes tbody');
+    check(/live/.test(live), `the queue page lists the farm's render nodes, live (${live.trim().slice(0, 80)})`);
+  } else {
+    await page.waitForTimeout(300);
+    check(await page.isHidden('#render-nodes'), 'one process shows no render nodes');
+  }
 
   // Jobs the compare view and the queue will show.
   const a = (await api('POST', '/v1/jobs', {scene: 'cornell_spheres', width: 96, height: 72, spp: 8, max_depth: 3})).body.id;

@@ -104,6 +104,34 @@ protected:
         return out;
     }
 
+    // A render node of the test's own, beside (or instead of) the fixture's two.
+    RenderNode& add_node(const std::string& name, std::vector<std::string> tags = {}, uint64_t max_triangles = 0) {
+        NodeConfig nc;
+        nc.redis = redis_->url();
+        nc.data_dir = (dir_ / "data").string();
+        nc.name = name;
+        nc.threads = 1;
+        nc.tags = std::move(tags);
+        if (max_triangles) nc.load_limits.max_triangles = max_triangles;
+        nodes_.push_back(std::make_unique<RenderNode>(nc));
+        nodes_.back()->start();
+        return *nodes_.back();
+    }
+    // Stops the fixture's nodes and forgets their heartbeats: they are not live any more.
+    void without_fixture_nodes() {
+        for (int i = 0; i < 2; ++i) nodes_[size_t(i)]->stop();
+        Redis(redis_->url()).command({"HDEL", "tessera:nodes", "test-node-1", "test-node-2"});
+    }
+    api::JobStatus wait_final(const std::string& id, int seconds = 120) {
+        const auto t0 = std::chrono::steady_clock::now();
+        api::JobStatus s = service_->status(id);
+        while (!api::is_final(s.state) && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(seconds)) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+            s = service_->status(id);
+        }
+        return s;
+    }
+
     fs::path dir_;
     std::unique_ptr<FarmQueue> service_;
     std::vector<std::unique_ptr<RenderNode>> nodes_;
@@ -352,6 +380,113 @@ TEST_F(RenderNodeFarm, AShotGivesOneProcessFramesBitForBitAndResumes) {
         const std::string f = "frames/" + std::to_string(n) + "/image.exr";
         EXPECT_EQ(read_image((again / f).string()).rgb, read_image((one / f).string()).rgb) << n;
     }
+}
+
+// A node that fails every task it takes (its --max-triangles refuses the scene) is blocklisted
+// for the job after blocklist_after failures and hands the rest to the other node, which
+// finishes it: the same image as one process's, bit for bit; the status names the node and
+// the reasons, and a node blocklisted by two jobs is reported failing.
+TEST_F(RenderNodeFarm, ANodeThatFailsEveryTaskIsBlocklistedAndTheOtherFinishes) {
+    nodes_[1]->stop();
+    Redis(redis_->url()).command({"HDEL", "tessera:nodes", "test-node-2"});
+    add_node("failing-node", {}, 1);
+    const json body = {{"scene", "cornell_box"}, {"width", 48}, {"height", 32}, {"spp", 8}, {"max_depth", 3}, {"tile_size", 8},
+                       {"blocklist_after", 2}};
+    const std::string id = service_->submit(body).id;
+    const api::JobStatus st = wait_final(id);
+    ASSERT_EQ(st.state, api::JobState::succeeded) << api::to_json(st).dump();
+    ASSERT_TRUE(st.task_failures) << "the failures stay in the status of the job that met them";
+    EXPECT_EQ(st.task_failures->blocklisted, std::vector<std::string>{"failing-node"});
+    EXPECT_GE(st.task_failures->failures, 2);
+    ASSERT_FALSE(st.task_failures->latest.empty());
+    for (const std::string& reason : st.task_failures->latest) {
+        EXPECT_EQ(reason.rfind("failing-node: ", 0), 0u) << reason;
+        EXPECT_NE(reason.find("scene: "), std::string::npos) << reason;
+    }
+    const fs::path farm = job_results_dir((dir_ / "data").string(), id);
+    const json report = json::parse(std::ifstream(farm / "report.json"));
+    for (const auto& share : report["nodes"]) EXPECT_EQ(share["node"], "test-node-1") << "no tile of the failing node";
+    const fs::path one = run_in_one_process(body, fs::path(TESSERA_PROJECT_SCENES) / "cornell_box.gltf", "one-blocklisted");
+    const Image a = read_image((farm / "image.exr").string()), b = read_image((one / "image.exr").string());
+    ASSERT_EQ(a.rgb.size(), b.rgb.size());
+    EXPECT_EQ(0, std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float))) << "the same image despite the failures";
+    std::vector<std::string> ids = {id};
+    // A second job, with the failing node alone: blocklisted again, it fails the job for want of
+    // a node, and is now reported failing (blocklisted by two jobs).
+    without_fixture_nodes();
+    EXPECT_EQ(wait_final(service_->submit(body).id).state, api::JobState::failed);
+// The log has each failed task with its node and reason.
+    size_t failed_lines = 0;
+    std::istringstream log(service_->job_log(ids[0], 0));
+    for (std::string line; std::getline(log, line);) {
+        const json t = json::parse(line);
+        if (t["outcome"] == "failed") {
+            ++failed_lines;
+            EXPECT_EQ(t["node"], "failing-node");
+            EXPECT_FALSE(t["errors"].empty());
+        }
+    }
+    EXPECT_GE(failed_lines, 2u);
+    // Reported across jobs once its heartbeat carries the counts (every quarter of the visibility).
+    json failing;
+    for (int i = 0; i < 200 && failing.is_null(); ++i) {
+        for (const json& n : service_->node_report())
+            if (n["name"] == "failing-node" && n["blocklisted_jobs"] == 2) failing = n;
+        if (failing.is_null()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    ASSERT_FALSE(failing.is_null()) << service_->node_report().dump();
+    EXPECT_TRUE(failing["failing"].get<bool>());
+    EXPECT_GE(failing["failed_tasks"].get<int>(), 4);
+}
+
+// A task that fails on every node fails its job once it has failed more than max_retries times,
+// with every reason, each naming its node; the job's task went to the other node first.
+TEST_F(RenderNodeFarm, ATaskFailingEverywhereFailsItsJobAfterMaxRetriesWithEveryReason) {
+    const json bad = {{"scene", "broken_box"}, {"width", 32}, {"height", 24}, {"spp", 4}, {"max_retries", 1}};
+    const api::JobStatus st = wait_final(service_->submit(bad).id);
+    ASSERT_EQ(st.state, api::JobState::failed);
+    EXPECT_NE(st.error.find("failed 2 times, more than the job's max_retries (1)"), std::string::npos) << st.error;
+    EXPECT_NE(st.error.find("test-node-1: the start task: scene: "), std::string::npos) << "every reason: " << st.error;
+    EXPECT_NE(st.error.find("test-node-2: the start task: scene: "), std::string::npos) << "on the other node: " << st.error;
+    ASSERT_TRUE(st.task_failures);
+    EXPECT_EQ(st.task_failures->failures, 2);
+    EXPECT_TRUE(st.task_failures->blocklisted.empty());
+}
+
+// Where every live node is blocklisted for a job, it fails saying so, with the reasons.
+TEST_F(RenderNodeFarm, AJobNoLiveNodeCanTakeFailsWithEveryReason) {
+    without_fixture_nodes();
+    add_node("failing-node", {}, 1);
+    const json body = {{"scene", "cornell_box"}, {"width", 32}, {"height", 24}, {"spp", 4}, {"blocklist_after", 2}};
+    const api::JobStatus st = wait_final(service_->submit(body).id);
+    ASSERT_EQ(st.state, api::JobState::failed);
+    EXPECT_NE(st.error.find("no live render node can take its tasks: failing-node"), std::string::npos) << st.error;
+    EXPECT_NE(st.error.find("failing-node: the start task: scene: "), std::string::npos) << st.error;
+}
+
+// Node tags: a job that requires a tag no live node has stays queued and says so; a node with
+// the tag takes it, and no other node renders any of its tiles.
+TEST_F(RenderNodeFarm, AJobRequiringTagsWaitsForANodeThatHasThem) {
+    json body = {{"scene", "cornell_box"}, {"width", 32}, {"height", 24}, {"spp", 4}, {"tile_size", 8}, {"requires", {"bigmem", "avx512"}}};
+    const std::string id = service_->submit(body).id;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    api::JobStatus st = service_->status(id);
+    EXPECT_EQ(st.state, api::JobState::queued) << "no node has the tags";
+    EXPECT_NE(st.unplaceable.find("no live render node has every tag the job requires"), std::string::npos) << st.unplaceable;
+    EXPECT_NE(st.unplaceable.find("avx512"), std::string::npos) << st.unplaceable;
+    add_node("half-node", {"bigmem"});
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    EXPECT_EQ(service_->status(id).state, api::JobState::queued) << "a node with one of the two tags does not take it";
+    add_node("big-node", {"avx512", "bigmem", "gpu"});
+    st = wait_final(id);
+    ASSERT_EQ(st.state, api::JobState::succeeded) << api::to_json(st).dump();
+    EXPECT_TRUE(st.unplaceable.empty());
+    const json report = json::parse(std::ifstream(job_results_dir((dir_ / "data").string(), id) / "report.json"));
+    ASSERT_FALSE(report["nodes"].empty());
+    for (const auto& share : report["nodes"]) EXPECT_EQ(share["node"], "big-node");
+    // A job without tags still runs anywhere, the tagged node included.
+    body.erase("requires");
+    EXPECT_EQ(wait_final(service_->submit(body).id).state, api::JobState::succeeded);
 }
 
 }  // namespace

@@ -65,13 +65,17 @@ TEST_F(JobLog, AFailureSaysWhyAndAPauseIsARunOfItsOwn) {
     std::ofstream(dir_ / "uploads" / "0000000000000000" / "broken.dae") << "<?xml version=\"1.0\"?><COLLADA><asset>";
     json broken = kSmallJob;
     broken["scene"] = "upload/0000000000000000/broken";
+    broken["max_retries"] = 1;  // a run each time: two, both failed
     const std::string bad = submit(broken);
     wait_state(bad, {"failed"});
     const auto a = log_of(bad);
-    ASSERT_EQ(a.size(), 1u);
-    EXPECT_EQ(a[0]["outcome"], "failed");
-    ASSERT_FALSE(a[0]["errors"].empty());
-    EXPECT_NE(a[0]["errors"][0].get<std::string>().find("broken.dae"), std::string::npos) << a[0].dump();
+    ASSERT_EQ(a.size(), 2u);
+    for (size_t run = 0; run < a.size(); ++run) {
+        EXPECT_EQ(a[run]["outcome"], "failed");
+        EXPECT_EQ(a[run]["attempt"], run + 1);
+        ASSERT_FALSE(a[run]["errors"].empty());
+        EXPECT_NE(a[run]["errors"][0].get<std::string>().find("broken.dae"), std::string::npos) << a[run].dump();
+    }
 
     const std::string id = submit(kLongJob);
     wait_state(id, {"running"});
