@@ -1,0 +1,101 @@
+// The farm's Lua scripts on a real redis-server: each compiles (SCRIPT LOAD), so a typo fails
+// here and not as a render node retrying a task forever; and the failure scripts' rules, driven
+// directly: a failed task is queued again naming its node until max_retries, a node is
+// blocklisted at blocklist_after, and a job fails with every reason when no retry or no node
+// is left.
+#include "server/store/cluster_lua.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+
+#include "server/farm/farm_records.h"
+#include "server/store/cluster_keys.h"
+#include "tests/server/redis_suite.h"
+
+namespace tessera::server {
+namespace {
+
+class ClusterLua : public test::WithSuiteRedis<> {
+protected:
+    void SetUp() override { redis_ready("the farm's scripts are not tested"); }
+};
+
+TEST_F(ClusterLua, EveryScriptCompiles) {
+    if (!redis_) return;
+    Redis r(redis_->url());
+    const std::pair<const char*, std::string> scripts[] = {
+        {"transition", lua::transition},       {"add_chunks", lua::add_chunks},     {"chunk_done", lua::chunk_done},
+        {"add_tiles", lua::add_tiles},         {"commit_tile", commit_tile_script()}, {"begin_run", lua::begin_run},
+        {"advance_pass", lua::advance_pass},   {"complete_run", lua::complete_run}, {"transition_job", lua::transition_job},
+        {"pause_job", lua::pause_job},         {"resume_job", lua::resume_job},     {"release_job", lua::release_job},
+        {"fail_task", lua::fail_task},         {"pass_on", lua::pass_on},           {"strand_job", lua::strand_job},
+        {"renew_claim", lua::renew_claim}};
+    for (const auto& [name, source] : scripts) {
+        SCOPED_TRACE(name);
+        EXPECT_NO_THROW(r.command({"SCRIPT", "LOAD", source}));
+    }
+}
+
+// fail_task's arguments for one failure of `node` on tile 0 of pass 0.
+std::vector<std::string> failure(const std::string& id, const std::string& entry, const std::string& node, int max_retries,
+                                 int blocklist_after, const std::vector<std::string>& live) {
+    std::vector<std::string> a = {keys::prefix, id, entry, "tile:0:0", node, node + ": tile 0 of pass 0: it broke",
+                                  std::to_string(max_retries), std::to_string(blocklist_after), "1700000000", "tile", "0", "0", "",
+                                  "tile 0 of pass 0"};
+    a.insert(a.end(), live.begin(), live.end());
+    return a;
+}
+
+TEST_F(ClusterLua, AFailedTaskIsQueuedAgainUntilItsRetriesOrItsNodesRunOut) {
+    if (!redis_) return;
+    Redis r(redis_->url());
+    const RedisScript fail{lua::fail_task};
+    const std::string id = "00000000000000f1", stream = keys::tasks(0);
+    auto keys_of = [&] {
+        return std::vector<std::string>{keys::job(id), keys::failures(id), keys::failure_reasons(id), keys::blocklist(id), stream,
+                                        keys::node_failed_tasks, keys::node_blocklisted_jobs};
+    };
+    r.command({"HSET", keys::job(id), "state", "running", "seq", "1", "priority", "0"});
+    r.command({"XGROUP", "CREATE", stream, keys::group, "0", "MKSTREAM"});
+    auto entry = [&] { return r.command({"XADD", stream, "*", "job", id, "kind", "tile", "pass", "0", "tile", "0"}).text; };
+    // Two nodes live, max_retries 2, blocklist_after 2.
+    RedisValue v = r.eval(fail, keys_of(), failure(id, entry(), "a", 2, 2, {"a", "b"}));
+    EXPECT_EQ(v.items[0].as_int(), 1) << "queued again";
+    EXPECT_EQ(v.items[1].as_int(), 0) << "a not yet blocklisted";
+    // The failed delivery is gone, and a copy naming `a` is queued in its place.
+    const RedisValue all = r.command({"XRANGE", stream, "-", "+"});
+    ASSERT_EQ(all.items.size(), 1u);
+    const auto& fields = all.items[0].items[1].items;
+    std::map<std::string, std::string> f;
+    for (size_t i = 0; i + 1 < fields.size(); i += 2) f[fields[i].text] = fields[i + 1].text;
+    EXPECT_EQ(f["avoid"], "a");
+    EXPECT_EQ(f["attempt"], "2");
+    v = r.eval(fail, keys_of(), failure(id, entry(), "a", 2, 2, {"a", "b"}));
+    EXPECT_EQ(v.items[0].as_int(), 1) << "b can still take it";
+    EXPECT_EQ(v.items[1].as_int(), 1) << "a blocklisted at its second failure";
+    EXPECT_EQ(r.command({"SISMEMBER", keys::blocklist(id), "a"}).as_int(), 1);
+    EXPECT_EQ(r.command({"HGET", keys::node_blocklisted_jobs, "a"}).as_int(), 1);
+    v = r.eval(fail, keys_of(), failure(id, entry(), "b", 2, 2, {"a", "b"}));
+    EXPECT_EQ(v.items[0].as_int(), 2) << "a third failure is past max_retries 2";
+    EXPECT_EQ(r.command({"HGET", keys::job(id), "state"}).text, "failed");
+    const std::string error = r.command({"HGET", keys::job(id), "error"}).text;
+    EXPECT_NE(error.find("tile 0 of pass 0 failed 3 times, more than the job's max_retries (2)"), std::string::npos) << error;
+    EXPECT_NE(error.find("a: tile 0 of pass 0: it broke; a: tile 0 of pass 0: it broke; b: "), std::string::npos) << "every reason: " << error;
+    EXPECT_EQ(r.eval(fail, keys_of(), failure(id, entry(), "b", 2, 2, {"a", "b"})).items[0].as_int(), 0) << "a failed job counts nothing more";
+
+    // One node live, blocklisted at its first failure: no node left.
+    const std::string id2 = "00000000000000f2";
+    r.command({"HSET", keys::job(id2), "state", "running", "seq", "2", "priority", "0"});
+    const std::string e2 = r.command({"XADD", stream, "*", "job", id2, "kind", "tile", "pass", "0", "tile", "0"}).text;
+    v = r.eval(fail, {keys::job(id2), keys::failures(id2), keys::failure_reasons(id2), keys::blocklist(id2), stream, keys::node_failed_tasks,
+                      keys::node_blocklisted_jobs},
+               failure(id2, e2, "a", 3, 1, {"a"}));
+    EXPECT_EQ(v.items[0].as_int(), 2);
+    const std::string error2 = r.command({"HGET", keys::job(id2), "error"}).text;
+    EXPECT_NE(error2.find("no live render node can take its tasks: a failed 1 of them each"), std::string::npos) << error2;
+    EXPECT_EQ(r.command({"HGET", keys::node_failed_tasks, "a"}).as_int(), 3) << "a's failures, every job's";
+}
+
+}  // namespace
+}  // namespace tessera::server
