@@ -42,6 +42,9 @@ void sync_directory(const std::filesystem::path& dir) {
 
 bool write_checkpoint(const std::string& path, const RenderCheckpoint& c) noexcept {
     try {
+        // A shot's frame has no folder of its own until it is written.
+        std::error_code ec;
+        std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
         const std::string part = path + ".part";
         if (!write_synced(part, encode_checkpoint(c))) {
             std::remove(part.c_str());

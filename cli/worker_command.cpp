@@ -32,6 +32,11 @@ int worker_command(int argc, char** argv) {
     CLI::Option* max_triangles = app.add_option("--max-triangles", node.load_limits.max_triangles, "triangles in a scene")
                                      ->envname("TESSERA_MAX_TRIANGLES")
                                      ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 40));
+    app.add_option("--checkpoint-s", node.checkpoint_s,
+                   "a shot's frame in hand is checkpointed to the shared results folder this often, in seconds of rendering "
+                   "(and when the node stops or the job is paused), so that it continues there; 0: only then")
+        ->envname("TESSERA_CHECKPOINT_S")
+        ->check(CLI::Range(0.0, 1e7));
     app.add_option("--log-level", log_level, "log level: trace|debug|info|warn|error")->envname("TESSERA_LOG_LEVEL")->type_name("LEVEL");
     add_node_options(app, node);
     if (const auto status = parse_args(app, argc, argv)) return *status;

@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "server/queue/local_queue.h"
+#include "server/store/job_results.h"
 #include "server/store/scene_ref.h"
 
 namespace tessera::server {
@@ -33,6 +34,7 @@ FarmQueue::FarmQueue(const ServiceConfig& config) : JobQueue(config) {
         nc.data_dir = config_.data_dir;
         nc.threads = config_.render_threads > 0 ? config_.render_threads : int(std::max(1u, std::thread::hardware_concurrency()));
         nc.load_limits = config_.load_limits;
+        nc.checkpoint_s = config_.checkpoint_s;
         node_ = std::make_unique<RenderNode>(nc);
         node_->start();
     }
@@ -221,7 +223,10 @@ api::JobStatus FarmQueue::cancel(const std::string& id) {
     status(id);  // not_found for unknown ids
     // Queued or running alike: nodes drop its tasks, and stop a tile in hand within a row.
     try {
-        if (store_->finish(id, JobState::canceled, unix_time_s(), "", "")) spdlog::info("job {} canceled", id);
+        if (store_->finish(id, JobState::canceled, unix_time_s(), "", "")) {
+            spdlog::info("job {} canceled", id);
+            remove_checkpoints(job_dir(id));  // a shot's frames' (a node stopping writes one as it goes)
+        }
     } catch (const StoreError& e) {
         throw store_refusal(e);
     }
@@ -230,28 +235,14 @@ api::JobStatus FarmQueue::cancel(const std::string& id) {
     return status(id);
 }
 
-namespace {
-
-// Shots and comparisons run whole on one node (a rerun starts them again): not paused so far.
-void refuse_whole_jobs(const api::JobStatus& st) {
-    const nlohmann::json& s = st.settings;
-    const bool comparison = s.is_object() && s.value("kind", "") == "comparison";
-    const bool shot = s.is_object() && s.contains("frames") && !s["frames"].is_null();
-    if (comparison || shot)
-        throw QueueError(QueueErrorKind::conflict, "not-on-a-farm", "Not available on a render farm",
-                         std::string("pausing a ") + (shot ? "shot" : "comparison") +
-                             " is available on one process (serve without --redis) only, so far; a still pauses on a farm too");
-}
-
-}  // namespace
-
 api::JobStatus FarmQueue::pause(const std::string& id) {
     const api::JobStatus st = status(id);
     if (is_final(st.state)) throw job_finished(id, to_string(st.state), "paused");
     if (st.state == JobState::waiting) throw waiting_job(id);
-    refuse_whole_jobs(st);
     try {
-        if (store_->pause(id)) spdlog::info("job {} paused; its nodes drop its tasks, its film stays in Redis", id);
+        // A still keeps its film in Redis; a shot its frames written and the frame in hand's
+        // checkpoint in the shared folder; a comparison, a race at equal time, runs again whole.
+        if (store_->pause(id)) spdlog::info("job {} paused; its nodes drop its tasks and keep what they rendered", id);
     } catch (const StoreError& e) {
         throw store_refusal(e);
     }

@@ -602,6 +602,9 @@ struct RenderNode::Impl {
         opt.threads = cfg.threads;
         opt.job_id = t.job;
         opt.resume_frames = true;
+        // The frame in hand continues from its checkpoint in the shared folder after a pause, a
+        // node's stop or death.
+        opt.checkpoint_seconds = cfg.checkpoint_s;
         opt.environment = info.settings.environment;  // published by the API node, loaded with the job
         // The shot's scene, opened once on this node and kept for its next chunks (posing is
         // const: chunks on several threads share it); another shot replaces it. Prototype
@@ -647,10 +650,10 @@ struct RenderNode::Impl {
         api::RunCallbacks cb;
         cb.stop = &cancel;
         const api::JobOutcome first = api::run_job(job, opt, shot_outputs(t.job), cb);
-        if (first.stopped) return;
+        if (first.stopped) return shot_stopped(r, t.job);
         metrics.frames += first.summary.value("frames", 0) - first.summary.value("frames_resumed", 0);
         const size_t total = job.frames->count();
-        const size_t live = std::max<long long>(1, r.command({"HLEN", keys::nodes}).as_int());
+        const size_t live = std::max<size_t>(1, takers(r, t.lane()).size());  // the live nodes that can take its chunks
         const size_t chunk = chunk_frames(first.summary.value("open_s", 0.0), first.summary.value("frames_s", 0.0), total - 1, live,
                                           size_t(job.chunk));
         std::vector<std::string> args = {t.job};
@@ -673,12 +676,19 @@ struct RenderNode::Impl {
         api::RunCallbacks cb;
         cb.stop = &cancel;
         const api::JobOutcome out = api::run_job(job, opt, shot_outputs(t.job), cb);
-        if (out.stopped) return;
+        if (out.stopped) return shot_stopped(r, t.job);
         metrics.frames += out.summary.value("frames", 0) - out.summary.value("frames_resumed", 0);
         const RedisValue v = r.eval(kChunkDone, {keys::shot_done(t.job), keys::shot_chunks(t.job)}, {std::to_string(t.pass)});
         // Every chunk written: this node finishes the shot (a finish repeated after a node died
         // mid-way finds every frame written and writes the same files).
         if (v.items.size() == 2 && v.items[0].as_int() == v.items[1].as_int()) finish_shot(r, t, job, cancel);
+    }
+
+    // A shot's run stopped: a paused job keeps its frame's checkpoint for its resume; a canceled
+    // or failed one never continues, and the checkpoint written as it stopped goes.
+    void shot_stopped(Redis& r, const std::string& id) {
+        const std::string state = r.command({"HGET", keys::job(id), "state"}).text;
+        if (state != "paused" && state != "running" && state != "queued") remove_checkpoints(job_results_dir(cfg.data_dir, id));
     }
 
     void finish_shot(Redis& r, const Task& t, const api::RenderJob& job, std::atomic<bool>& cancel) {

@@ -34,6 +34,7 @@ struct NodeConfig {
     int visibility_ms = 10000;        // silence after which another node takes a task over
     int max_deliveries = 5;
     std::vector<std::string> tags;   // what the node offers to jobs' `requires` (sorted)
+    double checkpoint_s = 30;        // a shot's frame in hand is checkpointed this often (and when stopped)
     int64_t scene_cache_mb = 2048;   // prepared scenes kept between tiles and jobs
     double scene_cache_idle_s = 30;  // and dropped after this long unused
     LoadLimits load_limits;

@@ -126,20 +126,6 @@ void LocalQueue::add_live(api::JobStatus& st, const JobRecord& rec, bool locked)
     }
 }
 
-namespace {
-
-// A job that ends without its results (canceled, failed) is never continued: its checkpoints
-// (the render's, or a shot's frame's) go.
-void remove_checkpoints(const std::string& dir) {
-    std::error_code ec;
-    std::vector<fs::path> found;
-    for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
-        if (it->path().filename() == "checkpoint.tck" || it->path().filename() == "checkpoint.tck.part") found.push_back(it->path());
-    for (const fs::path& p : found) fs::remove(p, ec);
-}
-
-}  // namespace
-
 api::JobStatus LocalQueue::cancel(const std::string& id) {
     status(id);  // not_found for unknown ids
     bool canceled_queued = false;

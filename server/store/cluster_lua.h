@@ -150,12 +150,13 @@ redis.call('HSET', KEYS[1], 'paused_ms', tonumber(t[1]) * 1000 + math.floor(tonu
 return 1
 )lua";
 
-// Resumes a paused job. One that never began is queued again with a start task; one that did
-// runs again where it stopped: the tiles of its pass not yet stored are queued again (those
+// Resumes a paused job. One that never began, or runs whole on a node (a comparison, a shot),
+// is queued again with a start task (a shot's plan of chunks is dropped: its start plans the
+// frames not yet written afresh); a still that began runs again where it stopped: the tiles of its pass not yet stored are queued again (those
 // dropped while it was paused; a duplicate of one still queued stores nothing the second time),
 // or its assembly when every tile is stored. Its run's clock moves on by the pause.
 inline const std::string resume_job = transition + R"lua(
--- KEYS: job, film, task stream; ARGV: prefix, id
+-- KEYS: job, film, task stream, a shot's chunk count, its chunks written; ARGV: prefix, id
 local k = KEYS[1]
 if redis.call('HGET', k, 'state') ~= 'paused' then return 0 end
 local t = redis.call('TIME')
@@ -164,6 +165,7 @@ local paused_ms = tonumber(redis.call('HGET', k, 'paused_ms') or '')
 redis.call('HDEL', k, 'paused_ms')
 local total = tonumber(redis.call('HGET', k, 'tiles_total') or '')
 if not total then
+  redis.call('DEL', KEYS[4], KEYS[5])
   transition(ARGV[1], ARGV[2], 'queued', 'paused', '0', '', '')
   redis.pcall('XGROUP', 'CREATE', KEYS[3], 'nodes', '0', 'MKSTREAM')
   redis.call('XADD', KEYS[3], '*', 'job', ARGV[2], 'kind', 'start', 'pass', '0', 'tile', '0')

@@ -200,7 +200,9 @@ bool RedisJobStore::resume(const std::string& id) {
         std::string priority;
         const std::string lane = stored_lane(redis_, id, priority);
         if (lane.empty()) return false;
-        return redis_.eval(kResume, {keys::job(id), keys::film(id), keys::lane_tasks(lane)}, {keys::prefix, id}).as_int() == 1;
+        return redis_.eval(kResume, {keys::job(id), keys::film(id), keys::lane_tasks(lane), keys::shot_chunks(id), keys::shot_done(id)},
+                           {keys::prefix, id})
+                   .as_int() == 1;
     });
 }
 

@@ -7,8 +7,10 @@
 # web page,
 # stops it with SIGTERM (exit status 0), starts a new container on the same volume and finds
 # the job and its image there. Then docker/compose.yaml with podman-compose: Redis, an API
-# node and two render nodes from the same image; a job submitted to the API node is rendered
-# by the render nodes.
+# node and one render node from the same image; a job submitted to the API node is rendered
+# by the render node; then, in the middle of a longer job, two more render nodes join
+# (podman-compose run of the worker service) and leave again (SIGTERM), and the job ends with
+# the image the single container gave, bit for bit (idiff).
 #
 # Skips (77) where podman is not installed, unless TESSERA_REQUIRE_CONTAINER=1 (CI). The
 # image's size bound is TESSERA_IMAGE_MAX_MB (650: the image measured 535 MB before it carried
@@ -32,6 +34,7 @@ project="tessera-ct-$$"
 redis_tag="localhost/tessera-redis-test:$$"
 compose() { podman-compose -p "$project" -f "$root/docker/compose.yaml" "$@"; }
 cleanup() {
+  podman rm -f -t 0 "${project}_worker_extra2" "${project}_worker_extra3" > /dev/null 2>&1 || true
   compose down -v > /dev/null 2>&1 || true
   podman rmi -f "$redis_tag" > /dev/null 2>&1 || true
   podman rm -f -t 0 "$name" > /dev/null 2>&1 || true
@@ -115,6 +118,12 @@ api -o "$podman_conf_dir/preview.mp4" "http://127.0.0.1:$port/v1/jobs/$id/previe
 [ "$(od -An -j4 -N4 -c "$podman_conf_dir/preview.mp4" | tr -d ' ')" = ftyp ] || fail "the shot's preview.mp4 is not an MP4: $(head -c 300 "$podman_conf_dir/preview.mp4")"
 api -o "$podman_conf_dir/frame.exr" "http://127.0.0.1:$port/v1/jobs/$id/frames/6/image.exr"
 [ "$(od -An -N4 -tx1 "$podman_conf_dir/frame.exr" | tr -d ' ')" = 762f3101 ] || fail "frame 6's image.exr is not an EXR"
+# The job the compose farm will render while it scales: its image here, from one process.
+scale_job='{"scene": "cornell_spheres", "width": 320, "height": 240, "spp": 768, "max_depth": 4, "tile_size": 16}'
+t0=$(date +%s)
+render_job "$scale_job"
+echo "the scaling job in one container: $(( $(date +%s) - t0 )) s"
+api -o "$podman_conf_dir/scale_one.exr" "http://127.0.0.1:$port/v1/jobs/$id/image.exr"
 id=$still_id
 
 echo "== SIGTERM, then a new container on the same volume"
@@ -136,7 +145,7 @@ if timeout 60 podman --runtime runc run --name "$name" "$tag" > "$podman_conf_di
 grep -q "without tokens" "$podman_conf_dir/open.log" || fail "no reason given: $(cat "$podman_conf_dir/open.log")"
 podman rm -f -t 0 "$name" > /dev/null 2>&1
 
-echo "== compose: Redis, an API node and two render nodes"
+echo "== compose: Redis, an API node and one render node"
 podman build --isolation chroot --network host -f "$root/docker/redis.Dockerfile" -t "$redis_tag" "$root" > "$podman_conf_dir/redis.log" 2>&1 \
   || { tail -n 20 "$podman_conf_dir/redis.log"; fail "the Redis image does not build"; }
 # A free loopback port for the API node: one nothing answers on.
@@ -146,7 +155,8 @@ for _ in $(seq 1 50); do
 done
 scenes="$root/../shared/scenes/cs184"
 [ -d "$scenes" ] || { scenes="$podman_conf_dir/no-scenes"; mkdir -p "$scenes"; }
-export TESSERA_IMAGE="$tag" TESSERA_REDIS_IMAGE="$redis_tag" TESSERA_TOKENS="$token" TESSERA_HOST_PORT="$port" CS184_SCENES="$scenes"
+export TESSERA_IMAGE="$tag" TESSERA_REDIS_IMAGE="$redis_tag" TESSERA_TOKENS="$token" TESSERA_HOST_PORT="$port" CS184_SCENES="$scenes" \
+  TESSERA_WORKERS=1
 compose up -d > "$podman_conf_dir/compose.log" 2>&1 || { tail -n 30 "$podman_conf_dir/compose.log"; fail "compose up failed"; }
 healthy=0
 for _ in $(seq 1 150); do
@@ -160,4 +170,48 @@ nodes=$( (api "http://127.0.0.1:$port/v1/jobs/$id/report.json" || true) | grep -
 api -o "$podman_conf_dir/farm.png" "http://127.0.0.1:$port/v1/jobs/$id/image.png"
 [ "$(od -An -N4 -tx1 "$podman_conf_dir/farm.png" | tr -d ' ')" = 89504e47 ] || fail "the farm's image.png is not a PNG"
 echo "compose: a job rendered by $nodes render node(s)"
+
+echo "== compose: from 1 to 3 render nodes and back, in the middle of a job"
+# podman-compose 1.0 (Debian 12) does not change a running project's replicas (`up --scale`
+# recreates nothing), so the nodes join as `run` of the worker service: the same image, network,
+# volume and command, as `docker compose up -d --scale worker=3` adds them.
+live_nodes() { (api "http://127.0.0.1:$port/v1/nodes" || true) | grep -o '"live":true' | wc -l; }
+working_nodes() { (api "http://127.0.0.1:$port/v1/nodes" || true) | grep -o '"tiles":[0-9]*' | grep -vc '"tiles":0' || true; }
+id=$(api -X POST "http://127.0.0.1:$port/v1/jobs" -H 'Content-Type: application/json' -d "$scale_job" | field id || true)
+[ -n "$id" ] || fail "the scaling job was not accepted"
+for _ in $(seq 1 300); do
+  done_tiles=$( (api "http://127.0.0.1:$port/v1/jobs/$id" || true) | sed -n 's/.*"tiles_done":\([0-9]*\).*/\1/p' | head -n 1)
+  [ "${done_tiles:-0}" -gt 0 ] && break
+  sleep 0.1
+done
+[ "${done_tiles:-0}" -gt 0 ] || fail "the scaling job never started on the one node"
+extra=("${project}_worker_extra2" "${project}_worker_extra3")
+for c in "${extra[@]}"; do
+  compose run -d --no-deps --name "$c" worker >> "$podman_conf_dir/compose.log" 2>&1 || fail "podman-compose run of a worker failed"
+done
+for _ in $(seq 1 300); do
+  [ "$(live_nodes)" -ge 3 ] && [ "$(working_nodes)" -ge 3 ] && break
+  sleep 0.1
+done
+[ "$(live_nodes)" -ge 3 ] && [ "$(working_nodes)" -ge 3 ] || fail "the new nodes took no tiles: $(api "http://127.0.0.1:$port/v1/nodes")"
+[ "$(api "http://127.0.0.1:$port/v1/jobs/$id" | field state)" = running ] || fail "the job ended before the scale-down: make it longer"
+podman stop -t 30 "${extra[@]}" > /dev/null 2>&1
+for c in "${extra[@]}"; do
+  status=$(podman inspect --format '{{.State.ExitCode}}' "$c")
+  [ "$status" = 0 ] || fail "a render node scaled down ended with status $status"
+done
+[ "$(api "http://127.0.0.1:$port/v1/jobs/$id" | field state)" = running ] || fail "the job ended before the scale-down was over: make it longer"
+state=""
+for _ in $(seq 1 900); do
+  state=$(api "http://127.0.0.1:$port/v1/jobs/$id" | field state || true)
+  [ "$state" = succeeded ] || [ "$state" = failed ] && break
+  sleep 0.2
+done
+[ "$state" = succeeded ] || { compose logs 2>&1 | tail -n 30; fail "the scaled job ended '$state'"; }
+shares=$( (api "http://127.0.0.1:$port/v1/jobs/$id/report.json" || true) | grep -o '"tiles":[0-9]*' | grep -vc '"tiles":0' || true)
+[ "$shares" -ge 3 ] || fail "the report names $shares nodes with tiles, not the three"
+api -o "$podman_conf_dir/scale_farm.exr" "http://127.0.0.1:$port/v1/jobs/$id/image.exr"
+idiff -a -fail 0 -warn 0 "$podman_conf_dir/scale_one.exr" "$podman_conf_dir/scale_farm.exr" > "$podman_conf_dir/idiff.txt" 2>&1 \
+  || { cat "$podman_conf_dir/idiff.txt"; fail "the scaled farm's image differs from one container's"; }
+echo "compose: 1 → 3 → 1 render nodes mid-job ($shares nodes stored tiles), the same image bit for bit"
 echo "container: ok ($size_mb MB)"

@@ -105,8 +105,9 @@ protected:
     }
 
     // A render node of the test's own, beside (or instead of) the fixture's two.
-    RenderNode& add_node(const std::string& name, std::vector<std::string> tags = {}, uint64_t max_triangles = 0) {
+    RenderNode& add_node(const std::string& name, std::vector<std::string> tags = {}, uint64_t max_triangles = 0, int visibility_ms = 10000) {
         NodeConfig nc;
+        nc.visibility_ms = visibility_ms;
         nc.redis = redis_->url();
         nc.data_dir = (dir_ / "data").string();
         nc.name = name;
@@ -274,14 +275,67 @@ TEST_F(RenderNodeFarm, APausedJobResumedGivesOneProcessImageBitForBit) {
             EXPECT_EQ(0, std::memcmp(da.rgb.data(), db.rgb.data(), da.rgb.size() * sizeof(float))) << "denoised pixels";
         }
     }
-    // A shot or a comparison is refused on a farm, saying so; a finished job is a conflict.
-    const std::string shot = service_->submit(json{{"scene", "cornell_shot"}, {"width", 16}, {"height", 12}, {"spp", 1}, {"frames", {{"start", 0}, {"end", 48}, {"step", 24}}}}).id;
-    try {
-        service_->pause(shot);
-        if (!api::is_final(service_->status(shot).state)) ADD_FAILURE() << "a shot was paused on a farm";
-    } catch (const QueueError& e) {
-        EXPECT_TRUE(e.code == "not-on-a-farm" || e.code == "job-finished") << e.code;
+}
+
+// A shot paused on the farm stops between frames or inside one (its frame's checkpoint kept in
+// the shared folder), and resumed it plans the frames not yet written afresh: every frame equals
+// one process's, bit for bit. A comparison paused runs again whole when resumed.
+TEST_F(RenderNodeFarm, APausedShotOrComparisonResumesOnTheFarm) {
+    // Nodes that see a pause within 250 ms (a quarter of their visibility timeout): inside a frame.
+    without_fixture_nodes();
+    add_node("quick-1", {}, 0, 1000);
+    add_node("quick-2", {}, 0, 1000);
+    const json body = {{"scene", "cornell_shot"}, {"width", 96}, {"height", 72}, {"spp", 256}, {"max_depth", 3},
+                       {"frames", {{"start", 0}, {"end", 48}, {"step", 8}}}, {"chunk", 1}};
+    const std::string id = service_->submit(body).id;
+    const fs::path farm = job_results_dir((dir_ / "data").string(), id);
+    int paused = 0;
+    bool inside_a_frame = false;
+    for (const size_t after_frames : {size_t(1), size_t(3)}) {
+        for (int i = 0; i < 5000; ++i) {
+            const api::JobStatus st = service_->status(id);
+            if (api::is_final(st.state) || (st.shot && st.shot->frames_done >= after_frames)) break;
+            std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        }
+        const api::JobStatus p = service_->pause(id);
+        if (api::is_final(p.state)) break;
+        ASSERT_EQ(p.state, api::JobState::paused);
+        ++paused;
+        // The nodes see it at their next heartbeat (a quarter of the visibility timeout) and stop.
+        std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+        EXPECT_EQ(service_->status(id).state, api::JobState::paused);
+        std::error_code ec;
+        for (fs::recursive_directory_iterator it(farm / "frames", ec), end; !ec && it != end; it.increment(ec))
+            if (it->path().filename() == "checkpoint.tck") inside_a_frame = true;
+        EXPECT_NE(service_->resume(id).state, api::JobState::paused);
     }
+    EXPECT_GE(paused, 1) << "paused before it finished";
+    EXPECT_TRUE(inside_a_frame) << "a pause inside a frame keeps the frame's checkpoint";
+    const api::JobStatus s = wait_final(id);
+    ASSERT_EQ(s.state, api::JobState::succeeded) << api::to_json(s).dump();
+    const fs::path one = run_in_one_process(body, (fs::path(TESSERA_PROJECT_SCENES) / "cornell_shot.gltf").string(), "one-paused-shot");
+    for (int n = 0; n <= 48; n += 8) {
+        SCOPED_TRACE(n);
+        const std::string f = "frames/" + std::to_string(n) + "/image.exr";
+        const Image a = read_image((farm / f).string()), b = read_image((one / f).string());
+        ASSERT_EQ(a.rgb.size(), b.rgb.size());
+        EXPECT_EQ(0, std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)));
+        EXPECT_FALSE(fs::exists(farm / "frames" / std::to_string(n) / "checkpoint.tck")) << "a written frame keeps no checkpoint";
+    }
+    EXPECT_TRUE(fs::exists(farm / "contact_sheet.png"));
+
+    const json comparison = {{"scene", "cornell_box"}, {"width", 32}, {"height", 24}, {"max_depth", 2},
+                             {"seconds", 0.5}, {"reps", 1}, {"reference_spp", 64}};
+    const std::string cid = service_->submit_comparison(comparison).id;
+    for (int i = 0; i < 5000 && service_->status(cid).state != api::JobState::running; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    const api::JobStatus cp = service_->pause(cid);
+    if (!api::is_final(cp.state)) {
+        EXPECT_EQ(cp.state, api::JobState::paused);
+        std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+        EXPECT_EQ(service_->status(cid).state, api::JobState::paused);
+        service_->resume(cid);
+    }
+    EXPECT_EQ(wait_final(cid).state, api::JobState::succeeded);
 }
 
 // Jobs that run after others on the farm: a chain runs in order across the nodes; a job that fails

@@ -92,6 +92,31 @@ TEST_F(Pause, APausedJobFreesItsThreadsAndResumedEndsWithTheNeverPausedImage) {
     EXPECT_TRUE(same_pixels(image_of(quick), image_of(whole)));
 }
 
+// A shot paused inside a frame keeps that frame's checkpoint in the frame's folder (made for
+// it: the frame has none until it is written), and resumed gives every frame of the never-paused
+// shot, bit for bit.
+TEST_F(Pause, AShotPausedInsideAFrameResumesFromTheFramesCheckpoint) {
+    start();
+    const json shot = {{"scene", "cornell_shot"}, {"width", 96}, {"height", 72}, {"spp", 512}, {"max_depth", 3},
+                       {"frames", {{"start", 0}, {"end", 24}, {"step", 12}}}};
+    const std::string whole = submit(shot);
+    wait_state(whole, {"succeeded"}, 120);
+    const std::string id = submit(shot);
+    wait_samples(id, 96 * 72 * 600);  // into the second frame
+    ASSERT_TRUE(post(id, "pause"));
+    wait_state(id, {"paused"}, 10);
+    bool kept = false;
+    for (const int n : {0, 12, 24}) kept = kept || std::filesystem::exists(dir_ / "jobs" / id / "frames" / std::to_string(n) / "checkpoint.tck");
+    EXPECT_TRUE(kept) << "the frame in hand's checkpoint";
+    ASSERT_TRUE(post(id, "resume"));
+    ASSERT_EQ(wait_state(id, {"succeeded"}, 120)["state"], "succeeded");
+    for (const int n : {0, 12, 24}) {
+        const std::string f = "frames/" + std::to_string(n) + "/image.exr";
+        EXPECT_TRUE(same_pixels(read_image((dir_ / "jobs" / id / f).string()), read_image((dir_ / "jobs" / whole / f).string()))) << f;
+        EXPECT_FALSE(std::filesystem::exists(dir_ / "jobs" / id / "frames" / std::to_string(n) / "checkpoint.tck"));
+    }
+}
+
 TEST_F(Pause, AQueuedJobPausedIsSkippedUntilResumed) {
     start();
     const std::string blocker = submit(kLongJob);
