@@ -126,10 +126,11 @@ void FarmQueue::publish_environment(const std::string& id, const std::string& na
 
 api::JobStatus FarmQueue::enqueue(const api::Job& job, JobRecord rec) {
     try {
-        const size_t queued_now = store_->count(JobState::queued);
+        // Jobs waiting for others count too: each will be queued.
+        const size_t queued_now = store_->count(JobState::queued) + store_->count(JobState::waiting);
         if (queued_now >= config_.max_queued)
             throw QueueError(QueueErrorKind::queue_full, "queue-full", "The queue is full",
-                             "the queue holds " + std::to_string(queued_now) + " jobs, its limit").with_retry_after(10);
+                             "the queue holds " + std::to_string(queued_now) + " jobs (queued or waiting), its limit").with_retry_after(10);
         publish_scene(rec.id, api::scene_of(job));
         if (const auto* rj = std::get_if<api::RenderJob>(&job); rj && !rj->environment.empty())
             publish_environment(rec.id, rj->environment);

@@ -106,6 +106,7 @@ const RedisScript kChunkDone{lua::chunk_done};
 const RedisScript kFailTask{lua::fail_task};
 const RedisScript kPassOn{lua::pass_on};
 const RedisScript kStrand{lua::strand_job};
+const RedisScript kAppendLog{lua::append_log};
 
 bool lists(const std::string& comma_separated, const std::string& name) {
     return (',' + comma_separated + ',').find(',' + name + ',') != std::string::npos;
@@ -533,8 +534,7 @@ struct RenderNode::Impl {
     // cannot be written is not the task's failure.
     void record(Redis& r, const std::string& job, const TaskRecord& log) {
         try {
-            r.pipeline({{"RPUSH", keys::task_log(job), api::json_text(to_json(log))},
-                        {"LTRIM", keys::task_log(job), std::to_string(-keys::max_task_records), "-1"}});
+            r.eval(kAppendLog, {keys::task_log(job), keys::task_log_count(job)}, {api::json_text(to_json(log)), std::to_string(keys::max_task_records)});
         } catch (const RedisError& e) {
             spdlog::warn("node {}: job {}: the task's log line was not stored: {}", name, job, e.what());
         }

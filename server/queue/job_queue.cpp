@@ -244,8 +244,15 @@ void JobQueue::settle_waiting() {
         changed = false;
         std::vector<JobRecord> waiting;
         try {
-            if (store_->count(JobState::waiting) == 0) return;
-            waiting = store_->list(JobState::waiting, 0, 1000);
+            // Every waiting job, a page of the store's at a time (it lists at most 1000).
+            const size_t total = store_->count(JobState::waiting);
+            if (total == 0) return;
+            for (size_t offset = 0; offset < total;) {
+                std::vector<JobRecord> page = store_->list(JobState::waiting, offset, 1000);
+                if (page.empty()) break;
+                offset += page.size();
+                waiting.insert(waiting.end(), std::make_move_iterator(page.begin()), std::make_move_iterator(page.end()));
+            }
         } catch (const std::exception& e) {
             spdlog::warn("waiting jobs: cannot read them: {}", e.what());
             return;

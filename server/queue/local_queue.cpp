@@ -67,9 +67,17 @@ api::JobStatus LocalQueue::enqueue(const api::Job& job, JobRecord rec) {
                                  " (serve --tags): submit it to a farm with a node that has it")
                 .with_field("/requires");
     std::lock_guard<std::mutex> lock(mutex_);
-    if (queue_.size() >= config_.max_queued)
+    // Jobs waiting for others count too: each will be queued.
+    size_t waiting = 0;
+    try {
+        waiting = store_->count(JobState::waiting);
+    } catch (const StoreError& e) {
+        throw refused_submission(e);
+    }
+    if (queue_.size() + waiting >= config_.max_queued)
         throw QueueError(QueueErrorKind::queue_full, "queue-full", "The queue is full",
-                         "the queue holds " + std::to_string(queue_.size()) + " jobs, its limit").with_retry_after(10);
+                         "the queue holds " + std::to_string(queue_.size() + waiting) + " jobs (queued or waiting), its limit")
+            .with_retry_after(10);
     try {
         store_->insert(rec);  // durable before it is acknowledged
         store_wrote();

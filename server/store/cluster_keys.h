@@ -61,6 +61,8 @@ inline std::string curve(const std::string& id) { return prefix + "curve:" + id;
 // The job's log, a task a line (JSON, server/queue/task_log.h), oldest first.
 inline std::string task_log(const std::string& id) { return prefix + "log:" + id; }
 inline constexpr long long max_task_records = 20000;  // kept per job, the oldest dropped first
+// The lines ever appended to it: a line's index stays its own when the oldest are dropped.
+inline std::string task_log_count(const std::string& id) { return prefix + "logcount:" + id; }
 // What a job's scene is (SceneRef::encode), written by the API node before the job is queued.
 inline std::string job_scene(const std::string& id) { return prefix + "jobscene:" + id; }
 // A job's environment map, when it names one (SceneRef::encode of the .exr/.hdr file, whose

@@ -280,6 +280,26 @@ return transition(ARGV[1], ARGV[2], 'failed', 'queued,running', ARGV[3],
                   table.concat(redis.call('LRANGE', KEYS[2], 0, -1), '; '), '')
 )lua";
 
+// Appends a line to a job's log, keeping the newest `keep`, and counts every line ever
+// appended, so that a reader's `from` names the same line after the oldest are dropped.
+inline const std::string append_log = R"lua(
+-- KEYS: log, count; ARGV: line, keep
+redis.call('RPUSH', KEYS[1], ARGV[1])
+redis.call('LTRIM', KEYS[1], -tonumber(ARGV[2]), -1)
+return redis.call('INCR', KEYS[2])
+)lua";
+
+// A job's log from line `from` (counted from the first line ever appended; lines dropped
+// since are skipped). A log without a count (written before it was kept) starts at its first.
+inline const std::string read_log = R"lua(
+-- KEYS: log, count; ARGV: from
+local len = redis.call('LLEN', KEYS[1])
+local count = tonumber(redis.call('GET', KEYS[2]) or tostring(len))
+local start = tonumber(ARGV[1]) - (count - len)
+if start < 0 then start = 0 end
+return redis.call('LRANGE', KEYS[1], start, -1)
+)lua";
+
 // Renews a claim only while it is still this consumer's: a node resumed after a long stop must
 // not take back a task another node has claimed meanwhile.
 inline const std::string renew_claim = R"lua(

@@ -45,6 +45,8 @@ const RedisScript kTransition{lua::transition_job};
 const RedisScript kPause{lua::pause_job};
 const RedisScript kResume{lua::resume_job};
 const RedisScript kRelease{lua::release_job};
+const RedisScript kAppendLog{lua::append_log};
+const RedisScript kReadLog{lua::read_log};
 
 const RedisScript kRemoveFinal{R"lua(
 -- ARGV: prefix, id; KEYS: the job's cluster keys to drop with it
@@ -218,14 +220,15 @@ bool RedisJobStore::release(const std::string& id) {
 std::vector<std::string> RedisJobStore::task_log(const std::string& id, size_t from) const {
     return locked("task log", [&] {
         std::vector<std::string> lines;
-        for (const auto& v : redis_.command({"LRANGE", keys::task_log(id), std::to_string(from), "-1"}).items) lines.push_back(v.text);
+        for (const auto& v : redis_.eval(kReadLog, {keys::task_log(id), keys::task_log_count(id)}, {std::to_string(from)}).items)
+            lines.push_back(v.text);
         return lines;
     });
 }
 
 void RedisJobStore::append_task_log(const std::string& id, const std::string& line) {
     locked("task log", [&] {
-        redis_.pipeline({{"RPUSH", keys::task_log(id), line}, {"LTRIM", keys::task_log(id), std::to_string(-keys::max_task_records), "-1"}});
+        redis_.eval(kAppendLog, {keys::task_log(id), keys::task_log_count(id)}, {line, std::to_string(keys::max_task_records)});
         return 0;
     });
 }
@@ -319,7 +322,7 @@ bool RedisJobStore::remove_final(const std::string& id) {
     return locked("remove", [&] {
         return redis_.eval(kRemoveFinal,
                            {keys::film(id), keys::deliveries(id), keys::node_tiles(id), keys::node_seconds(id), keys::curve(id),
-                            keys::job_scene(id), keys::job_environment(id), keys::sums(id), keys::shot_chunks(id), keys::shot_done(id), keys::task_log(id),
+                            keys::job_scene(id), keys::job_environment(id), keys::sums(id), keys::shot_chunks(id), keys::shot_done(id), keys::task_log(id), keys::task_log_count(id),
                             keys::failures(id), keys::failure_reasons(id), keys::blocklist(id)},
                            {keys::prefix, id})
                    .as_int() == 1;

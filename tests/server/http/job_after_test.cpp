@@ -96,6 +96,20 @@ TEST_F(Server, WaitingJobsWaitAcrossARestart) {
     EXPECT_EQ(wait_state(b, {"canceled", "failed", "succeeded"})["state"], "canceled");
 }
 
+// Waiting jobs count against --max-queued: each will be queued, so a client cannot pile up
+// jobs behind one that never ends.
+TEST_F(Server, WaitingJobsCountAgainstTheQueuesBound) {
+    start(3);
+    const std::string first = submit(kLongJob);
+    wait_state(first, {"running"});
+    for (int i = 0; i < 3; ++i) submit(after(kSmallJob, {first}));
+    const auto r = post_job(after(kSmallJob, {first}));
+    expect_problem(r, 429);
+    EXPECT_NE(r->body.find("queue-full"), std::string::npos) << r->body;
+    EXPECT_NE(r->body.find("queued or waiting"), std::string::npos) << r->body;
+    ASSERT_EQ(client_->Delete("/v1/jobs/" + first)->status, 200);
+}
+
 TEST_F(Server, UnknownOrMalformedJobsToRunAfterAreRefused) {
     start();
     const std::string a = submit(kSmallJob);

@@ -30,7 +30,7 @@ TEST_F(ClusterLua, EveryScriptCompiles) {
         {"advance_pass", lua::advance_pass},   {"complete_run", lua::complete_run}, {"transition_job", lua::transition_job},
         {"pause_job", lua::pause_job},         {"resume_job", lua::resume_job},     {"release_job", lua::release_job},
         {"fail_task", lua::fail_task},         {"pass_on", lua::pass_on},           {"strand_job", lua::strand_job},
-        {"renew_claim", lua::renew_claim}};
+        {"renew_claim", lua::renew_claim},     {"append_log", lua::append_log},     {"read_log", lua::read_log}};
     for (const auto& [name, source] : scripts) {
         SCOPED_TRACE(name);
         EXPECT_NO_THROW(r.command({"SCRIPT", "LOAD", source}));
@@ -95,6 +95,25 @@ TEST_F(ClusterLua, AFailedTaskIsQueuedAgainUntilItsRetriesOrItsNodesRunOut) {
     const std::string error2 = r.command({"HGET", keys::job(id2), "error"}).text;
     EXPECT_NE(error2.find("no live render node can take its tasks: a failed 1 of them each"), std::string::npos) << error2;
     EXPECT_EQ(r.command({"HGET", keys::node_failed_tasks, "a"}).as_int(), 3) << "a's failures, every job's";
+}
+
+// A reader's `from` names the same line after the oldest lines are dropped.
+TEST_F(ClusterLua, ALogLinesIndexStaysItsOwnWhenTheOldestAreDropped) {
+    if (!redis_) return;
+    Redis r(redis_->url());
+    const RedisScript append{lua::append_log}, read{lua::read_log};
+    const std::string id = "00000000000000a1";
+    const std::vector<std::string> ks = {keys::task_log(id), keys::task_log_count(id)};
+    for (int i = 0; i < 10; ++i) r.eval(append, ks, {"line " + std::to_string(i), "4"});  // keeps the newest 4
+    auto from = [&](int n) {
+        std::vector<std::string> out;
+        for (const auto& v : r.eval(read, ks, {std::to_string(n)}).items) out.push_back(v.text);
+        return out;
+    };
+    EXPECT_EQ(from(8), (std::vector<std::string>{"line 8", "line 9"}));
+    EXPECT_EQ(from(0), (std::vector<std::string>{"line 6", "line 7", "line 8", "line 9"})) << "the dropped ones skipped";
+    EXPECT_TRUE(from(10).empty());
+    EXPECT_TRUE(from(99).empty());
 }
 
 }  // namespace
