@@ -59,7 +59,7 @@ uint64_t frame_seed(uint64_t seed, int frame);
 // Where a job's status is POSTed when it ends (and after each frame of a shot, with `frames`),
 // signed by the server (server/queue/notifier.h).
 struct NotifySpec {
-    std::string url;      // http://host[:port]/path
+    std::string url;      // http[s]://host[:port]/path
     bool frames = false;  // a shot's frames too
     bool operator==(const NotifySpec&) const = default;
 };

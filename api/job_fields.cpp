@@ -287,7 +287,7 @@ void set_after(Job& j, const json& v, const ParseContext& ctx) {
 template <class Job>
 json get_after(const Job& j) { return j.after; }
 
-// "notify": {"url": "http://host[:port]/path", "frames": false} or null. Whether the server may
+// "notify": {"url": "http[s]://host[:port]/path", "frames": false} or null. Whether the server may
 // call the URL is the queue's to check (its allow list).
 template <class Job>
 void set_notify(Job& j, const json& v, const ParseContext& ctx) {
@@ -296,7 +296,7 @@ void set_notify(Job& j, const json& v, const ParseContext& ctx) {
         j.notify.reset();
         return;
     }
-    if (!v.is_object()) throw InvalidJob(p, p + " must be {\"url\": \"http://host[:port]/path\", \"frames\": false} or null");
+    if (!v.is_object()) throw InvalidJob(p, p + " must be {\"url\": \"https://host[:port]/path\", \"frames\": false} or null");
     NotifySpec n;
     for (const auto& [k, x] : v.items()) {
         const std::string at = p + "/" + k;
@@ -313,10 +313,11 @@ void set_notify(Job& j, const json& v, const ParseContext& ctx) {
     const std::string at = p + "/url";
     if (n.url.empty()) throw InvalidJob(at, at + " is required");
     if (n.url.size() > 2048) throw InvalidJob(at, at + " is longer than 2048 characters");
-    if (n.url.rfind("http://", 0) != 0) throw InvalidJob(at, at + " must be an http:// URL (https is not supported yet)");
+    const bool https = n.url.rfind("https://", 0) == 0;
+    if (!https && n.url.rfind("http://", 0) != 0) throw InvalidJob(at, at + " must be an http:// or https:// URL");
     for (unsigned char c : n.url)
         if (c <= 0x20 || c >= 0x7f) throw InvalidJob(at, at + " holds a space or a character outside printable ASCII");
-    const std::string rest = n.url.substr(7);
+    const std::string rest = n.url.substr(https ? 8 : 7);
     const std::string authority = rest.substr(0, rest.find('/'));
     if (authority.empty()) throw InvalidJob(at, at + " names no host");
     if (authority.find('@') != std::string::npos) throw InvalidJob(at, at + " must not carry a user or password");

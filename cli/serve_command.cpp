@@ -78,10 +78,15 @@ int serve_command(int argc, char** argv) {
            "may read")
         ->type_name("KEY");
     option("notify-allow", o.service.notify.allow,
-           "where notifications may be sent: host, *.domain or *, each with :port or :* (none: port 80), comma-separated; "
+           "where notifications may be sent: host, *.domain or *, each with :port or :* (none: the URL's scheme's port, 80 or 443), comma-separated; "
            "an address of this server's own network (loopback, private, link-local) only by an entry naming the host itself")
         ->type_name("HOSTS")
         ->delimiter(',');
+    option("notify-ca", o.service.notify.ca_file,
+           "a file of CA certificates (PEM) that https receivers' certificates are checked against, instead of the "
+           "system's (a private CA); a receiver whose certificate fails the check is not sent to")
+        ->type_name("FILE")
+        ->check(CLI::ExistingFile);
     option("notify-attempts", o.service.notify.max_attempts, "tries of a notification the receiver fails (5xx, 408, 429, no answer), "
                                                             "1 s apart doubling")
         ->check(CLI::Range(1, 20));

@@ -13,6 +13,7 @@ std::vector<FarmNode> parse_farm_nodes(const std::vector<std::pair<std::string, 
         n.name = name;
         auto num = [&](const char* k) { return j.contains(k) && j[k].is_number() ? j[k].get<double>() : 0.0; };
         n.last_seen = num("last_seen");
+        n.beat_s = num("beat_s");
         n.threads = int(num("threads"));
         n.busy = num("busy");
         n.failed_tasks = (long long)num("failed_tasks");

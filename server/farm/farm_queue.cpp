@@ -312,6 +312,14 @@ void FarmQueue::watch(std::optional<Look> first) {
             if (stop_cv_.wait_for(lock, std::chrono::milliseconds(300), [&] { return stopping_; })) return;
         }
         settle_waiting();  // jobs whose dependencies ended on the nodes
+        if (std::chrono::steady_clock::now() - lanes_pruned_ > std::chrono::seconds(30)) {
+            lanes_pruned_ = std::chrono::steady_clock::now();
+            try {
+                if (const long long n = redis_->prune_lanes()) spdlog::info("{} lane(s) of required tags no job uses were removed", n);
+            } catch (const std::exception& e) {
+                spdlog::warn("lanes: {}", e.what());
+            }
+        }
         try {
             Look now = look();
             const bool listening = events_.subscribers() > 0;

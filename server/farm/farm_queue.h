@@ -80,6 +80,7 @@ private:
     std::mutex nodes_mutex_;
     std::vector<FarmNode> nodes_;
     std::chrono::steady_clock::time_point nodes_read_{};
+    std::chrono::steady_clock::time_point lanes_pruned_{};  // the watcher's last prune_lanes
 
     RedisJobStore* redis_ = nullptr;   // store_
     std::unique_ptr<RenderNode> node_;  // serve --redis … --render

@@ -57,6 +57,7 @@ struct Task {
     std::string stream, id, job, kind;
     int pass = 0, tile = 0;
     int attempt = 1;          // 1 + the times the task failed before
+    std::string run = "0";    // a whole job's run (its resumes) the task belongs to (start, frames)
     std::string avoid;        // the nodes that failed it, comma-separated
     bool reclaimed = false;  // taken over from a silent node (not a first delivery)
     std::string key() const { return stream + " " + id; }
@@ -87,6 +88,7 @@ std::optional<Task> parse_entry(const std::string& stream, const RedisValue& e) 
         else if (k == "tile") t.tile = std::atoi(v.c_str());
         else if (k == "attempt") t.attempt = std::max(1, std::atoi(v.c_str()));
         else if (k == "avoid") t.avoid = v;
+        else if (k == "run") t.run = v;
     }
     return t;
 }
@@ -483,7 +485,7 @@ struct RenderNode::Impl {
             ack(r, t);
             return true;
         }
-        r.eval(kPassOn, {t.stream}, {t.id, t.job, t.kind, std::to_string(t.pass), std::to_string(t.tile), std::to_string(t.attempt), t.avoid});
+        r.eval(kPassOn, {t.stream}, {t.id, t.job, t.kind, std::to_string(t.pass), std::to_string(t.tile), std::to_string(t.attempt), t.avoid, t.run});
         ++metrics.passed_on;
         t_passed = true;
         return true;
@@ -506,11 +508,11 @@ struct RenderNode::Impl {
         if (reason.size() > 400) reason = reason.substr(0, 400) + "...";
         std::vector<std::string> args = {keys::prefix, t.job, t.id, t.kind + ":" + std::to_string(t.pass) + ":" + std::to_string(t.tile),
                                          name, reason, std::to_string(policy.max_retries), std::to_string(policy.blocklist_after),
-                                         redis_number(now_s()), t.kind, std::to_string(t.pass), std::to_string(t.tile), t.avoid, t.what()};
+                                         redis_number(now_s()), t.kind, std::to_string(t.pass), std::to_string(t.tile), t.avoid, t.what(), t.run};
         for (std::string& n : takers(r, t.lane())) args.push_back(std::move(n));
         const RedisValue v = r.eval(kFailTask,
                                     {keys::job(t.job), keys::failures(t.job), keys::failure_reasons(t.job), keys::blocklist(t.job), t.stream,
-                                     keys::node_failed_tasks, keys::node_blocklisted_jobs},
+                                     keys::node_failed_tasks},
                                     args);
         const long long outcome = v.items.size() == 2 ? v.items[0].as_int() : 0;
         if (v.items.size() == 2 && v.items[1].as_int() == 1) {
@@ -541,7 +543,10 @@ struct RenderNode::Impl {
     }
 
     void begin(Redis& r, const Task& t, std::atomic<bool>& cancel) {
-        const RedisValue st = r.command({"HGET", keys::job(t.job), "state"});
+        const RedisValue v = r.command({"HMGET", keys::job(t.job), "state", "run"});
+        const RedisValue st = v.items.size() == 2 ? v.items[0] : RedisValue{};
+        // A start of a run before the job's last resume: the resume queued another.
+        if (v.items.size() == 2 && (v.items[1].is_nil() ? std::string("0") : v.items[1].text) != t.run) { dropped(); return; }
         const auto info = st.text == "queued" || st.text == "running" ? job_info(r, t.job) : nullptr;
         // A comparison or a shot whose node died or stopped mid-run is still "running": it runs
         // again here (a shot from its first frame not yet written).
@@ -656,7 +661,7 @@ struct RenderNode::Impl {
         const size_t live = std::max<size_t>(1, takers(r, t.lane()).size());  // the live nodes that can take its chunks
         const size_t chunk = chunk_frames(first.summary.value("open_s", 0.0), first.summary.value("frames_s", 0.0), total - 1, live,
                                           size_t(job.chunk));
-        std::vector<std::string> args = {t.job};
+        std::vector<std::string> args = {t.job, t.run};
         for (const auto& [from, count] : plan_chunks(1, total, chunk)) {
             args.push_back(std::to_string(from));
             args.push_back(std::to_string(count));
@@ -667,7 +672,12 @@ struct RenderNode::Impl {
     }
 
     void shot_chunk(Redis& r, const Task& t, std::atomic<bool>& cancel) {
-        if (r.command({"HGET", keys::job(t.job), "state"}).text != "running") return;  // canceled or failed
+        // Canceled, failed or paused; or a chunk of a run before the last resume (its plan dropped).
+        const RedisValue v = r.command({"HMGET", keys::job(t.job), "state", "run"});
+        if (v.items.size() != 2 || v.items[0].text != "running" || (v.items[1].is_nil() ? std::string("0") : v.items[1].text) != t.run) {
+            dropped();
+            return;
+        }
         const auto info = job_info(r, t.job);
         if (!info) return;
         const auto& job = std::get<api::RenderJob>(info->job);
@@ -678,10 +688,11 @@ struct RenderNode::Impl {
         const api::JobOutcome out = api::run_job(job, opt, shot_outputs(t.job), cb);
         if (out.stopped) return shot_stopped(r, t.job);
         metrics.frames += out.summary.value("frames", 0) - out.summary.value("frames_resumed", 0);
-        const RedisValue v = r.eval(kChunkDone, {keys::shot_done(t.job), keys::shot_chunks(t.job)}, {std::to_string(t.pass)});
+        const RedisValue done = r.eval(kChunkDone, {keys::shot_done(t.job), keys::shot_chunks(t.job), keys::job(t.job)}, {std::to_string(t.pass), t.run});
         // Every chunk written: this node finishes the shot (a finish repeated after a node died
         // mid-way finds every frame written and writes the same files).
-        if (v.items.size() == 2 && v.items[0].as_int() == v.items[1].as_int()) finish_shot(r, t, job, cancel);
+        if (done.items.size() == 2 && done.items[0].as_int() >= 0 && done.items[0].as_int() == done.items[1].as_int())
+            finish_shot(r, t, job, cancel);
     }
 
     // A shot's run stopped: a paused job keeps its frame's checkpoint for its resume; a canceled
@@ -913,8 +924,12 @@ struct RenderNode::Impl {
                         *h.cancel = true;
                         continue;
                     }
-                    const std::string st = r.command({"HGET", keys::job(h.task.job), "state"}).text;
-                    if (st != "running" && st != "queued") *h.cancel = true;  // canceled (or gone): stop within a row
+                    const RedisValue v = r.command({"HMGET", keys::job(h.task.job), "state", "run"});
+                    const std::string st = v.items.size() == 2 ? v.items[0].text : "";
+                    if (st != "running" && st != "queued") *h.cancel = true;  // canceled, paused (or gone): stop within a row
+                    // A comparison's or a shot's task of a run before the job's last resume.
+                    const bool whole = h.task.kind == "start" || h.task.kind == "frames";
+                    if (whole && v.items.size() == 2 && (v.items[1].is_nil() ? std::string("0") : v.items[1].text) != h.task.run) *h.cancel = true;
                 }
                 // Failures counted against this node across jobs (the scripts keep them in Redis,
                 // so that a node restarted under its name is still known by them).
@@ -928,7 +943,7 @@ struct RenderNode::Impl {
                                 {"threads", cfg.threads}, {"scene_cache_hits", cache.hits()}, {"scene_cache_misses", cache.misses()},
                                 // Its threads with a task in hand, now (an autoscaler's figure).
                                 {"busy", std::min(1.0, double(now.size()) / double(std::max(1, cfg.threads)))},
-                                {"last_seen", now_s()}};
+                                {"last_seen", now_s()}, {"beat_s", std::chrono::duration<double>(period).count()}};
                 r.command({"HSET", keys::nodes, name, json_text(m)});
             } catch (const RedisError& e) {
                 ++metrics.redis_errors;

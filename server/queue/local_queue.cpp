@@ -151,6 +151,7 @@ api::JobStatus LocalQueue::cancel(const std::string& id) {
                 canceled_queued = true;
                 break;
             }
+        failures_.erase(id);  // a canceled job is never run again
         auto r = running_.find(id);
         if (r != running_.end()) {
             r->second->cancel = true;
@@ -478,6 +479,15 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         running.pass_image.reset();
         running.pass_denoised.reset();
     }
+    // A run that failed while a cancel, a pause or a shutdown was asked ends as that stop asks: it
+    // is not a failure to run again.
+    if (!error.empty() && !input_error) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (running.cancel || (running.pause && !running.resume) || running.shutdown) {
+            error.clear();
+            outcome.stopped = true;
+        }
+    }
     if (error.empty() && outcome.stopped) {
         // A cancel wins over a pause, and both over a shutdown (which would queue the job again).
         const bool pausing = running.pause && !running.resume;
@@ -508,7 +518,7 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         }
         return;
     }
-    if (!error.empty() && !input_error && !running.cancel) {
+    if (!error.empty() && !input_error) {
         // Not the job's input: run it again (from its checkpoint) up to its max_retries.
         int max_retries = api::TaskPolicy{}.max_retries;
         try {
@@ -527,9 +537,24 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
             if (until_stored(rec.id, "queued again", [&] { store_->requeue(rec.id); })) {
                 spdlog::warn("job {} failed (run {} of at most {}), queued again: {}", rec.id, reasons.size(), max_retries + 1,
                              loggable(error, 2000));
-                std::lock_guard<std::mutex> lock(mutex_);
-                queue_.insert(QueueKey{rec.priority, rec.seq, rec.id});
-                cv_.notify_one();
+                // The stops asked meanwhile, seen under the lock that a cancel takes: one that came
+                // before finds the job here, one that comes after finds it in the queue.
+                bool canceled = false, paused = false;
+                {
+                    std::lock_guard<std::mutex> lock(mutex_);
+                    canceled = running.cancel;
+                    paused = running.pause && !running.resume;
+                    if (!canceled && !paused && !running.shutdown) {
+                        queue_.insert(QueueKey{rec.priority, rec.seq, rec.id});
+                        cv_.notify_one();
+                    }
+                    if (canceled) failures_.erase(rec.id);
+                }
+                if (canceled && until_stored(rec.id, "canceled", [&] { store_->finish(rec.id, JobState::canceled, unix_time_s(), "", ""); }))
+                    remove_checkpoints(job_dir(rec.id));
+                else if (paused)
+                    until_stored(rec.id, "paused", [&] { store_->pause(rec.id); });
+                // A shutdown leaves it queued: the next start runs it.
             }
             return;
         }
@@ -543,6 +568,10 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         }
     }
     if (!error.empty()) {
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            failures_.erase(rec.id);
+        }
         log_task("failed");
         remove_checkpoints(job_dir(rec.id));
         if (until_stored(rec.id, "failed", [&] { store_->finish(rec.id, JobState::failed, unix_time_s(), error, ""); }))

@@ -11,6 +11,7 @@
 #include <cctype>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <random>
 #include <stdexcept>
 
@@ -70,7 +71,7 @@ std::string address_text(const sockaddr* sa) {
 
 // How an allow entry admits host:port: 0 not, 1 by a wildcard, 2 by naming the host itself.
 int admits(const std::string& entry, const HttpTarget& t) {
-    std::string host = lower(entry), port = "80";
+    std::string host = lower(entry), port = t.https ? "443" : "80";  // no port: the scheme's own
     if (!host.empty() && host.front() == '[') {  // [v6] or [v6]:port
         const size_t close = host.find(']');
         if (close == std::string::npos) return 0;
@@ -100,11 +101,13 @@ std::string new_delivery_id() {
 }  // namespace
 
 HttpTarget parse_http_url(const std::string& url) {
-    if (url.rfind("http://", 0) != 0) throw std::invalid_argument("not an http:// URL");
-    const std::string rest = url.substr(7);
+    HttpTarget t;
+    t.https = url.rfind("https://", 0) == 0;
+    if (!t.https && url.rfind("http://", 0) != 0) throw std::invalid_argument("not an http:// or https:// URL");
+    if (t.https) t.port = 443;
+    const std::string rest = url.substr(t.https ? 8 : 7);
     const size_t slash = rest.find('/');
     const std::string authority = rest.substr(0, slash);
-    HttpTarget t;
     t.path = slash == std::string::npos ? "/" : rest.substr(slash);
     if (authority.empty() || authority.find('@') != std::string::npos) throw std::invalid_argument("no host, or a user in the URL");
     std::string host = authority, port;
@@ -237,15 +240,26 @@ bool Notifier::attempt(const Delivery& d) {
     try {
         const HttpTarget t = parse_http_url(d.url);
         const std::string address = admitted_address(d.url, policy_);  // again: the list or the name may have changed
-        httplib::Client client(address, t.port);
+        // http: to the checked address. https: named by the host (its certificate is checked
+        // for that name, which goes out as SNI) and connected to the checked address all the same.
+        std::unique_ptr<httplib::ClientImpl> client;
+        if (t.https) {
+            auto tls = std::make_unique<httplib::SSLClient>(t.host, t.port);
+            tls->enable_server_certificate_verification(true);
+            if (!policy_.ca_file.empty()) tls->set_ca_cert_path(policy_.ca_file.c_str());
+            client = std::move(tls);
+            client->set_hostname_addr_map({{t.host, address}});
+        } else {
+            client = std::make_unique<httplib::ClientImpl>(address, t.port);
+        }
         const auto timeout = std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::duration<double>(policy_.timeout_s));
-        client.set_connection_timeout(timeout);
-        client.set_read_timeout(timeout);
-        client.set_write_timeout(timeout);
-        client.set_follow_location(false);
+        client->set_connection_timeout(timeout);
+        client->set_read_timeout(timeout);
+        client->set_write_timeout(timeout);
+        client->set_follow_location(false);
         const std::string host = t.host.find(':') != std::string::npos ? "[" + t.host + "]" : t.host;  // an IPv6 literal
         const httplib::Headers headers = {
-            {"Host", t.port == 80 ? host : host + ":" + std::to_string(t.port)},
+            {"Host", t.port == (t.https ? 443 : 80) ? host : host + ":" + std::to_string(t.port)},
             {"X-Tessera-Signature", "sha256=" + hmac_sha256_hex(policy_.secret, d.body)},
             {"X-Tessera-Event", d.event},
             {"X-Tessera-Delivery", d.id},
@@ -266,7 +280,7 @@ bool Notifier::attempt(const Delivery& d) {
             return true;
         };
         req.content_receiver = [&read](const char*, size_t n, uint64_t, uint64_t) { return (read += n) <= 4096; };
-        const auto res = client.send(req);
+        const auto res = client->send(req);
         if (res) status = res->status;
         if (status == 0) {
             log.errors.push_back(what + ": " + httplib::to_string(res.error()));

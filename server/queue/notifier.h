@@ -1,6 +1,7 @@
 #pragma once
-// Signed notifications of a job's end (and of a shot's frames): its status POSTed to the URL the
-// job names, with an HMAC-SHA256 of the body under the server's secret in X-Tessera-Signature
+// Signed notifications of a job's end (and of a shot's frames): its status POSTed to the http or
+// https URL the job names (https: the receiver's certificate checked against the system's CAs or
+// --notify-ca, for the URL's host), with an HMAC-SHA256 of the body under the server's secret in X-Tessera-Signature
 // ("sha256=" and 64 hex digits), retried with back-off while the receiver fails, each attempt in
 // the job's log. Only URLs the server's allow list admits are ever called: the host's every
 // address is checked and the connection made to that address (no second lookup a DNS answer
@@ -21,15 +22,17 @@ namespace tessera::server {
 
 struct NotifyPolicy {
     std::string secret;              // --notify-secret: empty, no notifications are sent (jobs asking are refused)
-    std::vector<std::string> allow;  // --notify-allow: host, *.domain or *, each with :port or :* (no port: 80)
+    std::vector<std::string> allow;  // --notify-allow: host, *.domain or *, each with :port or :* (no port: the scheme's, 80 or 443)
+    std::string ca_file;             // --notify-ca: the CA certificates https receivers are checked against ("" the system's)
     int max_attempts = 6;            // first try and retries
     double first_retry_s = 1.0;      // doubling after each failure
     double timeout_s = 10.0;         // to connect, and to read the answer
 };
 
 struct HttpTarget {
+    bool https = false;
     std::string host;  // as the URL names it (lowercase)
-    int port = 80;
+    int port = 80;     // 443 for https when the URL names none
     std::string path;  // from the first '/', "/" when none
 };
 // Throws std::invalid_argument naming what is wrong.

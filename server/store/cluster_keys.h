@@ -35,6 +35,10 @@ inline std::vector<std::string> lane_tags(const std::string& lane) {
     return tags;
 }
 inline std::string lane_tasks(const std::string& lane) { return prefix + "tasks:" + lane; }
+// Unfinished jobs per lane (hash lane → count), so that a lane none uses can go.
+inline const std::string lane_jobs = prefix + "lanejobs";
+// The most lanes of required tags at once: a job that would open another is refused (507).
+inline constexpr long long max_tag_lanes = 256;
 inline std::string tasks(long long priority) { return lane_tasks(std::to_string(priority)); }
 inline const std::string group = "nodes";
 // A render job's film, tile by tile: field t<i> the tile's encoded film, p<i> its pass.

@@ -28,10 +28,20 @@ local function transition(prefix, id, new_state, allowed, now, err, report)
   else
     redis.call('ZREM', prefix .. 'queue', id)
   end
+  if new_state == 'succeeded' then
+    -- Nodes blocklisted for a job that others then finished failed what others could do: counted
+    -- against them across jobs (a job that fails everywhere counts against none).
+    for _, n in ipairs(redis.call('SMEMBERS', prefix .. 'blocklist:' .. id)) do
+      redis.call('HINCRBY', prefix .. 'nodeblocked', n, 1)
+    end
+  end
   if new_state == 'running' then
     redis.call('HSET', k, 'started_at', now)
     redis.call('HINCRBY', k, 'attempts', 1)
   elseif new_state ~= 'queued' and new_state ~= 'paused' and new_state ~= 'waiting' then
+    -- One job fewer in its lane: a lane none uses is removed (prune_lanes).
+    local lane = redis.call('HGET', k, 'lane')
+    if lane then redis.call('HINCRBY', prefix .. 'lanejobs', lane, -1) end
     redis.call('HSET', k, 'finished_at', now, 'error', err, 'report', report)
     redis.call('DEL', prefix .. 'film:' .. id, prefix .. 'deliveries:' .. id, prefix .. 'sums:' .. id)
   end
@@ -40,20 +50,23 @@ end
 )lua";
 
 // Queues a shot's chunks of frames as tasks, once: a start task delivered again finds the count
-// set and adds none. KEYS: the chunk count, the task stream. ARGV: job id, then the first frame
-// index and frame count of each chunk.
+// set and adds none. Each carries the job's run (its resumes so far): a task of a run before the
+// last resume is dropped. KEYS: the chunk count, the task stream. ARGV: job id, run, then the
+// first frame index and frame count of each chunk.
 inline const std::string add_chunks = R"lua(
-local n = (#ARGV - 1) / 2
+local n = (#ARGV - 2) / 2
 if not redis.call('SET', KEYS[1], n, 'NX') then return 0 end
-for i = 2, #ARGV, 2 do
-  redis.call('XADD', KEYS[2], '*', 'job', ARGV[1], 'kind', 'frames', 'pass', ARGV[i], 'tile', ARGV[i + 1])
+for i = 3, #ARGV, 2 do
+  redis.call('XADD', KEYS[2], '*', 'job', ARGV[1], 'kind', 'frames', 'pass', ARGV[i], 'tile', ARGV[i + 1], 'run', ARGV[2])
 end
 return 1
 )lua";
 
-// A chunk of a shot is written: returns {chunks written, chunks in all}. KEYS: the written set,
-// the chunk count. ARGV: the chunk's first frame index.
+// A chunk of a shot is written: returns {chunks written, chunks in all}, or {-1, -1} for a chunk
+// of a run before the job's last resume (whose plan was dropped). KEYS: the written set, the
+// chunk count, the job. ARGV: the chunk's first frame index, its run.
 inline const std::string chunk_done = R"lua(
+if (redis.call('HGET', KEYS[3], 'run') or '0') ~= ARGV[2] then return {-1, -1} end
 redis.call('SADD', KEYS[1], ARGV[1])
 return {redis.call('SCARD', KEYS[1]), tonumber(redis.call('GET', KEYS[2]) or '-1')}
 )lua";
@@ -165,10 +178,13 @@ local paused_ms = tonumber(redis.call('HGET', k, 'paused_ms') or '')
 redis.call('HDEL', k, 'paused_ms')
 local total = tonumber(redis.call('HGET', k, 'tiles_total') or '')
 if not total then
+  -- A new run: tasks of the one paused (still in a node's hands until its next heartbeat, or
+  -- queued) carry the old number and are dropped.
+  local run = redis.call('HINCRBY', k, 'run', 1)
   redis.call('DEL', KEYS[4], KEYS[5])
   transition(ARGV[1], ARGV[2], 'queued', 'paused', '0', '', '')
   redis.pcall('XGROUP', 'CREATE', KEYS[3], 'nodes', '0', 'MKSTREAM')
-  redis.call('XADD', KEYS[3], '*', 'job', ARGV[2], 'kind', 'start', 'pass', '0', 'tile', '0')
+  redis.call('XADD', KEYS[3], '*', 'job', ARGV[2], 'kind', 'start', 'pass', '0', 'tile', '0', 'run', run)
   return 1
 end
 local seq = redis.call('HGET', k, 'seq')
@@ -209,9 +225,9 @@ return 1
 // and deletes the failed delivery in every case. Returns {0 job no longer running, 1 queued
 // again, 2 job failed; 1 when this node is now blocklisted for the job}.
 inline const std::string fail_task = transition + R"lua(
--- KEYS: job, failures, reasons, blocklist, stream, node failed tasks, node blocklisted jobs
+-- KEYS: job, failures, reasons, blocklist, stream, node failed tasks
 -- ARGV: prefix, id, entry, task key, node, reason, max_retries, blocklist_after, now, kind,
---       pass, tile, avoid, what the task is, then every live node whose tags the job's lane needs
+--       pass, tile, avoid, what the task is, run, then every live node whose tags the job's lane needs
 local st = redis.call('HGET', KEYS[1], 'state')
 redis.call('XACK', KEYS[5], 'nodes', ARGV[3])
 redis.call('XDEL', KEYS[5], ARGV[3])
@@ -226,14 +242,14 @@ redis.call('HINCRBY', KEYS[6], node, 1)
 local blocked = 0
 if mine >= tonumber(ARGV[8]) then
   blocked = 1
-  if redis.call('SADD', KEYS[4], node) == 1 then redis.call('HINCRBY', KEYS[7], node, 1) end
+  redis.call('SADD', KEYS[4], node)
 end
 local why = nil
 if tries > tonumber(ARGV[7]) then
   why = ARGV[14] .. ' failed ' .. tries .. " times, more than the job's max_retries (" .. ARGV[7] .. ')'
 else
   local left = 0
-  for i = 15, #ARGV do
+  for i = 16, #ARGV do
     if redis.call('SISMEMBER', KEYS[4], ARGV[i]) == 0 then left = left + 1 end
   end
   if left == 0 then
@@ -253,16 +269,16 @@ if not string.find(',' .. avoid .. ',', ',' .. node .. ',', 1, true) then
   if avoid == '' then avoid = node else avoid = avoid .. ',' .. node end
 end
 redis.call('XADD', KEYS[5], '*', 'job', ARGV[2], 'kind', ARGV[10], 'pass', ARGV[11], 'tile', ARGV[12],
-           'attempt', tries + 1, 'avoid', avoid)
+           'attempt', tries + 1, 'avoid', avoid, 'run', ARGV[15])
 return {1, blocked}
 )lua";
 
 // A node hands a task to the others (it is blocklisted for the job, or failed this task before
 // and another node can take it): the same task queued again, its delivery acknowledged, at once.
 inline const std::string pass_on = R"lua(
--- KEYS: stream; ARGV: entry, job, kind, pass, tile, attempt, avoid
+-- KEYS: stream; ARGV: entry, job, kind, pass, tile, attempt, avoid, run
 redis.call('XADD', KEYS[1], '*', 'job', ARGV[2], 'kind', ARGV[3], 'pass', ARGV[4], 'tile', ARGV[5],
-           'attempt', ARGV[6], 'avoid', ARGV[7])
+           'attempt', ARGV[6], 'avoid', ARGV[7], 'run', ARGV[8])
 redis.call('XACK', KEYS[1], 'nodes', ARGV[1])
 redis.call('XDEL', KEYS[1], ARGV[1])
 return 1
@@ -298,6 +314,27 @@ local count = tonumber(redis.call('GET', KEYS[2]) or tostring(len))
 local start = tonumber(ARGV[1]) - (count - len)
 if start < 0 then start = 0 end
 return redis.call('LRANGE', KEYS[1], start, -1)
+)lua";
+
+// Removes the lanes of required tags that no unfinished job uses and whose stream holds nothing
+// (a client must not grow the streams nodes read with a new set of tags per job). A job queued
+// into a lane removed here makes it again (the insert script). KEYS: the lanes (priorities), the
+// jobs per lane. ARGV: prefix. Returns the lanes removed.
+inline const std::string prune_lanes = R"lua(
+local removed = 0
+for _, lane in ipairs(redis.call('ZRANGE', KEYS[1], 0, -1)) do
+  if string.find(lane, '|', 1, true) then
+    local jobs = tonumber(redis.call('HGET', KEYS[2], lane) or '0')
+    local stream = ARGV[1] .. 'tasks:' .. lane
+    if jobs <= 0 and redis.call('XLEN', stream) == 0 then
+      redis.call('DEL', stream)
+      redis.call('ZREM', KEYS[1], lane)
+      redis.call('HDEL', KEYS[2], lane)
+      removed = removed + 1
+    end
+  end
+end
+return removed
 )lua";
 
 // Renews a claim only while it is still this consumer's: a node resumed after a long stop must

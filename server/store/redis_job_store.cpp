@@ -17,7 +17,7 @@ constexpr size_t kMaxListLimit = 1000;
 
 // Fields by name from job_hash.h; the record's own checks and its queueing here.
 const RedisScript kInsert{job_hash_lua_prologue() + R"lua(
--- KEYS: job, seq, all jobs, prefix of per-state sets, queue, priorities, the lane's task stream;
+-- KEYS: job, seq, all jobs, prefix of per-state sets, queue, priorities, the lane's task stream, jobs per lane;
 -- ARGV: the fields, then the lane
 local lane = ARGV[#job_fields + 1]
 if redis.call('EXISTS', KEYS[1]) == 1 then return redis.error_reply('UNIQUE constraint: job id ' .. job.id .. ' exists') end
@@ -30,6 +30,9 @@ end
 hash[#hash + 1] = 'lane'
 hash[#hash + 1] = lane
 redis.call('HSET', KEYS[1], unpack(hash))
+if job.state ~= 'succeeded' and job.state ~= 'failed' and job.state ~= 'canceled' then
+  redis.call('HINCRBY', KEYS[8], lane, 1)  -- until it ends (transition)
+end
 redis.call('ZADD', KEYS[3], seq, job.id)
 redis.call('ZADD', KEYS[4] .. job.state, seq, job.id)
 if job.state == 'queued' then
@@ -47,6 +50,7 @@ const RedisScript kResume{lua::resume_job};
 const RedisScript kRelease{lua::release_job};
 const RedisScript kAppendLog{lua::append_log};
 const RedisScript kReadLog{lua::read_log};
+const RedisScript kPruneLanes{lua::prune_lanes};
 
 const RedisScript kRemoveFinal{R"lua(
 -- ARGV: prefix, id; KEYS: the job's cluster keys to drop with it
@@ -121,11 +125,20 @@ void RedisJobStore::insert(JobRecord& rec) {
                                      std::to_string(max_bytes_), true);
         }
         const std::string lane = lane_of(rec);
+        // A bounded number of tag sets at once (prune_lanes removes those no job uses).
+        if (lane.find('|') != std::string::npos && redis_.command({"ZSCORE", keys::priorities, lane}).is_nil()) {
+            long long lanes = 0;  // of tags (a priority's own lane is bounded by the priorities)
+            for (const auto& l : redis_.command({"ZRANGE", keys::priorities, "0", "-1"}).items) lanes += l.text.find('|') != std::string::npos;
+            if (lanes >= keys::max_tag_lanes)
+                throw StoreError("job store: insert: the farm's queue has " + std::to_string(lanes) +
+                                     " lanes of required tags, its limit: a job requiring another set of tags waits until one empties",
+                                 true);
+        }
         std::vector<std::string> args = job_hash_arguments(rec);
         args.push_back(lane);
         const RedisValue seq = redis_.eval(kInsert,
                                            {keys::job(rec.id), keys::seq, keys::all_jobs, keys::jobs_in(""), keys::queue,
-                                            keys::priorities, keys::lane_tasks(lane)},
+                                            keys::priorities, keys::lane_tasks(lane), keys::lane_jobs},
                                            args);
         rec.seq = seq.as_int();
         return 0;
@@ -375,6 +388,10 @@ std::optional<api::TaskFailures> RedisJobStore::task_failures(const std::string&
         for (const auto& r : v[2].items) f.latest.push_back(r.text);
         return f;
     });
+}
+
+long long RedisJobStore::prune_lanes() {
+    return locked("prune lanes", [&] { return redis_.eval(kPruneLanes, {keys::priorities, keys::lane_jobs}, {keys::prefix}).as_int(); });
 }
 
 std::string RedisJobStore::lane(const std::string& id) const {

@@ -70,6 +70,8 @@ public:
     std::optional<LiveProgress> live_progress(const std::string& id) const;
     // The failures of a job's tasks (keys::failures), or none when no task failed.
     std::optional<api::TaskFailures> task_failures(const std::string& id) const;
+    // Removes the lanes of required tags no unfinished job uses (lua::prune_lanes); how many.
+    long long prune_lanes();
     // The job's lane (cluster_keys.h); "" for a job not stored.
     std::string lane(const std::string& id) const;
     // The render nodes' last heartbeats: name → their metrics (JSON text).

@@ -465,10 +465,14 @@ TEST_F(RenderNodeFarm, ANodeThatFailsEveryTaskIsBlocklistedAndTheOtherFinishes) 
     ASSERT_EQ(a.rgb.size(), b.rgb.size());
     EXPECT_EQ(0, std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float))) << "the same image despite the failures";
     std::vector<std::string> ids = {id};
-    // A second job, with the failing node alone: blocklisted again, it fails the job for want of
-    // a node, and is now reported failing (blocklisted by two jobs).
+    // A second job, beside a fresh good node: blocklisted again while the other finishes it, the
+    // node is now reported failing (blocklisted by two jobs that others finished).
     without_fixture_nodes();
-    EXPECT_EQ(wait_final(service_->submit(body).id).state, api::JobState::failed);
+    add_node("fresh-node");
+    const api::JobStatus second = wait_final(service_->submit(body).id);
+    EXPECT_EQ(second.state, api::JobState::succeeded);
+    ASSERT_TRUE(second.task_failures);
+    EXPECT_EQ(second.task_failures->blocklisted, std::vector<std::string>{"failing-node"});
 // The log has each failed task with its node and reason.
     size_t failed_lines = 0;
     std::istringstream log(service_->job_log(ids[0], 0));

@@ -1,5 +1,5 @@
 // Signed notifications through a real server to real receivers on loopback (httplib servers
-// started here): signed with HMAC-SHA256, retried while the receiver answers 500, each attempt
+// started here, http and https with a certificate made here): signed with HMAC-SHA256, retried while the receiver answers 500, each attempt
 // in the job's log; a URL outside the allow list, a redirect out of it, or an address of the
 // server's own network that the list does not name is never contacted.
 #include <gtest/gtest.h>
@@ -11,6 +11,11 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <openssl/evp.h>
+#include <openssl/pem.h>
+#include <openssl/x509.h>
+#include <openssl/x509v3.h>
 
 #include "server/queue/notifier.h"
 #include "tests/server/server_fixture.h"
@@ -67,6 +72,76 @@ private:
     std::vector<httplib::Request> got_;
 };
 
+// A self-signed certificate for 127.0.0.1 (its own CA), and its key, as PEM files.
+void write_certificate(const std::string& cert_path, const std::string& key_path) {
+    EVP_PKEY* key = EVP_EC_gen("P-256");
+    ASSERT_NE(key, nullptr);
+    X509* x = X509_new();
+    X509_set_version(x, 2);
+    ASN1_INTEGER_set(X509_get_serialNumber(x), 1);
+    X509_gmtime_adj(X509_getm_notBefore(x), -60);
+    X509_gmtime_adj(X509_getm_notAfter(x), 3600);
+    X509_set_pubkey(x, key);
+    X509_NAME* name = X509_get_subject_name(x);
+    X509_NAME_add_entry_by_txt(name, "CN", MBSTRING_ASC, reinterpret_cast<const unsigned char*>("tessera test receiver"), -1, -1, 0);
+    X509_set_issuer_name(x, name);
+    X509V3_CTX ctx;
+    X509V3_set_ctx_nodb(&ctx);
+    X509V3_set_ctx(&ctx, x, x, nullptr, nullptr, 0);
+    for (const auto& [nid, value] : {std::pair{NID_subject_alt_name, "IP:127.0.0.1"}, std::pair{NID_basic_constraints, "critical,CA:TRUE"}}) {
+        X509_EXTENSION* e = X509V3_EXT_conf_nid(nullptr, &ctx, nid, value);
+        X509_add_ext(x, e, -1);
+        X509_EXTENSION_free(e);
+    }
+    X509_sign(x, key, EVP_sha256());
+    FILE* f = std::fopen(cert_path.c_str(), "w");
+    PEM_write_X509(f, x);
+    std::fclose(f);
+    f = std::fopen(key_path.c_str(), "w");
+    PEM_write_PrivateKey(f, key, nullptr, nullptr, 0, nullptr, nullptr);
+    std::fclose(f);
+    X509_free(x);
+    EVP_PKEY_free(key);
+}
+
+// An https receiver on a free loopback port, with that certificate: it records every request.
+class TlsReceiver {
+public:
+    TlsReceiver(const std::string& cert, const std::string& key) : server_(cert.c_str(), key.c_str()) {
+        server_.Post(".*", [this](const httplib::Request& req, httplib::Response& res) {
+            std::lock_guard<std::mutex> lock(mutex_);
+            got_.push_back(req);
+            res.status = 200;
+        });
+        port_ = server_.bind_to_any_port("127.0.0.1");
+        thread_ = std::thread([this] { server_.listen_after_bind(); });
+    }
+    ~TlsReceiver() {
+        server_.stop();
+        thread_.join();
+    }
+    int port() const { return port_; }
+    std::string url() const { return "https://127.0.0.1:" + std::to_string(port_) + "/hook"; }
+    std::vector<httplib::Request> wait_for(size_t n) {
+        for (int i = 0; i < 2000; ++i) {
+            {
+                std::lock_guard<std::mutex> lock(mutex_);
+                if (got_.size() >= n) return got_;
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        }
+        std::lock_guard<std::mutex> lock(mutex_);
+        return got_;
+    }
+
+private:
+    httplib::SSLServer server_;
+    int port_ = 0;
+    std::thread thread_;
+    std::mutex mutex_;
+    std::vector<httplib::Request> got_;
+};
+
 std::vector<json> log_lines(httplib::Client& c, const std::string& id) {
     std::vector<json> out;
     std::istringstream in(c.Get("/v1/jobs/" + id + "/log")->body);
@@ -88,7 +163,10 @@ TEST(Notifier, UrlsAndTheAllowList) {
     EXPECT_EQ(parse_http_url("http://Example.COM:8080/a?b").host, "example.com");
     EXPECT_EQ(parse_http_url("http://example.com").path, "/");
     EXPECT_EQ(parse_http_url("http://[::1]:9/x").port, 9);
-    for (const char* bad : {"https://x/", "http://", "http://u:p@x/", "http://x:99999/", "http://x:a/", "http://[::1/"})
+    EXPECT_TRUE(parse_http_url("https://x/").https);
+    EXPECT_EQ(parse_http_url("https://x/").port, 443);
+    EXPECT_EQ(parse_http_url("https://x:8443/").port, 8443);
+    for (const char* bad : {"ftp://x/", "http://", "https://", "http://u:p@x/", "https://u@x/", "http://x:99999/", "http://x:a/", "http://[::1/"})
         EXPECT_THROW(parse_http_url(bad), std::invalid_argument) << bad;
     NotifyPolicy p;
     p.allow = {"*:8080", "127.0.0.1:9000"};
@@ -107,9 +185,20 @@ TEST(Notifier, UrlsAndTheAllowList) {
     EXPECT_THROW(admitted_address("http://127.0.0.1:9001/h", p), std::invalid_argument) << "another port";
     p.allow = {"*.hooks.test:*"};
     EXPECT_THROW(admitted_address("http://evilhooks.test/h", p), std::invalid_argument);
+    // An entry without a port admits the URL's scheme's own: 80 for http, 443 for https.
+    p.allow = {"127.0.0.1"};
+    EXPECT_EQ(admitted_address("http://127.0.0.1/h", p), "127.0.0.1");
+    EXPECT_EQ(admitted_address("https://127.0.0.1/h", p), "127.0.0.1");
+    EXPECT_THROW(admitted_address("https://127.0.0.1:80/h", p), std::invalid_argument);
 }
 
-class Notify : public Server {};
+class Notify : public Server {
+protected:
+    void restart_with_ca(const std::string& ca) {
+        notify_.ca_file = ca;
+        restart();
+    }
+};
 
 TEST_F(Notify, ASignedNotificationIsRetriedUntilTheReceiverTakesIt) {
     Receiver hook(2);  // 500, 500, then 200
@@ -143,6 +232,44 @@ TEST_F(Notify, ASignedNotificationIsRetriedUntilTheReceiverTakesIt) {
     }
     EXPECT_EQ(outcomes, (std::vector<std::string>{"failed", "failed", "done"}));
     EXPECT_EQ(hook.requests().size(), 3u) << "nothing after the receiver took it";
+}
+
+// https: the receiver's certificate is checked for the URL's host against --notify-ca; signed
+// as over http. A server that does not trust the receiver's certificate sends it nothing.
+TEST_F(Notify, AnHttpsReceiverWithACertificateTheServerTrusts) {
+    const std::string dir = (std::filesystem::temp_directory_path() / ("tessera_tls_" + std::to_string(::getpid()))).string();
+    std::filesystem::create_directories(dir);
+    write_certificate(dir + "/cert.pem", dir + "/key.pem");
+    TlsReceiver hook(dir + "/cert.pem", dir + "/key.pem");
+    ASSERT_GT(hook.port(), 0);
+    notify_.secret = "s3cret";
+    notify_.allow = {"127.0.0.1:" + std::to_string(hook.port())};
+    notify_.first_retry_s = 0.05;
+    notify_.max_attempts = 2;
+    // Not trusted (the system's CAs): every try fails its check, and the receiver gets nothing.
+    start();
+    const std::string refused = submit(with_notify(kSmallJob, hook.url()));
+    wait_state(refused, {"succeeded"});
+    std::vector<json> tries;
+    for (int i = 0; i < 200 && tries.size() < 2; ++i) {
+        tries.clear();
+        for (const json& t : log_lines(*client_, refused))
+            if (t["task"] == "notify") tries.push_back(t);
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    ASSERT_EQ(tries.size(), 2u);
+    for (const json& t : tries) EXPECT_EQ(t["outcome"], "failed") << t.dump();
+    EXPECT_TRUE(hook.wait_for(1).empty()) << "a receiver whose certificate fails the check gets no body";
+    // Trusted through --notify-ca: delivered, signed.
+    restart_with_ca(dir + "/cert.pem");
+    const std::string id = submit(with_notify(kSmallJob, hook.url()));
+    wait_state(id, {"succeeded"});
+    const auto got = hook.wait_for(1);
+    ASSERT_EQ(got.size(), 1u);
+    EXPECT_EQ(got[0].get_header_value("X-Tessera-Signature"), "sha256=" + hmac_sha256_hex("s3cret", got[0].body));
+    EXPECT_EQ(json::parse(got[0].body)["job"]["id"], id);
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
 }
 
 TEST_F(Notify, NothingOutsideTheAllowListIsEverContacted) {

@@ -42,7 +42,7 @@ std::vector<std::string> failure(const std::string& id, const std::string& entry
                                  int blocklist_after, const std::vector<std::string>& live) {
     std::vector<std::string> a = {keys::prefix, id, entry, "tile:0:0", node, node + ": tile 0 of pass 0: it broke",
                                   std::to_string(max_retries), std::to_string(blocklist_after), "1700000000", "tile", "0", "0", "",
-                                  "tile 0 of pass 0"};
+                                  "tile 0 of pass 0", "0"};
     a.insert(a.end(), live.begin(), live.end());
     return a;
 }
@@ -54,7 +54,7 @@ TEST_F(ClusterLua, AFailedTaskIsQueuedAgainUntilItsRetriesOrItsNodesRunOut) {
     const std::string id = "00000000000000f1", stream = keys::tasks(0);
     auto keys_of = [&] {
         return std::vector<std::string>{keys::job(id), keys::failures(id), keys::failure_reasons(id), keys::blocklist(id), stream,
-                                        keys::node_failed_tasks, keys::node_blocklisted_jobs};
+                                        keys::node_failed_tasks};
     };
     r.command({"HSET", keys::job(id), "state", "running", "seq", "1", "priority", "0"});
     r.command({"XGROUP", "CREATE", stream, keys::group, "0", "MKSTREAM"});
@@ -75,7 +75,7 @@ TEST_F(ClusterLua, AFailedTaskIsQueuedAgainUntilItsRetriesOrItsNodesRunOut) {
     EXPECT_EQ(v.items[0].as_int(), 1) << "b can still take it";
     EXPECT_EQ(v.items[1].as_int(), 1) << "a blocklisted at its second failure";
     EXPECT_EQ(r.command({"SISMEMBER", keys::blocklist(id), "a"}).as_int(), 1);
-    EXPECT_EQ(r.command({"HGET", keys::node_blocklisted_jobs, "a"}).as_int(), 1);
+    EXPECT_TRUE(r.command({"HGET", keys::node_blocklisted_jobs, "a"}).is_nil()) << "counted across jobs only when another node finishes the job";
     v = r.eval(fail, keys_of(), failure(id, entry(), "b", 2, 2, {"a", "b"}));
     EXPECT_EQ(v.items[0].as_int(), 2) << "a third failure is past max_retries 2";
     EXPECT_EQ(r.command({"HGET", keys::job(id), "state"}).text, "failed");
@@ -88,13 +88,22 @@ TEST_F(ClusterLua, AFailedTaskIsQueuedAgainUntilItsRetriesOrItsNodesRunOut) {
     const std::string id2 = "00000000000000f2";
     r.command({"HSET", keys::job(id2), "state", "running", "seq", "2", "priority", "0"});
     const std::string e2 = r.command({"XADD", stream, "*", "job", id2, "kind", "tile", "pass", "0", "tile", "0"}).text;
-    v = r.eval(fail, {keys::job(id2), keys::failures(id2), keys::failure_reasons(id2), keys::blocklist(id2), stream, keys::node_failed_tasks,
-                      keys::node_blocklisted_jobs},
+    v = r.eval(fail, {keys::job(id2), keys::failures(id2), keys::failure_reasons(id2), keys::blocklist(id2), stream, keys::node_failed_tasks},
                failure(id2, e2, "a", 3, 1, {"a"}));
     EXPECT_EQ(v.items[0].as_int(), 2);
     const std::string error2 = r.command({"HGET", keys::job(id2), "error"}).text;
     EXPECT_NE(error2.find("no live render node can take its tasks: a failed 1 of them each"), std::string::npos) << error2;
     EXPECT_EQ(r.command({"HGET", keys::node_failed_tasks, "a"}).as_int(), 3) << "a's failures, every job's";
+    EXPECT_TRUE(r.command({"HGET", keys::node_blocklisted_jobs, "a"}).is_nil()) << "no job it was blocklisted for succeeded";
+
+    // A job that another node finished counts its blocklisted nodes against them, across jobs.
+    const std::string id3 = "00000000000000f3";
+    r.command({"HSET", keys::job(id3), "state", "running", "seq", "3", "priority", "0"});
+    r.command({"SADD", keys::blocklist(id3), "a", "c"});
+    const RedisScript transition{lua::transition_job};
+    ASSERT_EQ(r.eval(transition, {}, {keys::prefix, id3, "succeeded", "running", "1700000001", "", ""}).as_int(), 1);
+    EXPECT_EQ(r.command({"HGET", keys::node_blocklisted_jobs, "a"}).as_int(), 1);
+    EXPECT_EQ(r.command({"HGET", keys::node_blocklisted_jobs, "c"}).as_int(), 1);
 }
 
 // A reader's `from` names the same line after the oldest lines are dropped.

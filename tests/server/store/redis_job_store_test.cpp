@@ -291,6 +291,50 @@ TEST_F(RedisJobStoreFarmSide, AQueuedJobIsScheduledOnceOnItsPrioritysStream) {
     EXPECT_TRUE(cmd({"ZSCORE", keys::priorities, "4"}).is_nil());
 }
 
+// A job that requires node tags is queued in its lane (its priority and its tags); a lane no
+// unfinished job uses and whose stream is empty is removed; and only so many lanes of tags are
+// open at once, so that a client cannot grow what every node reads with a new set per job.
+TEST_F(RedisJobStoreFarmSide, TaggedJobsHaveLanesThatGoWhenUnusedAndAreBounded) {
+    auto tagged = [](uint64_t n, const std::string& tag) {
+        JobRecord r = make_job(n, 2);
+        r.spec_json = R"({"scene":"builtin:cornell_box","requires":[")" + tag + R"(","avx512"]})";
+        return r;
+    };
+    JobRecord a = tagged(1, "bigmem");
+    store_->insert(a);
+    const std::string lane = "2|avx512,bigmem";
+    EXPECT_EQ(cmd({"ZSCORE", keys::priorities, lane}).as_int(), 2);
+    ASSERT_EQ(tasks_in(keys::lane_tasks(lane)).size(), 1u);
+    EXPECT_EQ(store_->lane(a.id), lane);
+    EXPECT_EQ(store_->prune_lanes(), 0) << "in use";
+    ASSERT_TRUE(store_->finish(a.id, JobState::canceled, 1, "", ""));
+    EXPECT_EQ(store_->prune_lanes(), 0) << "its start task is still in the stream";
+    cmd({"XTRIM", keys::lane_tasks(lane), "MAXLEN", "0"});
+    EXPECT_EQ(store_->prune_lanes(), 1);
+    EXPECT_TRUE(cmd({"ZSCORE", keys::priorities, lane}).is_nil());
+    EXPECT_FALSE(exists(keys::lane_tasks(lane)));
+    // A job of that lane again makes it again, stream and group included.
+    JobRecord b = tagged(2, "bigmem");
+    store_->insert(b);
+    EXPECT_EQ(tasks_in(keys::lane_tasks(lane)).size(), 1u);
+    // The bound: lanes up to keys::max_tag_lanes, then a new set of tags is refused as full.
+    for (long long i = 1; i < keys::max_tag_lanes; ++i) {  // the lane above is one
+        JobRecord r = tagged(uint64_t(100 + i), "t" + std::to_string(i));
+        store_->insert(r);
+    }
+    JobRecord one_more = tagged(99999, "one-more");
+    try {
+        store_->insert(one_more);
+        ADD_FAILURE() << "a lane past the bound was opened";
+    } catch (const StoreError& e) {
+        EXPECT_TRUE(e.full);
+    }
+    JobRecord same = tagged(100000, "bigmem");
+    EXPECT_NO_THROW(store_->insert(same)) << "a lane that exists takes more jobs";
+    JobRecord plain = make_job(100001, 7);
+    EXPECT_NO_THROW(store_->insert(plain)) << "a job without tags is never refused for it";
+}
+
 TEST_F(RedisJobStoreFarmSide, RemovingAFinishedJobTakesItsFarmKeysButNotSharedSceneBytes) {
     const std::string bytes = "scene bytes", map = "map bytes";
     const SceneRef scene{"/scenes/a.gltf", content_hash(bytes), ".gltf"};
