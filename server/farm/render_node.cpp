@@ -58,6 +58,7 @@ struct Task {
     int pass = 0, tile = 0;
     int attempt = 1;          // 1 + the times the task failed before
     std::string run = "0";    // a whole job's run (its resumes) the task belongs to (start, frames)
+    std::string consumer;     // who holds its delivery here (this node's thread)
     std::string avoid;        // the nodes that failed it, comma-separated
     bool reclaimed = false;  // taken over from a silent node (not a first delivery)
     std::string key() const { return stream + " " + id; }
@@ -335,8 +336,9 @@ struct RenderNode::Impl {
                                      std::make_shared<std::atomic<bool>>(false)};
                 if (local.empty()) continue;
             }
-            const Task t = local.front();
+            Task t = local.front();
             local.pop_front();
+            t.consumer = consumer;
             Held h;
             {
                 std::lock_guard lock(mu);
@@ -485,7 +487,8 @@ struct RenderNode::Impl {
             ack(r, t);
             return true;
         }
-        r.eval(kPassOn, {t.stream}, {t.id, t.job, t.kind, std::to_string(t.pass), std::to_string(t.tile), std::to_string(t.attempt), t.avoid, t.run});
+        r.eval(kPassOn, {t.stream}, {t.id, t.job, t.kind, std::to_string(t.pass), std::to_string(t.tile), std::to_string(t.attempt), t.avoid, t.run,
+                                     t.consumer});
         ++metrics.passed_on;
         t_passed = true;
         return true;
@@ -508,7 +511,8 @@ struct RenderNode::Impl {
         if (reason.size() > 400) reason = reason.substr(0, 400) + "...";
         std::vector<std::string> args = {keys::prefix, t.job, t.id, t.kind + ":" + std::to_string(t.pass) + ":" + std::to_string(t.tile),
                                          name, reason, std::to_string(policy.max_retries), std::to_string(policy.blocklist_after),
-                                         redis_number(now_s()), t.kind, std::to_string(t.pass), std::to_string(t.tile), t.avoid, t.what(), t.run};
+                                         redis_number(now_s()), t.kind, std::to_string(t.pass), std::to_string(t.tile), t.avoid, t.what(), t.run,
+                                         t.consumer};
         for (std::string& n : takers(r, t.lane())) args.push_back(std::move(n));
         const RedisValue v = r.eval(kFailTask,
                                     {keys::job(t.job), keys::failures(t.job), keys::failure_reasons(t.job), keys::blocklist(t.job), t.stream,
@@ -536,7 +540,8 @@ struct RenderNode::Impl {
     // cannot be written is not the task's failure.
     void record(Redis& r, const std::string& job, const TaskRecord& log) {
         try {
-            r.eval(kAppendLog, {keys::task_log(job), keys::task_log_count(job)}, {api::json_text(to_json(log)), std::to_string(keys::max_task_records)});
+            r.eval(kAppendLog, {keys::task_log(job), keys::task_log_count(job), keys::job(job)},
+                   {api::json_text(to_json(log)), std::to_string(keys::max_task_records)});
         } catch (const RedisError& e) {
             spdlog::warn("node {}: job {}: the task's log line was not stored: {}", name, job, e.what());
         }

@@ -227,7 +227,11 @@ return 1
 inline const std::string fail_task = transition + R"lua(
 -- KEYS: job, failures, reasons, blocklist, stream, node failed tasks
 -- ARGV: prefix, id, entry, task key, node, reason, max_retries, blocklist_after, now, kind,
---       pass, tile, avoid, what the task is, run, then every live node whose tags the job's lane needs
+--       pass, tile, avoid, what the task is, run, consumer, then every live node whose tags the
+--       job's lane needs
+-- Only the consumer that holds the delivery settles it: one taken over meanwhile, or settled by
+-- an earlier call whose answer was lost, is not counted or queued twice.
+if #redis.call('XPENDING', KEYS[5], 'nodes', ARGV[3], ARGV[3], 1, ARGV[16]) == 0 then return {0, 0} end
 local st = redis.call('HGET', KEYS[1], 'state')
 redis.call('XACK', KEYS[5], 'nodes', ARGV[3])
 redis.call('XDEL', KEYS[5], ARGV[3])
@@ -249,7 +253,7 @@ if tries > tonumber(ARGV[7]) then
   why = ARGV[14] .. ' failed ' .. tries .. " times, more than the job's max_retries (" .. ARGV[7] .. ')'
 else
   local left = 0
-  for i = 16, #ARGV do
+  for i = 17, #ARGV do
     if redis.call('SISMEMBER', KEYS[4], ARGV[i]) == 0 then left = left + 1 end
   end
   if left == 0 then
@@ -276,7 +280,8 @@ return {1, blocked}
 // A node hands a task to the others (it is blocklisted for the job, or failed this task before
 // and another node can take it): the same task queued again, its delivery acknowledged, at once.
 inline const std::string pass_on = R"lua(
--- KEYS: stream; ARGV: entry, job, kind, pass, tile, attempt, avoid, run
+-- KEYS: stream; ARGV: entry, job, kind, pass, tile, attempt, avoid, run, consumer
+if #redis.call('XPENDING', KEYS[1], 'nodes', ARGV[1], ARGV[1], 1, ARGV[9]) == 0 then return 0 end  -- not ours (any more)
 redis.call('XADD', KEYS[1], '*', 'job', ARGV[2], 'kind', ARGV[3], 'pass', ARGV[4], 'tile', ARGV[5],
            'attempt', ARGV[6], 'avoid', ARGV[7], 'run', ARGV[8])
 redis.call('XACK', KEYS[1], 'nodes', ARGV[1])
@@ -299,7 +304,8 @@ return transition(ARGV[1], ARGV[2], 'failed', 'queued,running', ARGV[3],
 // Appends a line to a job's log, keeping the newest `keep`, and counts every line ever
 // appended, so that a reader's `from` names the same line after the oldest are dropped.
 inline const std::string append_log = R"lua(
--- KEYS: log, count; ARGV: line, keep
+-- KEYS: log, count, job; ARGV: line, keep
+if redis.call('EXISTS', KEYS[3]) == 0 then return 0 end  -- removed: no log of its own again
 redis.call('RPUSH', KEYS[1], ARGV[1])
 redis.call('LTRIM', KEYS[1], -tonumber(ARGV[2]), -1)
 return redis.call('INCR', KEYS[2])

@@ -241,7 +241,7 @@ std::vector<std::string> RedisJobStore::task_log(const std::string& id, size_t f
 
 void RedisJobStore::append_task_log(const std::string& id, const std::string& line) {
     locked("task log", [&] {
-        redis_.eval(kAppendLog, {keys::task_log(id), keys::task_log_count(id)}, {line, std::to_string(keys::max_task_records)});
+        redis_.eval(kAppendLog, {keys::task_log(id), keys::task_log_count(id), keys::job(id)}, {line, std::to_string(keys::max_task_records)});
         return 0;
     });
 }

@@ -42,7 +42,7 @@ std::vector<std::string> failure(const std::string& id, const std::string& entry
                                  int blocklist_after, const std::vector<std::string>& live) {
     std::vector<std::string> a = {keys::prefix, id, entry, "tile:0:0", node, node + ": tile 0 of pass 0: it broke",
                                   std::to_string(max_retries), std::to_string(blocklist_after), "1700000000", "tile", "0", "0", "",
-                                  "tile 0 of pass 0", "0"};
+                                  "tile 0 of pass 0", "0", "c/0"};
     a.insert(a.end(), live.begin(), live.end());
     return a;
 }
@@ -58,7 +58,21 @@ TEST_F(ClusterLua, AFailedTaskIsQueuedAgainUntilItsRetriesOrItsNodesRunOut) {
     };
     r.command({"HSET", keys::job(id), "state", "running", "seq", "1", "priority", "0"});
     r.command({"XGROUP", "CREATE", stream, keys::group, "0", "MKSTREAM"});
-    auto entry = [&] { return r.command({"XADD", stream, "*", "job", id, "kind", "tile", "pass", "0", "tile", "0"}).text; };
+    // A delivery held by consumer c/0, as a node's thread holds it.
+    auto entry = [&] {
+        const std::string e = r.command({"XADD", stream, "*", "job", id, "kind", "tile", "pass", "0", "tile", "0"}).text;
+        r.command({"XREADGROUP", "GROUP", keys::group, "c/0", "COUNT", "100", "STREAMS", stream, ">"});
+        return e;
+    };
+    // One not held by this consumer (taken over, or settled already) is left alone.
+    {
+        const std::string other = r.command({"XADD", stream, "*", "job", id, "kind", "tile", "pass", "0", "tile", "0"}).text;
+        r.command({"XREADGROUP", "GROUP", keys::group, "someone-else/0", "COUNT", "100", "STREAMS", stream, ">"});
+        EXPECT_EQ(r.eval(fail, keys_of(), failure(id, other, "a", 2, 2, {"a", "b"})).items[0].as_int(), 0);
+        EXPECT_TRUE(r.command({"HGET", keys::failures(id), "total"}).is_nil()) << "nothing counted";
+        r.command({"XACK", stream, keys::group, other});
+        r.command({"XDEL", stream, other});
+    }
     // Two nodes live, max_retries 2, blocklist_after 2.
     RedisValue v = r.eval(fail, keys_of(), failure(id, entry(), "a", 2, 2, {"a", "b"}));
     EXPECT_EQ(v.items[0].as_int(), 1) << "queued again";
@@ -88,6 +102,7 @@ TEST_F(ClusterLua, AFailedTaskIsQueuedAgainUntilItsRetriesOrItsNodesRunOut) {
     const std::string id2 = "00000000000000f2";
     r.command({"HSET", keys::job(id2), "state", "running", "seq", "2", "priority", "0"});
     const std::string e2 = r.command({"XADD", stream, "*", "job", id2, "kind", "tile", "pass", "0", "tile", "0"}).text;
+    r.command({"XREADGROUP", "GROUP", keys::group, "c/0", "COUNT", "100", "STREAMS", stream, ">"});
     v = r.eval(fail, {keys::job(id2), keys::failures(id2), keys::failure_reasons(id2), keys::blocklist(id2), stream, keys::node_failed_tasks},
                failure(id2, e2, "a", 3, 1, {"a"}));
     EXPECT_EQ(v.items[0].as_int(), 2);
@@ -112,7 +127,8 @@ TEST_F(ClusterLua, ALogLinesIndexStaysItsOwnWhenTheOldestAreDropped) {
     Redis r(redis_->url());
     const RedisScript append{lua::append_log}, read{lua::read_log};
     const std::string id = "00000000000000a1";
-    const std::vector<std::string> ks = {keys::task_log(id), keys::task_log_count(id)};
+    const std::vector<std::string> ks = {keys::task_log(id), keys::task_log_count(id), keys::job(id)};
+    r.command({"HSET", keys::job(id), "state", "running"});
     for (int i = 0; i < 10; ++i) r.eval(append, ks, {"line " + std::to_string(i), "4"});  // keeps the newest 4
     auto from = [&](int n) {
         std::vector<std::string> out;
