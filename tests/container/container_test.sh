@@ -78,18 +78,23 @@ start_container() {
 }
 api() { curl -sS --noproxy '*' -H "Authorization: Bearer $token" "$@"; }
 field() { sed -n "s/.*\"$1\":\"\{0,1\}\([^,\"}]*\).*/\1/p" | head -n 1; }
+# wait_job ID [POLLS]: waits (0.2 s a poll, 300 by default) until the job on $port ends; fails
+# unless it succeeds.
+wait_job() {
+  local state=""
+  for _ in $(seq 1 "${2:-300}"); do
+    state=$(api "http://127.0.0.1:$port/v1/jobs/$1" | field state || true)
+    [ "$state" = succeeded ] || [ "$state" = failed ] && break
+    sleep 0.2
+  done
+  [ "$state" = succeeded ] || { compose logs 2>&1 | tail -n 30; fail "job $1 ended '$state'"; }
+}
 # render_job BODY: submits a job to the server on $port, waits for it, sets id; fails unless it
 # succeeds.
 render_job() {
   id=$(api -X POST "http://127.0.0.1:$port/v1/jobs" -H 'Content-Type: application/json' -d "$1" | field id || true)
   [ -n "$id" ] || fail "no job id for $1"
-  local state=""
-  for _ in $(seq 1 300); do
-    state=$(api "http://127.0.0.1:$port/v1/jobs/$id" | field state || true)
-    [ "$state" = succeeded ] || [ "$state" = failed ] && break
-    sleep 0.2
-  done
-  [ "$state" = succeeded ] || { compose logs 2>&1 | tail -n 30; fail "job $id ended '$state'"; }
+  wait_job "$id"
 }
 
 echo "== run"
@@ -201,13 +206,7 @@ for c in "${extra[@]}"; do
   [ "$status" = 0 ] || fail "a render node scaled down ended with status $status"
 done
 [ "$(api "http://127.0.0.1:$port/v1/jobs/$id" | field state)" = running ] || fail "the job ended before the scale-down was over: make it longer"
-state=""
-for _ in $(seq 1 900); do
-  state=$(api "http://127.0.0.1:$port/v1/jobs/$id" | field state || true)
-  [ "$state" = succeeded ] || [ "$state" = failed ] && break
-  sleep 0.2
-done
-[ "$state" = succeeded ] || { compose logs 2>&1 | tail -n 30; fail "the scaled job ended '$state'"; }
+wait_job "$id" 900
 shares=$( (api "http://127.0.0.1:$port/v1/jobs/$id/report.json" || true) | grep -o '"tiles":[0-9]*' | grep -vc '"tiles":0' || true)
 [ "$shares" -ge 3 ] || fail "the report names $shares nodes with tiles, not the three"
 api -o "$podman_conf_dir/scale_farm.exr" "http://127.0.0.1:$port/v1/jobs/$id/image.exr"
