@@ -91,6 +91,37 @@ int admits(const std::string& entry, const HttpTarget& t) {
     return 0;
 }
 
+// Stops a client's request in flight (httplib shuts its socket down) when it outlives `limit`.
+class AttemptDeadline {
+public:
+    AttemptDeadline(httplib::ClientImpl& client, std::chrono::microseconds limit)
+        : thread_([this, &client, limit] {
+              std::unique_lock<std::mutex> lock(mutex_);
+              if (!cv_.wait_for(lock, limit, [this] { return done_; })) {
+                  passed_ = true;
+                  client.stop();
+              }
+          }) {}
+    ~AttemptDeadline() {
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            done_ = true;
+        }
+        cv_.notify_all();
+        thread_.join();
+    }
+    bool passed() {
+        std::lock_guard<std::mutex> lock(mutex_);
+        return passed_;
+    }
+
+private:
+    std::mutex mutex_;
+    std::condition_variable cv_;
+    bool done_ = false, passed_ = false;
+    std::thread thread_;  // last: started once the rest is made
+};
+
 std::string new_delivery_id() {
     static thread_local std::mt19937_64 rng{std::random_device{}()};
     char buf[17];
@@ -253,6 +284,9 @@ bool Notifier::attempt(const Delivery& d) {
             client = std::make_unique<httplib::ClientImpl>(address, t.port);
         }
         const auto timeout = std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::duration<double>(policy_.timeout_s));
+        // The timeouts bound each read and write; a receiver that drips its answer a byte at a time
+        // would hold the one notifier thread for ever: the whole try is cut at three of them.
+        AttemptDeadline deadline(*client, 3 * timeout);
         client->set_connection_timeout(timeout);
         client->set_read_timeout(timeout);
         client->set_write_timeout(timeout);
@@ -282,7 +316,10 @@ bool Notifier::attempt(const Delivery& d) {
         req.content_receiver = [&read](const char*, size_t n, uint64_t, uint64_t) { return (read += n) <= 4096; };
         const auto res = client->send(req);
         if (res) status = res->status;
-        if (status == 0) {
+        if (deadline.passed()) {
+            log.errors.push_back(what + ": no whole answer within " + std::to_string(3 * policy_.timeout_s) + " s");
+            retry = true;
+        } else if (status == 0) {
             log.errors.push_back(what + ": " + httplib::to_string(res.error()));
             retry = true;
         } else if (status >= 200 && status < 300) {

@@ -139,17 +139,19 @@ TEST(RenderJob, AfterTakesDistinctJobIds) {
     EXPECT_THROW(parse_render_job(many), InvalidJob);
 }
 
-// `notify`: an http URL with no user, a boolean `frames`, nothing else; each refusal names its place.
+// `notify`: an http or https URL with no user, a boolean `frames`, nothing else; each refusal names its place.
 TEST(RenderJob, NotifyTakesAnHttpUrl) {
     const RenderJob j = parse_render_job(json::parse(R"({"scene":"x","notify":{"url":"http://h:81/p?q=1"}})"));
     ASSERT_TRUE(j.notify);
     EXPECT_EQ(j.notify->url, "http://h:81/p?q=1");
     EXPECT_FALSE(j.notify->frames);
     EXPECT_FALSE(parse_render_job(json::parse(R"({"scene":"x","notify":null})")).notify);
+    EXPECT_EQ(parse_render_job(json::parse(R"({"scene":"x","notify":{"url":"https://h/p"}})")).notify->url, "https://h/p");
     for (const auto& [body, pointer] : std::vector<std::pair<const char*, const char*>>{
              {R"({"scene":"x","notify":"http://h/"})", "/notify"},
              {R"({"scene":"x","notify":{}})", "/notify/url"},
-             {R"({"scene":"x","notify":{"url":"https://h/"}})", "/notify/url"},
+             {R"({"scene":"x","notify":{"url":"ftp://h/"}})", "/notify/url"},
+             {R"({"scene":"x","notify":{"url":"https://u@h/"}})", "/notify/url"},
              {R"({"scene":"x","notify":{"url":"http://u:p@h/"}})", "/notify/url"},
              {R"({"scene":"x","notify":{"url":"http://h/a b"}})", "/notify/url"},
              {R"({"scene":"x","notify":{"url":"http:///x"}})", "/notify/url"},

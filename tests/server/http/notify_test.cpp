@@ -2,6 +2,12 @@
 // started here, http and https with a certificate made here): signed with HMAC-SHA256, retried while the receiver answers 500, each attempt
 // in the job's log; a URL outside the allow list, a redirect out of it, or an address of the
 // server's own network that the list does not name is never contacted.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -259,7 +265,8 @@ TEST_F(Notify, AnHttpsReceiverWithACertificateTheServerTrusts) {
     }
     ASSERT_EQ(tries.size(), 2u);
     for (const json& t : tries) EXPECT_EQ(t["outcome"], "failed") << t.dump();
-    EXPECT_TRUE(hook.wait_for(1).empty()) << "a receiver whose certificate fails the check gets no body";
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    EXPECT_TRUE(hook.wait_for(0).empty()) << "a receiver whose certificate fails the check gets no body";
     // Trusted through --notify-ca: delivered, signed.
     restart_with_ca(dir + "/cert.pem");
     const std::string id = submit(with_notify(kSmallJob, hook.url()));
@@ -270,6 +277,57 @@ TEST_F(Notify, AnHttpsReceiverWithACertificateTheServerTrusts) {
     EXPECT_EQ(json::parse(got[0].body)["job"]["id"], id);
     std::error_code ec;
     std::filesystem::remove_all(dir, ec);
+}
+
+// A receiver that answers a byte at a time, each within the read timeout, would hold the
+// notifier for ever: the whole try is cut at three timeouts, and the next delivery goes out.
+TEST_F(Notify, AReceiverThatDripsItsAnswerIsCutOff) {
+    const int listener = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(::bind(listener, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+    ASSERT_EQ(::listen(listener, 4), 0);
+    socklen_t len = sizeof addr;
+    ::getsockname(listener, reinterpret_cast<sockaddr*>(&addr), &len);
+    const int drip_port = ntohs(addr.sin_port);
+    std::atomic<bool> stop{false};
+    std::thread drip([&] {
+        pollfd p{listener, POLLIN, 0};
+        while (!stop && ::poll(&p, 1, 50) == 0) {}
+        if (stop) return;
+        const int c = ::accept(listener, nullptr, nullptr);
+        const std::string answer = "HTTP/1.1 200 OK\r\nContent-Length: 0\r\n\r\n";
+        for (size_t i = 0; i < answer.size() && !stop; ++i) {
+            if (::send(c, &answer[i], 1, MSG_NOSIGNAL) != 1) break;
+            std::this_thread::sleep_for(std::chrono::milliseconds(400));  // under the 0.5 s read timeout
+        }
+        ::close(c);
+    });
+    Receiver good;
+    notify_.secret = "s3cret";
+    notify_.allow = {"127.0.0.1:" + std::to_string(drip_port), "127.0.0.1:" + std::to_string(good.port())};
+    notify_.timeout_s = 0.5;
+    notify_.max_attempts = 1;
+    start();
+    const std::string slow = submit(with_notify(kSmallJob, "http://127.0.0.1:" + std::to_string(drip_port) + "/drip"));
+    wait_state(slow, {"succeeded"});
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::string next = submit(with_notify(kSmallJob, good.url()));
+    wait_state(next, {"succeeded"});
+    ASSERT_EQ(good.wait_for(1).size(), 1u) << "the next delivery went out";
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 8.0)
+        << "the dripping answer (15 s whole) was cut at 1.5 s";
+    bool cut = false;
+    for (int i = 0; i < 100 && !cut; ++i) {
+        for (const json& t : log_lines(*client_, slow))
+            if (t["task"] == "notify" && t["outcome"] == "failed" && t["errors"].dump().find("no whole answer within") != std::string::npos) cut = true;
+        if (!cut) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    EXPECT_TRUE(cut) << "the try is logged as cut off";
+    stop = true;
+    drip.join();
+    ::close(listener);
 }
 
 TEST_F(Notify, NothingOutsideTheAllowListIsEverContacted) {
