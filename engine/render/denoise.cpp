@@ -23,7 +23,7 @@ constexpr int kY = 6;                                     // colour over albedo:
 constexpr int kChannels = 1 + kF + kPairs + kY * (1 + kF);  // box-summed per pixel
 constexpr int kBand = 32;                                 // rows per task: fixed, so the sums' order is too
 constexpr int kSmooth = 4;                                // radius over which error estimates are pooled
-constexpr int kBiasSmooth = 8;                            // ... bias estimates, before they are held at zero or more
+constexpr int kBiasSmooth = 3;                            // ... bias estimates, before they are held at zero or more
 constexpr double kContradiction = 8.0;                    // a pixel's own error estimate against its noise, to refuse a candidate
 constexpr double kDeparture = 9.0;                        // a candidate's move of a pixel against its noise (3 sigma), the same
 // Below this albedo the colour is divided by it no further: what a dark albedo does not scale
@@ -274,6 +274,24 @@ std::vector<float> box_mean(const std::vector<float>& a, int W, int H, int r) {
     return out;
 }
 
+// Box mean of a one-channel map over radius r, each pixel pooled with its own kind only (`kind`
+// 1 or 0): an error estimate of a pixel that saw a lamp or the sky beside it (an edge whose
+// coverage noise no filter removes) says nothing of the surface next to it.
+std::vector<float> box_mean_within(const std::vector<float>& a, const std::vector<uint8_t>& kind, int W, int H, int r) {
+    const size_t n = a.size();
+    std::vector<float> in1(n), in0(n), m1(n);
+    for (size_t p = 0; p < n; ++p) {
+        in1[p] = kind[p] ? a[p] : 0.f;
+        in0[p] = kind[p] ? 0.f : a[p];
+        m1[p] = kind[p] ? 1.f : 0.f;
+    }
+    const std::vector<float> s1 = box_mean(in1, W, H, r), s0 = box_mean(in0, W, H, r), share = box_mean(m1, W, H, r);
+    std::vector<float> out(n);
+    for (size_t p = 0; p < n; ++p)
+        out[p] = kind[p] ? s1[p] / std::max(share[p], 1e-6f) : s0[p] / std::max(1.f - share[p], 1e-6f);
+    return out;
+}
+
 }  // namespace
 
 bool can_denoise(const Film& film) {
@@ -395,7 +413,7 @@ std::optional<Denoised> denoise(const Film& film, int threads) {
         }
         cv1[p] = float((e - v) / 3.0);  // the smallest window's bias², per pixel (noisy)
     }
-    const std::vector<float> bias1 = box_mean(cv1, W, H, kBiasSmooth);
+    const std::vector<float> bias1 = box_mean_within(cv1, in.use, W, H, kBiasSmooth);
     // Per candidate: its variance, and its bias beyond the smallest window's, pooled over the
     // neighbourhood (filtered differences are smooth: a pixel's own value says little that its
     // neighbours do not) and held at zero or more.
@@ -418,10 +436,10 @@ std::optional<Denoised> denoise(const Film& film, int threads) {
             bias[p] = float(b / 3.0) + (c > 0 ? bias1[p] : 0.f);
         }
         if (c > 0) {
-            bias = box_mean(bias, W, H, kBiasSmooth);
+            bias = box_mean_within(bias, in.use, W, H, kBiasSmooth);
             for (size_t p = 0; p < n; ++p) rel[c][p] += std::max(0.f, bias[p]);
         }
-        pooled[c] = box_mean(rel[c], W, H, kSmooth);
+        pooled[c] = box_mean_within(rel[c], in.use, W, H, kSmooth);
     }
 
     Denoised d;
@@ -455,7 +473,7 @@ std::optional<Denoised> denoise(const Film& film, int threads) {
         }
         own0[p] = float(e / 3.0);
     }
-    const std::vector<float> local0 = box_mean(own0, W, H, 1);
+    const std::vector<float> local0 = box_mean_within(own0, in.use, W, H, 1);
     auto departs = [&](size_t c, size_t p) {
         double d = 0, v = 0;
         for (int k = 0; k < 3; ++k) {
@@ -467,8 +485,13 @@ std::optional<Denoised> denoise(const Film& film, int threads) {
     };
     for (size_t p = 0; p < n; ++p) {
         size_t best = 0;
-        for (size_t c = 1; c < C; ++c)
-            if (pooled[c][p] < pooled[best][p] && !contradicted(c, p) && !departs(c, p)) best = c;
+        // A pixel that saw a lamp or the sky in part keeps its value: its colour less that light
+        // is its surface's times a coverage known only from the same samples (the mean normal's
+        // length), whose noise a filter of its neighbours would not share. That was all of the
+        // Duck's loss at 16 and 32 spp (its silhouette against the sky).
+        if (in.use[p])
+            for (size_t c = 1; c < C; ++c)
+                if (pooled[c][p] < pooled[best][p] && !contradicted(c, p) && !departs(c, p)) best = c;
         // Nor where its own estimate here is above what the noisy pixel's is, here or around.
         if (rel[best][p] > std::max(rel[0][p], pooled[0][p])) best = 0;
         ++taken[best];
