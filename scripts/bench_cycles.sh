@@ -10,6 +10,7 @@
 #   REUSE_REFS=1 OUT=dir bash scripts/bench_cycles.sh   # keeps the references already in dir
 #   CLASS=glossy|environment|lamps|diffuse bash scripts/bench_cycles.sh   # one scene class
 #   CLASS=all OUT=dir bash scripts/bench_cycles.sh      # every class, each in dir/CLASS
+#   DENOISE=1 bash scripts/bench_cycles.sh              # Tessera denoised (`--denoise true`), Cycles not
 #
 # Scene classes (CLASS): `diffuse` the Cornell box (the default, SCENE may name another);
 # `glossy` the Cornell box with a rough gold sphere (metallic 1, roughness 0.3) and a glossy
@@ -20,6 +21,10 @@
 # not Lambertian, Cycles renders them as Blender's glTF importer makes them (Principled BSDF,
 # caustics on: CYCLES_MATERIALS=gltf in scripts/cycles/cycles_render.py). VARIANTS="on off" also
 # times Cycles with roulette off; the classes other than `diffuse` use its defaults only.
+#
+# DENOISE=1: Tessera's renders denoise (after every pass, as a job does) and its error is its
+# denoised image's, against its undenoised reference; its time is the whole render_seconds, the
+# denoising included. Cycles stays undenoised: Debian's Blender has no Open Image Denoise.
 #
 # Every timed render runs once in each of REPS rounds, both renderers in every round; the tables
 # give each time's median with its minimum and maximum, and each ratio's median over the rounds
@@ -97,6 +102,16 @@ if [ -n "$ENVIRONMENT" ]; then
   tessera_args=(-e "$ENVIRONMENT")
   export CYCLES_ENVIRONMENT=$ENVIRONMENT
 fi
+# The reference is never denoised; the timed renders are with DENOISE=1, and then the image
+# measured is the one the CLI writes beside NAME.exr, NAME_denoised.exr (two samples at least).
+ref_args=(${tessera_args[@]+"${tessera_args[@]}"})
+DENOISE=${DENOISE:-0}
+measured=""
+if [ "$DENOISE" = 1 ]; then
+  tessera_args+=(--denoise true)
+  measured=_denoised
+  LADDER=${LADDER:-2 4 8 16 32 64 128 256 512 1024}
+fi
 WIDTH=${WIDTH:-320}
 HEIGHT=${HEIGHT:-240}
 DEPTH=${DEPTH:-5}
@@ -160,10 +175,10 @@ if [ "${REUSE_REFS:-0}" != 1 ] || [ ! -f "$OUT/cycles_ref/cycles_$REF_SPP.exr" ]
 fi
 if [ "${REUSE_REFS:-0}" != 1 ] || [ ! -f "$OUT/tessera_ref.exr" ]; then
   echo "== Tessera's reference ($REF_SPP spp)"
-  "$T" render -s "$REF_SPP" -m "$DEPTH" -r "$WIDTH" "$HEIGHT" -t "$THREADS" ${tessera_args[@]+"${tessera_args[@]}"} -f "$OUT/tessera_ref.exr" "$SCENE" > /dev/null
+  "$T" render -s "$REF_SPP" -m "$DEPTH" -r "$WIDTH" "$HEIGHT" -t "$THREADS" ${ref_args[@]+"${ref_args[@]}"} -f "$OUT/tessera_ref.exr" "$SCENE" > /dev/null
 fi
 ours=()
-for s in $LADDER; do ours+=("$OUT/tessera_$s.exr"); done
+for s in $LADDER; do ours+=("$OUT/tessera_$s$measured.exr"); done
 
 echo "== errors"
 cyc=()
@@ -171,11 +186,11 @@ for s in $CYCLES_SPP; do for v in $VARIANTS; do cyc+=("$OUT/round1/cycles_${v}_$
 blender_run "$here/rel_mse.py" -- "$OUT/cycles_ref/cycles_$REF_SPP.exr" "${cyc[@]}" "$OUT/tessera_ref.exr" > "$OUT/cycles_err.txt"
 blender_run "$here/rel_mse.py" -- "$OUT/tessera_ref.exr" "${ours[@]}" > "$OUT/tessera_err.txt"
 
-python3 - "$OUT" "$REF_SPP" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" "$SCENE${ENVIRONMENT:+ under $ENVIRONMENT}" "$REPS" "$VARIANTS" $CYCLES_SPP <<'EOF'
+python3 - "$OUT" "$REF_SPP" "$WIDTH" "$HEIGHT" "$DEPTH" "$THREADS" "$SCENE${ENVIRONMENT:+ under $ENVIRONMENT}" "$REPS" "$VARIANTS" "$measured" $CYCLES_SPP <<'EOF'
 import json, math, statistics, sys
-out, ref_spp, w, h, depth, threads, scene, reps, variants = sys.argv[1:10]
+out, ref_spp, w, h, depth, threads, scene, reps, variants, measured = sys.argv[1:11]
 variants = variants.split()
-cycles_spp = [int(s) for s in sys.argv[10:]]
+cycles_spp = [int(s) for s in sys.argv[11:]]
 rounds = range(1, int(reps) + 1)
 load = lambda f: json.loads(open(f"{out}/{f}").read().split("REL_MSE_JSON ", 1)[1])
 cerr, terr = load("cycles_err.txt"), load("tessera_err.txt")
@@ -188,7 +203,7 @@ for r in rounds:
     near.append({n: read_times(f"round{r}/tessera_near_{n}.txt") for n in cycles_spp})
     cycles.append({(v, n): float(json.load(open(f"{out}/round{r}/cycles_{v}_{n}/cycles_times.json"))["seconds"][str(n)])
                    for v in variants for n in cycles_spp})
-errors = {s: terr["images"][f"{out}/tessera_{s}.exr"]["rel_mse"] for s in ours[0]}
+errors = {s: terr["images"][f"{out}/tessera_{s}{measured}.exr"]["rel_mse"] for s in ours[0]}
 
 def time_to(err, times):
     """Tessera's time to reach `err` with one round's `times`: log-log between the counts either side."""
@@ -207,7 +222,7 @@ def time_to(err, times):
 spread = lambda v, f="%.3f": f"{f % statistics.median(v)} ({f % min(v)}-{f % max(v)})"
 version = json.load(open(f"{out}/round1/cycles_{variants[0]}_{cycles_spp[0]}/cycles_times.json"))["version"]
 agree = cerr["images"][f"{out}/tessera_ref.exr"]
-print(f"\nScene {scene}, {w}x{h}, Tessera max_depth {depth} (Cycles max_bounces {int(depth) - 1}), {threads} threads, "
+print(f"\nScene {scene}, {w}x{h}, Tessera {'denoised (time includes denoising), ' if measured else ''}max_depth {depth} (Cycles max_bounces {int(depth) - 1}), {threads} threads, "
       f"Blender {version}, {reps} rounds (both renderers in each); times and ratios are median (min-max) over the "
       f"rounds, each ratio from Cycles' render and Tessera's renders around that count right after it; references {ref_spp} spp each; the two references' relative MSE "
       f"against each other: {agree['rel_mse']:.2e} (means {agree['mean']:.5f} Tessera, {cerr['reference_mean']:.5f} Cycles)\n")
