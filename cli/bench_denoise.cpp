@@ -4,6 +4,7 @@
 // textures alone (found from the reference's albedo, normal and depth), the denoiser's time, and
 // the time the denoised render needs to reach the error of the largest undenoised spp.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -82,6 +83,59 @@ double masked_rel_mse(const Image& img, const Image& ref, const std::vector<uint
     return n ? s / double(n) : 0.0;
 }
 
+// Each candidate's true relMSE over the image, the edges and elsewhere; the chosen image's; and a
+// per-pixel choice by the true error (optimistic: it also picks whichever candidate's noise
+// happens to land nearest the truth).
+void print_candidates(const DenoiseCandidates& c, const Image& ref, const Image& chosen, const std::vector<uint8_t>& edges,
+                      const std::vector<uint8_t>& rest) {
+    const size_t n = c.taken.size();
+    auto err = [&](const float* v, size_t p) {
+        double s = 0;
+        for (int k = 0; k < 3; ++k) {
+            const double r = ref.rgb[p * 3 + k], d = double(v[p * 3 + k]) - r;
+            s += d * d / (r * r + 0.01);
+        }
+        return s / 3.0;
+    };
+    struct Sums {
+        double all = 0, edge = 0, else_ = 0;
+    };
+    auto line = [&](const char* name, const Sums& s) {
+        const double ne = double(std::count(edges.begin(), edges.end(), 1)), nr = double(std::count(rest.begin(), rest.end(), 1));
+        std::printf(" %s %.3g (edges %.3g, elsewhere %.3g);", name, s.all / double(n), ne ? s.edge / ne : 0.0, nr ? s.else_ / nr : 0.0);
+    };
+    std::vector<double> best(n, 1e300);
+    std::array<size_t, kDenoiseRadii.size()> took{};
+    std::printf("  candidates:");
+    for (size_t k = 0; k < c.rgb.size(); ++k) {
+        Sums s;
+        for (size_t p = 0; p < n; ++p) {
+            const double e = err(c.rgb[k].data(), p);
+            best[p] = std::min(best[p], e);
+            s.all += e;
+            if (edges[p]) s.edge += e;
+            else if (rest[p]) s.else_ += e;
+        }
+        const int r = kDenoiseRadii[k];
+        const std::string name = r == 0 ? "noisy" : r > 0 ? "regression r" + std::to_string(r) : "NL-means r" + std::to_string(-r);
+        line(name.c_str(), s);
+    }
+    Sums chosen_s, oracle;
+    for (size_t p = 0; p < n; ++p) {
+        const double e = err(chosen.rgb.data(), p);
+        chosen_s.all += e;
+        oracle.all += best[p];
+        if (edges[p]) { chosen_s.edge += e; oracle.edge += best[p]; }
+        else if (rest[p]) { chosen_s.else_ += e; oracle.else_ += best[p]; ++took[c.taken[p]]; }
+    }
+    line("chosen", chosen_s);
+    line("per-pixel oracle", oracle);
+    const double nr = double(std::count(rest.begin(), rest.end(), 1));
+    std::printf(" taken elsewhere:");
+    for (size_t k = 0; k < took.size(); ++k) std::printf(" %.2f", nr ? double(took[k]) / nr : 0.0);
+    std::printf("\n");
+}
+
 }  // namespace
 
 int bench_denoise(int argc, char** argv) {
@@ -98,6 +152,10 @@ int bench_denoise(int argc, char** argv) {
     app.add_option("--max-spp", max_spp, "the largest spp rendered (a power of two)")->check(CLI::Range(4, 1 << 16));
     app.add_option("--depth", depth, "maximum bounce depth")->check(CLI::Range(1, 100));
     app.add_option("--figures", figures, "write each scene's noisy, denoised and reference images here")->type_name("DIR");
+    bool show_candidates = false;
+    app.add_flag("--candidates", show_candidates,
+                 "after each row, each candidate's true relMSE (whole image, edges and textures, elsewhere), the chosen image's, "
+                 "and that of a per-pixel choice by the true error (an oracle: what a perfect choice among these candidates reaches)");
     app.add_option("--scene", only, "only the scene whose label contains this")->type_name("TEXT");
     app.add_option("--cs184", cs184, "the CS184 scene folder")->type_name("DIR");
     app.add_option("--gltf-pbr", gltf, "the glTF sample models folder")->type_name("DIR");
@@ -152,7 +210,14 @@ int bench_denoise(int argc, char** argv) {
             s.seed = 1;
             s.denoise = true;
             // Denoised after every pass, as a job does; the render's own time is without them.
-            const RenderResult r = render(scene, s);
+            // --candidates: the last pass's film denoised once more, keeping every candidate.
+            DenoiseCandidates cands;
+            RenderCallbacks calls;
+            if (show_candidates)
+                calls.on_pass = [&](const PassView& v) {
+                    if (v.spp >= spp) denoise(v.film, 0, &cands);
+                };
+            const RenderResult r = render(scene, s, calls);
             if (!r.denoised || r.curve.points.empty()) continue;
             const Denoised* d = r.denoised.get();
             double denoising = 0;
@@ -165,6 +230,7 @@ int bench_denoise(int argc, char** argv) {
             const double ratio = d->est_rel_mse / dn;
             std::printf("| %d | %.3f | %.3f | %.4g | %.4g | %.4g | %.4g | %.2f | %.4g | %.4g | %.4g | %.4g |\n", spp, render_s,
                         d->seconds, noisy, est_noisy, dn, d->est_rel_mse, ratio, edge_noisy, edge_dn, rest_noisy, rest_dn);
+            if (show_candidates && !cands.taken.empty()) print_candidates(cands, ref.image, d->image, mask, rest);
             all_better = all_better && dn < noisy && edge_dn < edge_noisy;
             all_tracked = all_tracked && ratio >= 0.5 && ratio <= 2.0;
             rows.push_back({spp, render_s, d->seconds, noisy, dn});

@@ -299,7 +299,7 @@ bool can_denoise(const Film& film) {
     return !film.sum_odd.empty() && l.has(Aov::albedo) && l.has(Aov::normal) && l.has(Aov::depth);
 }
 
-std::optional<Denoised> denoise(const Film& film, int threads) {
+std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates* candidates) {
     if (!can_denoise(film) || film.sum.empty()) return std::nullopt;
     if (*std::min_element(film.count.begin(), film.count.end()) < 2) return std::nullopt;
     const auto t0 = std::chrono::steady_clock::now();
@@ -483,6 +483,15 @@ std::optional<Denoised> denoise(const Film& film, int threads) {
         }
         return d / 3.0 > kDeparture * (std::max(own0[p], local0[p]) + v / 3.0);
     };
+    if (candidates) {
+        candidates->taken.assign(n, 0);
+        for (size_t c = 0; c < C; ++c) {
+            candidates->rgb[c].resize(n * 3);
+            for (size_t p = 0; p < n; ++p)
+                for (int k = 0; k < 3; ++k)
+                    candidates->rgb[c][p * 3 + k] = c == 0 ? float(film.sum[p][k] / double(film.count[p])) : combined(c, p, k);
+        }
+    }
     for (size_t p = 0; p < n; ++p) {
         size_t best = 0;
         // A pixel that saw a lamp or the sky in part keeps its value: its colour less that light
@@ -495,6 +504,7 @@ std::optional<Denoised> denoise(const Film& film, int threads) {
         // Nor where its own estimate here is above what the noisy pixel's is, here or around.
         if (rel[best][p] > std::max(rel[0][p], pooled[0][p])) best = 0;
         ++taken[best];
+        if (candidates) candidates->taken[p] = uint8_t(best);
         // The noisy candidate is the film's own mean, not the halves' mix (the same up to rounding).
         for (int k = 0; k < 3; ++k)
             d.image.rgb[p * 3 + k] = best == 0 ? float(film.sum[p][k] / double(film.count[p])) : combined(best, p, k);

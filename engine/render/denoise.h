@@ -35,8 +35,10 @@
 // relMSE is. docs/denoising.md has the figures.
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "engine/render/image.h"
 
@@ -63,11 +65,19 @@ struct Denoised {
     std::array<double, kDenoiseRadii.size()> share{};  // fraction of pixels that took each candidate
 };
 
+// Each candidate's output and the candidate each pixel took: what a benchmark needs to measure
+// the choice against the truth (`tessera bench denoise --candidates`). Costs memory only when
+// asked for.
+struct DenoiseCandidates {
+    std::array<std::vector<float>, kDenoiseRadii.size()> rgb;  // 3 per pixel, the halves mixed
+    std::vector<uint8_t> taken;                               // per pixel, an index into kDenoiseRadii
+};
+
 // Whether a film carries what the denoiser reads: its odd samples apart (kSplitHalves) and the
 // albedo, normal and depth AOVs.
 bool can_denoise(const Film& film);
 // Nothing when a pixel has fewer than two samples (no variance to go by) or the film lacks what
 // can_denoise asks. The result does not depend on `threads`.
-std::optional<Denoised> denoise(const Film& film, int threads = 0);
+std::optional<Denoised> denoise(const Film& film, int threads = 0, DenoiseCandidates* candidates = nullptr);
 
 }  // namespace tessera

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <optional>
 #include <string>
 
 #include "engine/render/film.h"
@@ -60,6 +62,38 @@ void expect_tracks_the_truth(const std::string& name) {
 
 TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthOnTheCornellBox) { expect_tracks_the_truth("builtin:cornell_box"); }
 TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthInTheLampRoom) { expect_tracks_the_truth("builtin:lamp_room"); }
+
+// What `tessera bench denoise --candidates` reads: every pixel of the denoised image is the
+// candidate it took, the noisy one its film's mean, and the shares are the report's.
+TEST(Denoise, ItsCandidatesAreWhatEachPixelChoseFrom) {
+    const RenderScene scene = build_render_scene(builtin_scene("builtin:cornell_box"), {});
+    RenderSettings s = settings(8);
+    s.denoise = true;
+    std::optional<Denoised> again;
+    DenoiseCandidates cands;
+    RenderCallbacks calls;
+    calls.on_pass = [&](const PassView& v) {
+        if (v.spp >= s.spp) again = denoise(v.film, 2, &cands);
+    };
+    const RenderResult r = render(scene, s, calls);
+    ASSERT_TRUE(r.denoised);
+    ASSERT_TRUE(again);
+    const size_t n = size_t(s.width) * s.height;
+    ASSERT_EQ(cands.taken.size(), n);
+    EXPECT_EQ(again->image.rgb, r.denoised->image.rgb) << "asking for the candidates changes nothing";
+    std::array<size_t, kDenoiseRadii.size()> took{};
+    for (size_t p = 0; p < n; ++p) {
+        ASSERT_LT(cands.taken[p], kDenoiseRadii.size());
+        ++took[cands.taken[p]];
+        for (int k = 0; k < 3; ++k) {
+            ASSERT_EQ(again->image.rgb[p * 3 + k], cands.rgb[cands.taken[p]][p * 3 + k]) << "pixel " << p;
+            ASSERT_EQ(cands.rgb[0][p * 3 + k], r.image.rgb[p * 3 + k]) << "pixel " << p;
+        }
+    }
+    for (size_t c = 0; c < took.size(); ++c) EXPECT_DOUBLE_EQ(double(took[c]) / double(n), again->share[c]);
+    EXPECT_GT(took[0], 0u);
+    EXPECT_LT(took[0], n) << "some pixels are filtered";
+}
 
 // Light seen directly is taken out before filtering and added back after: a pixel that saw only
 // the environment keeps its noisy value exactly, and (below) a lamp's glare does not spread to
