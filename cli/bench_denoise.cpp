@@ -245,15 +245,28 @@ int bench_denoise(int argc, char** argv) {
         }
         if (!rows.empty()) {
             const Row& top = rows.back();
+            // The first denoised row at or below that error, and the time to it interpolated in
+            // log-log from the row before (error falls about as a power of the time).
             const Row* reach = nullptr;
-            for (const Row& r : rows)
+            const Row* before = nullptr;
+            for (const Row& r : rows) {
                 if (r.denoised <= top.noisy) { reach = &r; break; }
-            if (reach)
-                std::printf("\nthe error of %d undenoised spp (%.4g, %.3f s) is reached denoised at %d spp in %.3f s: %.3f of the time\n\n",
-                            top.spp, top.noisy, top.render_s, reach->spp, reach->render_s + reach->denoise_s,
-                            (reach->render_s + reach->denoise_s) / top.render_s);
-            else
+                before = &r;
+            }
+            if (reach) {
+                const double t1 = reach->render_s + reach->denoise_s;
+                double t = t1;
+                if (before && before->denoised > reach->denoised && reach->denoised > 0) {
+                    const double t0 = before->render_s + before->denoise_s;
+                    const double f = std::log(top.noisy / before->denoised) / std::log(reach->denoised / before->denoised);
+                    t = std::exp(std::log(t0) + f * (std::log(t1) - std::log(t0)));
+                }
+                std::printf("\nthe error of %d undenoised spp (%.4g, %.3f s) is reached denoised by %d spp (%.3f s; "
+                            "%.3f s interpolated from %d spp): %.3f of the time\n\n",
+                            top.spp, top.noisy, top.render_s, reach->spp, t1, t, before ? before->spp : reach->spp, t / top.render_s);
+            } else {
                 std::printf("\nno denoised render reached the error of %d undenoised spp\n\n", top.spp);
+            }
         }
     }
     std::printf("denoised below noisy everywhere (image, edges and textures): %s; denoised estimate within 0.5-2x of the truth everywhere: %s\n",
