@@ -496,7 +496,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         size_t best = 0;
         // A pixel that saw a lamp or the sky in part keeps its value: its colour less that light
         // is its surface's times a coverage known only from the same samples (the mean normal's
-        // length), whose noise a filter of its neighbours would not share. That was all of the
+        // length), whose noise a filter of its neighbours would not share. That was most of the
         // Duck's loss at 16 and 32 spp (its silhouette against the sky).
         if (in.use[p])
             for (size_t c = 1; c < C; ++c)

@@ -49,7 +49,7 @@ struct Film;
 // The denoiser's working memory per pixel at its peak, counted from denoise.cpp's buffers: the
 // resolved features (28 bytes), its inputs (61), the halves and the light they saw (52), four
 // candidates' halves (96), the NL-means guide (28), the error maps (88) and the image (16), with
-// room to spare. A job's memory bound (Film::bytes_per_pixel) counts it.
+// room to spare (the pooling's temporaries, 36, live after the NL-means guide is gone). A job's memory bound (Film::bytes_per_pixel) counts it.
 inline constexpr size_t kDenoiseBytesPerPixel = 400;
 
 // Candidate windows (radius in pixels): 0 is the noisy pixel itself, a positive radius a
