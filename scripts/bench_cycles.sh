@@ -106,6 +106,7 @@ fi
 # measured is the one the CLI writes beside NAME.exr, NAME_denoised.exr (two samples at least).
 ref_args=(${tessera_args[@]+"${tessera_args[@]}"})
 DENOISE=${DENOISE:-0}
+case "$DENOISE" in 0|1) ;; *) echo "bench_cycles: DENOISE is 0 or 1" >&2; exit 2 ;; esac
 measured=""
 if [ "$DENOISE" = 1 ]; then
   tessera_args+=(--denoise true)
