@@ -290,25 +290,56 @@ TEST_F(RenderNodeFarm, APausedShotOrComparisonResumesOnTheFarm) {
                        {"frames", {{"start", 0}, {"end", 48}, {"step", 8}}}, {"chunk", 1}};
     const std::string id = service_->submit(body).id;
     const fs::path farm = job_results_dir((dir_ / "data").string(), id);
-    int paused = 0;
-    bool inside_a_frame = false;
-    for (const size_t after_frames : {size_t(1), size_t(3)}) {
-        for (int i = 0; i < 5000; ++i) {
-            const api::JobStatus st = service_->status(id);
-            if (api::is_final(st.state) || (st.shot && st.shot->frames_done >= after_frames)) break;
+    using Clock = std::chrono::steady_clock;
+    auto frames_done = [&] {
+        const api::JobStatus st = service_->status(id);
+        return std::make_pair(api::is_final(st.state), st.shot ? st.shot->frames_done : size_t(0));
+    };
+    // Until `n` frames are written (false: it finished first).
+    auto wait_frames = [&](size_t n) {
+        for (int i = 0; i < 60000; ++i) {
+            const auto [over, done] = frames_done();
+            if (over) return false;
+            if (done >= n) return true;
             std::this_thread::sleep_for(std::chrono::milliseconds(2));
         }
-        const api::JobStatus p = service_->pause(id);
-        if (api::is_final(p.state)) break;
-        ASSERT_EQ(p.state, api::JobState::paused);
-        ++paused;
-        // The nodes see it at their next heartbeat (a quarter of the visibility timeout) and stop.
-        std::this_thread::sleep_for(std::chrono::milliseconds(1000));
-        EXPECT_EQ(service_->status(id).state, api::JobState::paused);
+        return false;
+    };
+    auto has_checkpoint = [&] {
         std::error_code ec;
         for (fs::recursive_directory_iterator it(farm / "frames", ec), end; !ec && it != end; it.increment(ec))
-            if (it->path().filename() == "checkpoint.tck") inside_a_frame = true;
+            if (it->path().filename() == "checkpoint.tck") return true;
+        return false;
+    };
+    int paused = 0;
+    bool inside_a_frame = false;
+    // Paused and resumed; true when it was paused (not finished first). `look` waits for a
+    // checkpoint, which the nodes write when they see the pause (a quarter of their visibility
+    // timeout) inside a frame.
+    auto pause_resume = [&](bool look) {
+        const api::JobStatus p = service_->pause(id);
+        if (api::is_final(p.state)) return false;
+        EXPECT_EQ(p.state, api::JobState::paused);
+        ++paused;
+        std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+        for (int i = 0; look && i < 100 && !has_checkpoint(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        inside_a_frame = inside_a_frame || has_checkpoint();
+        EXPECT_EQ(service_->status(id).state, api::JobState::paused);
         EXPECT_NE(service_->resume(id).state, api::JobState::paused);
+        return true;
+    };
+    // Between frames: the node that started it has written the first frame and is queuing the rest.
+    if (wait_frames(1) && pause_resume(false)) {
+        // Inside a frame: half a frame's time after one was written. The nodes start afresh on the
+        // resume and render in step, so a frames_done count alone can land between their frames.
+        const auto resumed = Clock::now();
+        Clock::duration frame{};  // a frame's time, from the resume to the next frame written
+        for (int attempt = 0; attempt < 3 && !inside_a_frame; ++attempt) {
+            if (!wait_frames(frames_done().second + 1)) break;
+            if (attempt == 0) frame = Clock::now() - resumed;
+            std::this_thread::sleep_for(frame / 2);
+            if (!pause_resume(true)) break;
+        }
     }
     EXPECT_GE(paused, 1) << "paused before it finished";
     EXPECT_TRUE(inside_a_frame) << "a pause inside a frame keeps the frame's checkpoint";
