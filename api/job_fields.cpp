@@ -534,7 +534,8 @@ const Field<RenderJob> kRenderFields[] = {
             "passes", FieldKind::object,
             "Render passes (AOVs) for compositing, written beside the image as one multilayer OpenEXR (passes.exr) and each "
             "alone: albedo, normal, depth, position, object_id, material_id, the light split emission, environment, "
-            "diffuse_direct, diffuse_indirect, glossy_direct, glossy_indirect (which sum to the image), and variance.",
+            "diffuse_direct, diffuse_indirect, glossy_direct, glossy_indirect (which sum to the image), variance, and the "
+            "Cryptomatte mattes crypto_object and crypto_material.",
             "[]");
         f.cli = "--passes";
         f.set = &set_passes;

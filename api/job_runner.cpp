@@ -123,6 +123,23 @@ std::shared_ptr<PreparedScene> prepare_scene(const std::string& source, const Lo
     return p;
 }
 
+namespace {
+
+// A Cryptomatte AOV's header attributes (its layer, hash, conversion and manifest of the scene's
+// names); none for another AOV.
+Metadata crypto_meta(const RenderScene& scene, Aov a) {
+    if (a == Aov::crypto_object) return crypto_metadata(aov_info(a).layer, scene.object_names);
+    if (a == Aov::crypto_material) return crypto_metadata(aov_info(a).layer, scene.material_names);
+    return {};
+}
+
+Metadata with(Metadata meta, const Metadata& more) {
+    meta.insert(meta.end(), more.begin(), more.end());
+    return meta;
+}
+
+}  // namespace
+
 JobOutcome write_render(const FinishedRender& done, const RunOptions& opt, const RunOutputs& out) {
     const auto t_write = Clock::now();
     const RenderJob& job = done.job;
@@ -140,12 +157,14 @@ JobOutcome write_render(const FinishedRender& done, const RunOptions& opt, const
         if (!out.exr.empty()) write_exr(out.exr, result.image, meta);
         if (!out.rate_png.empty()) write_rate_png(out.rate_png, result.image, done.settings.spp, meta);
         if (!result.aovs.empty()) {
-            if (!out.passes_exr.empty()) write_layers_exr(out.passes_exr, result.image, result.aovs, meta);
+            Metadata layers = meta;
+            for (const AovPlane& a : result.aovs) layers = with(std::move(layers), crypto_meta(done.scene, a.aov));
+            if (!out.passes_exr.empty()) write_layers_exr(out.passes_exr, result.image, result.aovs, layers);
             if (!out.passes_dir.empty()) {
                 std::filesystem::create_directories(out.passes_dir);
                 for (const AovPlane& a : result.aovs)
                     write_aov_exr((std::filesystem::path(out.passes_dir) / (std::string(aov_info(a.aov).name) + ".exr")).string(),
-                                  result.image.width, result.image.height, a, meta);
+                                  result.image.width, result.image.height, a, with(meta, crypto_meta(done.scene, a.aov)));
             }
         }
         if (result.denoised) {

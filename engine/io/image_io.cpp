@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <stdexcept>
 
@@ -166,6 +167,14 @@ std::vector<std::string> aov_channel_names(Aov aov) {
     const AovInfo& info = aov_info(aov);
     std::vector<std::string> names;
     const std::string suffixes = info.suffixes;
+    if (info.merge == AovMerge::ranked) {
+        for (int r = 0; r < info.components; ++r) {
+            char layer[64];
+            std::snprintf(layer, sizeof layer, "%s%02d.%c", info.layer, r / 4, suffixes[size_t(r % 4)]);
+            names.emplace_back(layer);
+        }
+        return names;
+    }
     if (suffixes.empty()) names.emplace_back(info.layer);
     for (char c : suffixes) names.push_back(std::string(info.layer) + "." + c);
     return names;

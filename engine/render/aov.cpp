@@ -58,6 +58,10 @@ void add_sample_aovs(const AovLayout& layout, double* entry, const SampleAovs& s
         entry[o + 2] += double(L.z) * double(L.z);
     }
     if (const int o = layout.offset[size_t(Aov::depth)]; o >= 0 && s.depth >= 0.f) entry[o] = std::min(entry[o], double(s.depth));
+    if (s.object) {
+        if (const int o = layout.offset[size_t(Aov::crypto_object)]; o >= 0) add_crypto_sample(entry + o, s.object_hash);
+        if (const int o = layout.offset[size_t(Aov::crypto_material)]; o >= 0) add_crypto_sample(entry + o, s.material_hash);
+    }
     if (first) {
         if (const int o = layout.offset[size_t(Aov::object_id)]; o >= 0) entry[o] = double(s.object);
         if (const int o = layout.offset[size_t(Aov::material_id)]; o >= 0) entry[o] = double(s.material);

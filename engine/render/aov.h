@@ -12,6 +12,8 @@
 
 #include <glm/glm.hpp>
 
+#include "engine/render/cryptomatte.h"
+
 namespace tessera {
 
 enum class Aov : uint8_t {
@@ -28,20 +30,25 @@ enum class Aov : uint8_t {
     glossy_direct,     // the same through glossy and specular lobes (mirrors and glass included)
     glossy_indirect,
     variance,          // variance of the pixel's mean, from its samples' second moment
+    crypto_object,     // Cryptomatte: the objects the pixel's samples hit, ranked by coverage
+    crypto_material,   // ... their materials
     count_
 };
 inline constexpr int kAovCount = int(Aov::count_);
 
-// How an AOV's samples make its pixel: their mean, their minimum, or the first sample's.
-enum class AovMerge : uint8_t { mean, min, first };
+// How an AOV's samples make its pixel: their mean, their minimum, the first sample's, or
+// Cryptomatte's ranks (cryptomatte.h).
+enum class AovMerge : uint8_t { mean, min, first, ranked };
 
 struct AovInfo {
     Aov aov;
     const char* name;                      // in the job's `passes` and file names
-    int components;                        // 1 or 3
+    int components;                        // 1 or 3; ranked: two per rank (id, coverage)
     AovMerge merge;
-    const char* layer;                     // EXR channel names: layer.R/G/B, layer.X/Y/Z, or the layer alone
-    const char* suffixes;                  // "RGB", "XYZ" or ""
+    // EXR channel names: layer.R/G/B, layer.X/Y/Z, or the layer alone; ranked: layer00.R/G/B/A,
+    // layer01.R/G/B/A, ... (two ranks to a layer, as Cryptomatte names them).
+    const char* layer;
+    const char* suffixes;                  // "RGB", "XYZ", "" or ranked "RGBA"
 };
 
 inline constexpr std::array<AovInfo, kAovCount> kAovInfo{{
@@ -58,6 +65,8 @@ inline constexpr std::array<AovInfo, kAovCount> kAovInfo{{
     {Aov::glossy_direct, "glossy_direct", 3, AovMerge::mean, "glossy_direct", "RGB"},
     {Aov::glossy_indirect, "glossy_indirect", 3, AovMerge::mean, "glossy_indirect", "RGB"},
     {Aov::variance, "variance", 3, AovMerge::mean, "variance", "RGB"},
+    {Aov::crypto_object, "crypto_object", 2 * kCryptoRanks, AovMerge::ranked, "CryptoObject", "RGBA"},
+    {Aov::crypto_material, "crypto_material", 2 * kCryptoRanks, AovMerge::ranked, "CryptoMaterial", "RGBA"},
 }};
 
 inline const AovInfo& aov_info(Aov a) { return kAovInfo[size_t(a)]; }
@@ -93,6 +102,7 @@ struct SampleAovs {
     glm::vec3 albedo{0.f}, normal{0.f}, position{0.f};
     float depth = -1.f;  // negative: the camera ray left the scene
     uint32_t object = 0, material = 0;
+    uint32_t object_hash = 0, material_hash = 0;  // Cryptomatte: their names' hashes
     glm::vec3 emission{0.f}, environment{0.f}, diffuse_direct{0.f}, diffuse_indirect{0.f}, glossy_direct{0.f}, glossy_indirect{0.f};
 };
 

@@ -23,6 +23,10 @@ std::vector<AovPlane> Film::resolve_aovs(AovSet which) const {
                 }
                 continue;
             }
+            if (info.merge == AovMerge::ranked) {
+                resolve_crypto(e, c, out);
+                continue;
+            }
             const double scale = info.merge == AovMerge::mean ? (c > 0 ? 1.0 / c : 0.0) : 1.0;
             for (int k = 0; k < info.components; ++k) out[k] = float(e[k] * scale);
         }

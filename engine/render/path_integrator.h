@@ -54,6 +54,8 @@ inline void record_first_hit(const RenderScene& s, const Ray& ray, const Hit& hi
         const auto it = std::upper_bound(s.mesh_first_tri.begin(), s.mesh_first_tri.end(), hit.prim);
         a.object = uint32_t(it - s.mesh_first_tri.begin());
     }
+    if (a.object - 1 < s.object_hashes.size()) a.object_hash = s.object_hashes[a.object - 1];
+    if (si.material < s.material_hashes.size()) a.material_hash = s.material_hashes[si.material];
     const Bsdf& b = s.materials[si.material].bsdf;
     a.albedo = bsdf_is_delta(b) ? glm::vec3(0.f) : aov_albedo(b);
 }

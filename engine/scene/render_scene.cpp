@@ -12,6 +12,7 @@
 #include "engine/geometry/triangle.h"
 #include "engine/scene/instancing.h"
 #include "engine/scene/prototype_cache.h"
+#include "engine/core/murmur3.h"
 #include "engine/scene/surface_textures.h"
 
 namespace tessera {
@@ -548,6 +549,21 @@ bool same_camera(const CameraDesc& a, const CameraDesc& b) {
 
 }  // namespace
 
+// Cryptomatte's names: the file's, or the kind and number where it gave none (a lamp the loader
+// made, a sphere). Objects of one name share a matte, as the specification intends.
+void name_objects(const SceneDescription& desc, const std::vector<const MeshDesc*>& meshes, uint32_t default_material, RenderScene& s) {
+    for (size_t k = 0; k < meshes.size(); ++k)
+        s.object_names.push_back(meshes[k]->name.empty() ? "mesh " + std::to_string(k) : meshes[k]->name);
+    for (size_t k = 0; k < desc.spheres.size(); ++k) s.object_names.push_back("sphere " + std::to_string(k));
+    for (size_t m = 0; m < s.materials.size(); ++m) {
+        if (m < desc.materials.size() && !desc.materials[m].name.empty()) s.material_names.push_back(desc.materials[m].name);
+        else if (m == default_material) s.material_names.emplace_back("default");
+        else s.material_names.push_back((m < desc.materials.size() ? "material " : "light ") + std::to_string(m));
+    }
+    for (const std::string& n : s.object_names) s.object_hashes.push_back(murmur3_32(n));
+    for (const std::string& n : s.material_names) s.material_hashes.push_back(murmur3_32(n));
+}
+
 RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOptions& options, PrototypeCache* cache,
                                const SceneDescription* close) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -644,6 +660,7 @@ RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOp
         build_instances(all, kept_instances, prototype_first_tri, prototype_tris, options, s, cache, closing_placements);
         if (!kept_instances.empty()) clock.lap("instances");
     }
+    name_objects(desc, meshes, default_material, s);
     std::vector<Aabb> bounds(s.spheres.size());
     for (size_t i = 0; i < s.spheres.size(); ++i) { bounds[i] = sphere_bounds(s.spheres[i]); s.bounds.expand(bounds[i]); }
     build_sphere_accel(bounds, options, s);

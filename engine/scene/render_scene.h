@@ -90,6 +90,10 @@ struct RenderScene {
     // Where each mesh's triangles begin in tri_shading (world meshes, then prototypes), and the
     // end: a triangle's mesh is its object in the object_id AOV.
     std::vector<uint32_t> mesh_first_tri;
+    // Cryptomatte: each object's name (object_id − 1: the meshes in mesh_first_tri's order, then
+    // the spheres) and each material's, and their hashes, which a sample records.
+    std::vector<std::string> object_names, material_names;
+    std::vector<uint32_t> object_hashes, material_hashes;
     LargeVector<glm::vec3> normals;             // shared vertex normals
     // Per vertex like normals, each filled only when a material reads it (empty otherwise):
     // texture coordinate sets 0 and 1, COLOR_0 (white where a mesh has none), tangents (xyz,

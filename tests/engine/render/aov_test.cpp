@@ -203,7 +203,9 @@ TEST(Aov, MultilayerExrNamesChannelsAsCompositorsReadThem) {
                              "object_id", "material_id", "emission.R", "environment.B", "diffuse_direct.G", "diffuse_indirect.R",
                              "glossy_direct.R", "glossy_indirect.B", "variance.R"})
         EXPECT_NE(std::find(c.names.begin(), c.names.end(), name), c.names.end()) << name;
-    EXPECT_EQ(c.names.size(), 4u + 3 * 10 + 3);
+    for (const char* name : {"CryptoObject00.R", "CryptoObject00.A", "CryptoObject02.B", "CryptoMaterial01.G"})
+        EXPECT_NE(std::find(c.names.begin(), c.names.end(), name), c.names.end()) << name;
+    EXPECT_EQ(c.names.size(), 4u + 3 * 10 + 3 + 2 * 2 * kCryptoRanks);
     // The values are the planes'.
     const std::vector<float> z = c.channel("Z");
     EXPECT_EQ(z, plane(r, Aov::depth).values);

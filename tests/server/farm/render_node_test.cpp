@@ -165,7 +165,7 @@ TEST_F(RenderNodeFarm, EveryPassScheduleGivesOneProcessImageBitForBit) {
          "dark_box.gltf"},
         // Passes on whole tiles: the tiles ship films, not pixels.
         {"passes", {{"scene", "cornell_spheres"}, {"width", 40}, {"height", 30}, {"spp", 8}, {"max_depth", 3}, {"tile_size", 16},
-                    {"passes", {"albedo", "depth", "object_id", "emission", "diffuse_direct", "glossy_indirect", "variance"}}},
+                    {"passes", {"albedo", "depth", "object_id", "emission", "diffuse_direct", "glossy_indirect", "variance", "crypto_object", "crypto_material"}}},
          "cornell_spheres.gltf"},
         // Denoised after every pass, from the assembled film.
         {"denoise", {{"scene", "cornell_box"}, {"width", 40}, {"height", 30}, {"spp", 8}, {"max_depth", 3}, {"tile_size", 16},

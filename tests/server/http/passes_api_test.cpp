@@ -26,7 +26,7 @@ TEST_F(Server, PassesAndTheDenoisedImageAreServed) {
     json job = kSmallJob;
     job["spp"] = 8;
     job["max_depth"] = 3;
-    job["passes"] = {"albedo", "depth", "diffuse_direct", "glossy_indirect"};
+    job["passes"] = {"albedo", "depth", "diffuse_direct", "glossy_indirect", "crypto_object"};
     job["denoise"] = true;
     const std::string id = submit(job);
     const json done = wait_state(id, {"succeeded", "failed"});
@@ -34,7 +34,7 @@ TEST_F(Server, PassesAndTheDenoisedImageAreServed) {
     EXPECT_EQ(done["settings"]["passes"], job["passes"]);
     EXPECT_EQ(done["settings"]["denoise"], true);
     const std::string base = "/v1/jobs/" + id;
-    for (const char* f : {"/passes.exr", "/passes/albedo.exr", "/passes/depth.exr", "/denoised.exr"}) {
+    for (const char* f : {"/passes.exr", "/passes/albedo.exr", "/passes/depth.exr", "/passes/crypto_object.exr", "/denoised.exr"}) {
         auto r = client_->Get(base + f);
         ASSERT_TRUE(r) << f;
         EXPECT_EQ(r->status, 200) << f << r->body;
@@ -46,6 +46,7 @@ TEST_F(Server, PassesAndTheDenoisedImageAreServed) {
     EXPECT_EQ(png->body.substr(1, 3), "PNG");
     // Asked for neither: 404 with the reason, not 410.
     expect_problem(client_->Get(base + "/passes/normal.exr"), 404);
+    expect_problem(client_->Get(base + "/passes/crypto_material.exr"), 404);
     EXPECT_NE(client_->Get(base + "/passes/normal.exr")->body.find("no-such-pass"), std::string::npos);
     // The denoised series beside the noisy one.
     const json report = json::parse(client_->Get(base + "/report.json")->body);
@@ -97,7 +98,9 @@ TEST_F(Server, TheDenoisedImageIsShownWhileTheJobRuns) {
     }
     EXPECT_TRUE(seen);
     const json st = status(id);
-    if (st["latest_pass"].is_object()) EXPECT_TRUE(st["latest_pass"].contains("denoised_est_rel_mse"));
+    if (st["latest_pass"].is_object()) {
+        EXPECT_TRUE(st["latest_pass"].contains("denoised_est_rel_mse"));
+    }
     client_->Delete(base);
     wait_state(id, {"canceled", "succeeded", "failed"});
 }
