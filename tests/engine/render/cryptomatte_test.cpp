@@ -21,11 +21,6 @@ namespace tessera {
 namespace {
 
 TEST(Cryptomatte, IdsAreTheSpecificationsHashes) {
-    // MurmurHash3_x86_32's published values, seed 0 (and one with a seed).
-    static_assert(murmur3_32("") == 0u);
-    EXPECT_EQ(murmur3_32("hello"), 0x248bfa47u);
-    EXPECT_EQ(murmur3_32("The quick brown fox jumps over the lazy dog"), 0x2e4ff723u);
-    EXPECT_EQ(murmur3_32("", 1), 0x514e28b7u);
     // The specification's example manifest: name to the hex of the float id's bits.
     EXPECT_EQ(crypto_hex(crypto_id(murmur3_32("bunny"))), "13851a76");
     EXPECT_EQ(crypto_hex(crypto_id(murmur3_32("default"))), "42c9679f");
