@@ -105,7 +105,7 @@ void print_candidates(const DenoiseCandidates& c, const Image& ref, const Image&
         std::printf(" %s %.3g (edges %.3g, elsewhere %.3g);", name, s.all / double(n), ne ? s.edge / ne : 0.0, nr ? s.else_ / nr : 0.0);
     };
     std::vector<double> best(n, 1e300);
-    std::array<size_t, kDenoiseRadii.size()> took{};
+    std::array<size_t, kDenoiseCandidates.size()> took{};
     std::printf("  candidates:");
     for (size_t k = 0; k < c.rgb.size(); ++k) {
         Sums s;
@@ -116,9 +116,7 @@ void print_candidates(const DenoiseCandidates& c, const Image& ref, const Image&
             if (edges[p]) s.edge += e;
             else if (rest[p]) s.else_ += e;
         }
-        const int r = kDenoiseRadii[k];
-        const std::string name = r == 0 ? "noisy" : r > 0 ? "regression r" + std::to_string(r) : "NL-means r" + std::to_string(-r);
-        line(name.c_str(), s);
+        line(kDenoiseCandidates[k].name, s);
     }
     Sums chosen_s, oracle;
     for (size_t p = 0; p < n; ++p) {

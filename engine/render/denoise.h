@@ -1,7 +1,11 @@
 #pragma once
 // A denoiser whose error is estimated from the render's own data.
 //
-// Filter: candidates of two kinds, chosen per pixel by their estimated error.
+// Filter: candidates of three kinds, chosen per pixel by their estimated error.
+// - NFOR's own: first-order regression of the colour on the pixel's place, each neighbour
+//   weighted by NL-means (below) as Bitterli et al. (2016) weight theirs: the weights keep a
+//   window to one surface and one side of a shadow, the first order keeps a gradient that a
+//   one-sided window would otherwise flatten (the zero-order mean's bias at every edge).
 // - First-order regression of the pixel colour on its features (shading normal, depth, screen
 //   position) over a window, as NFOR does (Bitterli et al. 2016, "Nonlinearly Weighted
 //   First-order Regression for Denoising Monte Carlo Renderings"), with the window's pixels
@@ -26,9 +30,9 @@
 // Error: cross-validation between independent halves gives each candidate's error with nothing
 // to calibrate, MSE = [(f(A) − B)² + (f(B) − A)²]/2 − (A − B)²/2 − (f(A) − f(B))²/4, but per
 // pixel that is about (A − μ)(B − μ), whose heavy tail (a firefly in one half) swamps a strong
-// filter's small error. So it gives only the smallest window's bias, pooled over a wide
+// filter's small error. So it gives only the first filter's bias, pooled over a wide
 // neighbourhood; the variance of a candidate is (f(A) − f(B))²/4, and its bias beyond the
-// smallest window's comes from the difference of their outputs less that difference's variance
+// first filter's comes from the difference of their outputs less that difference's variance
 // (both filtered, so little noise). Bias estimates are pooled and then held at zero or more.
 // Each pixel takes the candidate of least estimated error pooled over its neighbourhood; the
 // denoised image's error estimate is the chosen candidates', relative as the convergence curve's
@@ -52,25 +56,38 @@ struct Film;
 // room to spare (the pooling's temporaries, 36, live after the NL-means guide is gone). A job's memory bound (Film::bytes_per_pixel) counts it.
 inline constexpr size_t kDenoiseBytesPerPixel = 400;
 
-// Candidate windows (radius in pixels): 0 is the noisy pixel itself, a positive radius a
-// regression's box, a negative one NL-means' window (the last).
-inline constexpr std::array<int, 4> kDenoiseRadii{0, 2, 4, -4};
-static_assert(kDenoiseRadii.front() == 0 && kDenoiseRadii.back() < 0);
+// The candidates each pixel chooses from. The noisy pixel is the first; the first filter is the
+// one whose bias the others' is measured beyond (denoise.cpp); NL-means is the last (the
+// stand-in for the truth in relative errors).
+enum class DenoiseFilter : uint8_t { noisy, nlm_regression, box_regression, nlm };
+struct DenoiseCandidate {
+    DenoiseFilter filter;
+    int radius;        // of the window, in pixels
+    const char* name;  // in `tessera bench denoise --candidates`
+};
+inline constexpr std::array<DenoiseCandidate, 4> kDenoiseCandidates{{
+    {DenoiseFilter::noisy, 0, "noisy"},
+    {DenoiseFilter::nlm_regression, 4, "NL-means regression r4"},
+    {DenoiseFilter::box_regression, 2, "box regression r2"},
+    {DenoiseFilter::nlm, 4, "NL-means r4"},
+}};
+static_assert(kDenoiseCandidates.front().filter == DenoiseFilter::noisy && kDenoiseCandidates.back().filter == DenoiseFilter::nlm);
+static_assert(kDenoiseCandidates[1].radius == kDenoiseCandidates.back().radius, "the NL-means pair shares its weights");
 
 struct Denoised {
     Image image;               // sample counts as the film's
     double est_rel_mse = -1;        // estimate of the denoised image's relMSE (ε = 0.01)
     double noisy_est_rel_mse = -1;  // the noisy image's, from its halves
     double seconds = 0;
-    std::array<double, kDenoiseRadii.size()> share{};  // fraction of pixels that took each candidate
+    std::array<double, kDenoiseCandidates.size()> share{};  // fraction of pixels that took each candidate
 };
 
 // Each candidate's output and the candidate each pixel took: what a benchmark needs to measure
 // the choice against the truth (`tessera bench denoise --candidates`). Costs memory only when
 // asked for.
 struct DenoiseCandidates {
-    std::array<std::vector<float>, kDenoiseRadii.size()> rgb;  // 3 per pixel, the halves mixed
-    std::vector<uint8_t> taken;                               // per pixel, an index into kDenoiseRadii
+    std::array<std::vector<float>, kDenoiseCandidates.size()> rgb;  // 3 per pixel, the halves mixed
+    std::vector<uint8_t> taken;                               // per pixel, an index into kDenoiseCandidates
 };
 
 // Whether a film carries what the denoiser reads: its odd samples apart (kSplitHalves) and the

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
+#include <random>
 #include <optional>
 #include <string>
 
@@ -81,9 +83,9 @@ TEST(Denoise, ItsCandidatesAreWhatEachPixelChoseFrom) {
     const size_t n = size_t(s.width) * s.height;
     ASSERT_EQ(cands.taken.size(), n);
     EXPECT_EQ(again->image.rgb, r.denoised->image.rgb) << "asking for the candidates changes nothing";
-    std::array<size_t, kDenoiseRadii.size()> took{};
+    std::array<size_t, kDenoiseCandidates.size()> took{};
     for (size_t p = 0; p < n; ++p) {
-        ASSERT_LT(cands.taken[p], kDenoiseRadii.size());
+        ASSERT_LT(cands.taken[p], kDenoiseCandidates.size());
         ++took[cands.taken[p]];
         for (int k = 0; k < 3; ++k) {
             ASSERT_EQ(again->image.rgb[p * 3 + k], cands.rgb[cands.taken[p]][p * 3 + k]) << "pixel " << p;
@@ -230,6 +232,64 @@ TEST(Denoise, ATargetErrorStopsOnTheDenoisedImage) {
     EXPECT_LE(denoised.curve.points.back().denoised_est_rel_mse, 2e-3);
     EXPECT_LT(denoised.curve.points.back().spp_mean, noisy.curve.points.back().spp_mean / 2)
         << "the denoised image is good enough with far fewer samples";
+}
+
+}  // namespace
+}  // namespace tessera
+
+namespace tessera {
+namespace {
+
+// A synthetic film: a plane lit by a gentle ramp in x, which ends (right of it the pixels saw
+// nothing), each half of every pixel the ramp plus independent Gaussian noise. At the columns
+// just left of the end NL-means' window is one-sided: its zero-order mean lies below the ramp,
+// and the first-order regression with the same weights does not. Both measured over the rows
+// against their own spread.
+TEST(Denoise, TheRegressionKeepsAGradientWhereTheWindowIsOneSided) {
+    const int W = 48, H = 64, N = 64, edge = 24;
+    Film f(W, H, false, false, kDenoiseAovs);
+    const AovLayout& l = f.aov_layout;
+    std::mt19937 rng(11);
+    std::normal_distribution<double> noise(0.0, 0.02);
+    auto truth = [&](int x) { return x < edge ? 0.2 + 0.002 * x : 0.0; };
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            const size_t p = size_t(y) * W + x;
+            f.count[p] = N;
+            const double t = truth(x);
+            for (int k = 0; k < 3; ++k) {
+                const double even = t + noise(rng), odd = t + noise(rng);
+                f.sum_odd[p][k] = odd * (N / 2);
+                f.sum[p][k] = f.sum_odd[p][k] + even * (N / 2);
+            }
+            if (x >= edge) continue;  // nothing seen: no colour, albedo or normal, depth "none"
+            double* e = &f.aov[p * size_t(l.stride)];
+            for (int k = 0; k < 3; ++k) e[l.offset[size_t(Aov::albedo)] + k] = 0.5 * N;
+            e[l.offset[size_t(Aov::normal)] + 2] = N;
+            e[l.offset[size_t(Aov::depth)]] = 1.0;
+        }
+    DenoiseCandidates c;
+    ASSERT_TRUE(denoise(f, 2, &c));
+    constexpr size_t kRegression = 1, kZeroOrder = kDenoiseCandidates.size() - 1;
+    static_assert(kDenoiseCandidates[kRegression].filter == DenoiseFilter::nlm_regression);
+    for (int x : {edge - 2, edge - 1}) {
+        SCOPED_TRACE(x);
+        auto bias = [&](size_t cand, double& se) {
+            double s = 0, s2 = 0;
+            for (int y = 0; y < H; ++y) {
+                const double d = c.rgb[cand][(size_t(y) * W + x) * 3] - truth(x);
+                s += d;
+                s2 += d * d;
+            }
+            const double mean = s / H;
+            se = std::sqrt(std::max(0.0, s2 / H - mean * mean) / (H - 1));
+            return mean;
+        };
+        double se_reg = 0, se_zero = 0;
+        const double b_reg = bias(kRegression, se_reg), b_zero = bias(kZeroOrder, se_zero);
+        EXPECT_LT(b_zero, -5 * se_zero) << "NL-means' one-sided mean flattens the ramp";
+        EXPECT_LT(std::abs(b_reg), 4 * se_reg + 2e-4) << "the regression keeps it (zero order: " << b_zero << ")";
+    }
 }
 
 }  // namespace
