@@ -5,6 +5,8 @@
 // field.
 #include "tests/server/server_fixture.h"
 
+#include "engine/render/aov.h"
+
 #include <gtest/gtest.h>
 #include <httplib.h>
 
@@ -118,7 +120,7 @@ TEST_F(Server, BadPassesAndDenoiseAreRefusedNamingTheField) {
     expect_problem(post_job(with("passes", {1})), 400, "/passes/0");
     expect_problem(post_job(with("passes", json::array({nullptr}))), 400, "/passes/0");
     json many = json::array();
-    for (int i = 0; i < 14; ++i) many.push_back("albedo");
+    for (size_t i = 0; i <= kAovInfo.size(); ++i) many.push_back("albedo");  // more than there are passes
     expect_problem(post_job(with("passes", many)), 400, "/passes");
     expect_problem(post_job(with("denoise", 1)), 400, "/denoise");
     expect_problem(post_job(with("denoise", "true")), 400, "/denoise");
