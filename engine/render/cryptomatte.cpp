@@ -60,13 +60,18 @@ void resolve_crypto(const double* ranks, double samples, float* out) {
 }
 
 std::vector<std::pair<std::string, std::string>> crypto_metadata(std::string_view layer, const std::vector<std::string>& names) {
+    const std::string prefix = "cryptomatte/" + crypto_key(layer) + "/";
+    std::vector<std::pair<std::string, std::string>> meta = {
+        {prefix + "name", std::string(layer)}, {prefix + "hash", "MurmurHash3_32"}, {prefix + "conversion", "uint32_to_float32"}};
+    // The manifest is optional (decoders pull mattes by id without it): a scene of more names
+    // than this goes without, rather than put megabytes into every file's header.
+    if (names.size() > kCryptoManifestNames) return meta;
     nlohmann::json manifest = nlohmann::json::object();
     for (const std::string& n : names) manifest[n] = crypto_hex(crypto_id(murmur3_32(n)));
-    const std::string prefix = "cryptomatte/" + crypto_key(layer) + "/";
-    return {{prefix + "name", std::string(layer)},
-            {prefix + "hash", "MurmurHash3_32"},
-            {prefix + "conversion", "uint32_to_float32"},
-            {prefix + "manifest", manifest.dump()}};
+    // A name that is not UTF-8 (a hostile or careless file) is written with U+FFFD in its place;
+    // its id stays the hash of its bytes.
+    meta.emplace_back(prefix + "manifest", manifest.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+    return meta;
 }
 
 }  // namespace tessera

@@ -5,6 +5,7 @@
 // motion blur and depth of field included. Ids are the 32-bit MurmurHash3 of the names, stored
 // as floats (the exponent held off NaN, infinity and denormals); the file's header names the
 // layer, the hash and the conversion, and maps every name to its id (the manifest).
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -35,7 +36,9 @@ void add_crypto_sample(double* ranks, uint32_t hash);
 void resolve_crypto(const double* ranks, double samples, float* out);
 
 // The header attributes of one Cryptomatte layer (`cryptomatte/<key>/name` and so on), with
-// the manifest of `names` (every name once, in JSON).
+// the manifest of `names` (every name once, in JSON) when there are at most
+// kCryptoManifestNames of them.
+inline constexpr size_t kCryptoManifestNames = 20000;
 std::vector<std::pair<std::string, std::string>> crypto_metadata(std::string_view layer, const std::vector<std::string>& names);
 
 }  // namespace tessera

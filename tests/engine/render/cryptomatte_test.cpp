@@ -71,6 +71,16 @@ TEST(Cryptomatte, ManifestNamesEveryIdOnce) {
     EXPECT_EQ(manifest.size(), 2u);
     EXPECT_EQ(manifest["floor"], crypto_hex(crypto_id(murmur3_32("floor"))));
     EXPECT_EQ(manifest["sphere 0"], crypto_hex(crypto_id(murmur3_32("sphere 0"))));
+    // A name that is not UTF-8 does not stop the file being written.
+    const std::string bad = "mesh \xff\xfe";
+    const auto with_bad = crypto_metadata("CryptoObject", {bad});
+    EXPECT_EQ(nlohmann::json::parse(with_bad.back().second).size(), 1u);
+    // Past kCryptoManifestNames names, no manifest (it is optional), the rest as before.
+    std::vector<std::string> many(kCryptoManifestNames + 1);
+    for (size_t i = 0; i < many.size(); ++i) many[i] = "mesh " + std::to_string(i);
+    const auto big = crypto_metadata("CryptoObject", many);
+    EXPECT_EQ(big.size(), 3u);
+    for (const auto& [k, v] : big) EXPECT_EQ(k.find("manifest"), std::string::npos);
 }
 
 const AovPlane& plane(const RenderResult& r, Aov a) {
