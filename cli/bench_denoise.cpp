@@ -83,7 +83,7 @@ double masked_rel_mse(const Image& img, const Image& ref, const std::vector<uint
     return n ? s / double(n) : 0.0;
 }
 
-// Each candidate's true relMSE over the image, the edges and elsewhere; the chosen image's; and a
+// Each candidate's true relMSE over the image, the edges and elsewhere; the blended image's; and a
 // per-pixel choice by the true error (optimistic: it also picks whichever candidate's noise
 // happens to land nearest the truth).
 void print_candidates(const DenoiseCandidates& c, const Image& ref, const Image& chosen, const std::vector<uint8_t>& edges,
@@ -126,10 +126,10 @@ void print_candidates(const DenoiseCandidates& c, const Image& ref, const Image&
         if (edges[p]) { chosen_s.edge += e; oracle.edge += best[p]; }
         else if (rest[p]) { chosen_s.else_ += e; oracle.else_ += best[p]; ++took[c.taken[p]]; }
     }
-    line("chosen", chosen_s);
+    line("blended", chosen_s);
     line("per-pixel oracle", oracle);
     const double nr = double(std::count(rest.begin(), rest.end(), 1));
-    std::printf(" taken elsewhere:");
+    std::printf(" leading the blend elsewhere:");
     for (size_t k = 0; k < took.size(); ++k) std::printf(" %.2f", nr ? double(took[k]) / nr : 0.0);
     std::printf("\n");
 }
@@ -152,7 +152,7 @@ int bench_denoise(int argc, char** argv) {
     app.add_option("--figures", figures, "write each scene's noisy, denoised and reference images here")->type_name("DIR");
     bool show_candidates = false;
     app.add_flag("--candidates", show_candidates,
-                 "after each row, each candidate's true relMSE (whole image, edges and textures, elsewhere), the chosen image's, "
+                 "after each row, each candidate's true relMSE (whole image, edges and textures, elsewhere), the blended image's, "
                  "and that of a per-pixel choice by the true error (an oracle: what a perfect choice among these candidates reaches)");
     app.add_option("--scene", only, "only the scene whose label contains this")->type_name("TEXT");
     app.add_option("--cs184", cs184, "the CS184 scene folder")->type_name("DIR");

@@ -458,9 +458,10 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     // Per candidate: its variance, and its bias beyond the first filter's, pooled over the
     // neighbourhood (filtered differences are smooth: a pixel's own value says little that its
     // neighbours do not) and held at zero or more.
-    std::array<std::vector<float>, C> rel, pooled;
+    std::array<std::vector<float>, C> rel, pooled, bias_of;
     for (size_t c = 0; c < C; ++c) {
         rel[c].resize(n);
+        bias_of[c].assign(n, 0.f);
         std::vector<float> bias(n, 0.f);
         for (size_t p = 0; p < n; ++p) {
             double v = 0, b = 0;
@@ -478,7 +479,10 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         }
         if (c > 0) {
             bias = box_mean_within(bias, in.use, W, H, kBiasSmooth);
-            for (size_t p = 0; p < n; ++p) rel[c][p] += std::max(0.f, bias[p]);
+            for (size_t p = 0; p < n; ++p) {
+                bias_of[c][p] = std::max(0.f, bias[p]);
+                rel[c][p] += bias_of[c][p];
+            }
         }
         pooled[c] = box_mean_within(rel[c], in.use, W, H, kSmooth);
     }
@@ -526,6 +530,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     };
     if (candidates) {
         candidates->taken.assign(n, 0);
+        candidates->weight.assign(n * C, 0.f);
         for (size_t c = 0; c < C; ++c) {
             candidates->rgb[c].resize(n * 3);
             for (size_t p = 0; p < n; ++p)
@@ -565,11 +570,42 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         if (rel[best][p] > std::max(rel[0][p], pooled[0][p])) best = 0;
         ++taken[best];
         if (candidates) candidates->taken[p] = uint8_t(best);
-        // The noisy candidate is the film's own mean, not the halves' mix (the same up to rounding).
-        for (int k = 0; k < 3; ++k)
-            d.image.rgb[p * 3 + k] = best == 0 ? float(film.sum[p][k] / double(film.count[p])) : combined(best, p, k);
+        // A filtered pixel is the blend of the noisy pixel and every candidate not refused there,
+        // each weighed by the inverse square of its pooled estimate (so the best leads): their
+        // errors differ in kind (a regression's bias at a gradient, NL-means' at a shadow). Its
+        // error estimate: its variance from its own halves, as a candidate's, and its bias² no
+        // more than the weighted mean of theirs (the square is convex). The noisy candidate is
+        // the film's own mean, not the halves' mix (the same up to rounding).
+        std::array<double, C> w{};
+        double wsum = 0;
+        if (best != 0)
+            for (size_t c = 0; c < C; ++c) {
+                if (c > 0 && c != best && (contradicted(c, p) || departs(c, p))) continue;
+                const double e = double(pooled[c][p]) + 1e-12;
+                w[c] = 1.0 / (e * e);
+                wsum += w[c];
+            }
+        else
+            w[0] = wsum = 1.0;
+        double e = 0;
+        for (int k = 0; k < 3; ++k) {
+            double v = w[0] / wsum * (film.sum[p][k] / double(film.count[p])), ba = 0, bb = 0;
+            for (size_t c = 0; c < C; ++c)
+                if (w[c] > 0) {
+                    if (c > 0) v += w[c] / wsum * combined(c, p, k);
+                    ba += w[c] / wsum * at(c, p, k, 0);
+                    bb += w[c] / wsum * at(c, p, k, 1);
+                }
+            d.image.rgb[p * 3 + k] = float(v);
+            e += q[p * 3 + k] * 0.25 * (ba - bb) * (ba - bb) / 3.0;
+        }
+        for (size_t c = 0; c < C; ++c) {
+            e += w[c] / wsum * bias_of[c][p];
+            if (candidates) candidates->weight[p * C + c] = float(w[c] / wsum);
+        }
+        if (best == 0) e = rel[0][p];
         d.image.sample_count[p] = float(film.count[p]);
-        est += rel[best][p];
+        est += e;
         noisy_est += rel[0][p];
     }
     d.est_rel_mse = est / double(n);

@@ -88,6 +88,7 @@ struct Denoised {
 struct DenoiseCandidates {
     std::array<std::vector<float>, kDenoiseCandidates.size()> rgb;  // 3 per pixel, the halves mixed
     std::vector<uint8_t> taken;                               // per pixel, an index into kDenoiseCandidates
+    std::vector<float> weight;  // per pixel, each candidate's share of the blend (kDenoiseCandidates.size() each)
 };
 
 // Whether a film carries what the denoiser reads: its odd samples apart (kSplitHalves) and the

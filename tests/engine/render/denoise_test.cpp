@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <random>
@@ -81,20 +82,44 @@ TEST(Denoise, ItsCandidatesAreWhatEachPixelChoseFrom) {
     ASSERT_TRUE(r.denoised);
     ASSERT_TRUE(again);
     const size_t n = size_t(s.width) * s.height;
+    constexpr size_t C = kDenoiseCandidates.size();
     ASSERT_EQ(cands.taken.size(), n);
+    ASSERT_EQ(cands.weight.size(), n * C);
     EXPECT_EQ(again->image.rgb, r.denoised->image.rgb) << "asking for the candidates changes nothing";
-    std::array<size_t, kDenoiseCandidates.size()> took{};
+    std::array<size_t, C> took{};
+    size_t blended = 0;
     for (size_t p = 0; p < n; ++p) {
-        ASSERT_LT(cands.taken[p], kDenoiseCandidates.size());
+        ASSERT_LT(cands.taken[p], C);
         ++took[cands.taken[p]];
+        // Each pixel is its candidates' blend, led by the one it took; a pixel that took the
+        // noisy one is exactly that.
+        const float* w = &cands.weight[p * C];
+        double wsum = 0;
+        int mixed = 0;
+        for (size_t c = 0; c < C; ++c) {
+            ASSERT_GE(w[c], 0.f);
+            ASSERT_LE(w[c], w[cands.taken[p]]) << "pixel " << p << ": the candidate taken leads the blend";
+            wsum += w[c];
+            mixed += w[c] > 0.f;
+        }
+        ASSERT_NEAR(wsum, 1.0, 1e-5) << "pixel " << p;
+        if (cands.taken[p] == 0) { ASSERT_EQ(w[0], 1.f) << "pixel " << p; }
+        blended += mixed > 1;
         for (int k = 0; k < 3; ++k) {
-            ASSERT_EQ(again->image.rgb[p * 3 + k], cands.rgb[cands.taken[p]][p * 3 + k]) << "pixel " << p;
+            double v = 0, scale = 0;
+            for (size_t c = 0; c < C; ++c) {
+                v += double(w[c]) * cands.rgb[c][p * 3 + k];
+                scale = std::max(scale, std::abs(double(cands.rgb[c][p * 3 + k])));
+            }
+            ASSERT_NEAR(again->image.rgb[p * 3 + k], v, 1e-5 * (scale + 1e-3)) << "pixel " << p;
             ASSERT_EQ(cands.rgb[0][p * 3 + k], r.image.rgb[p * 3 + k]) << "pixel " << p;
+            if (cands.taken[p] == 0) { ASSERT_EQ(again->image.rgb[p * 3 + k], r.image.rgb[p * 3 + k]) << "pixel " << p; }
         }
     }
     for (size_t c = 0; c < took.size(); ++c) EXPECT_DOUBLE_EQ(double(took[c]) / double(n), again->share[c]);
     EXPECT_GT(took[0], 0u);
     EXPECT_LT(took[0], n) << "some pixels are filtered";
+    EXPECT_GT(blended, 0u) << "some pixels blend candidates";
 }
 
 // Light seen directly is taken out before filtering and added back after: a pixel that saw only
