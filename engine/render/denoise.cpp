@@ -603,10 +603,13 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
             e += w[c] / wsum * bias_of[c][p];
             if (candidates) candidates->weight[p * C + c] = float(w[c] / wsum);
         }
-        if (best == 0) e = rel[0][p];
+        // A pixel that keeps its value: its error relative to its own halves' product, unbiased
+        // for the square of the truth (the candidates' common stand-in is another filter's
+        // output, wrong for a pixel no filter may touch, such as a silhouette against the sky).
+        if (best == 0) e = own0[p];
         d.image.sample_count[p] = float(film.count[p]);
         est += e;
-        noisy_est += rel[0][p];
+        noisy_est += own0[p];
     }
     d.est_rel_mse = est / double(n);
     d.noisy_est_rel_mse = noisy_est / double(n);
