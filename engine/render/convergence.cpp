@@ -36,16 +36,13 @@ ErrorSums error_sums(const Film& film, const Image* reference) {
         const glm::dvec3 mean = film.sum[i] / c;
         if (split && count >= 2) {
             // Independent halves (even and odd samples, scrambled apart): their difference gives
-            // the variance of the mean with no stratification to correct for, and their product
-            // the square of the truth without bias (the mean's square is too large by the
-            // variance: at 4 spp on the Duck's silhouettes against the sky that made the estimate
-            // 0.44 of the truth). No less than a quarter of the mean's square, though: a lamp's
-            // edge seen by one half only would make it zero.
+            // the variance of the mean with no stratification to correct for; the square of the
+            // truth from their product (kHalvesProductFloor).
             const double na = double((count + 1) / 2), nb = double(count / 2);
             const glm::dvec3 a = (film.sum[i] - film.sum_odd[i]) / na, b = film.sum_odd[i] / nb;
             double outer = 0;
             for (int k = 0; k < 3; ++k)
-                outer += (a[k] - b[k]) * (a[k] - b[k]) * (na * nb / (c * c)) / (std::max(a[k] * b[k], 0.0625 * mean[k] * mean[k]) + eps);
+                outer += (a[k] - b[k]) * (a[k] - b[k]) * (na * nb / (c * c)) / (std::max(a[k] * b[k], kHalvesProductFloor * mean[k] * mean[k]) + eps);
             e.est += outer;
             ++e.est_pixels;
         } else if (e.half_buffer && count >= 2) {

@@ -7,6 +7,7 @@
 #include <thread>
 #include <vector>
 
+#include "engine/render/convergence.h"
 #include "engine/render/film.h"
 
 namespace tessera {
@@ -519,6 +520,15 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         own0[p] = float(e / 3.0);
     }
     const std::vector<float> local0 = box_mean_within(own0, in.use, W, H, 1);
+    std::vector<float> kept(n);
+    for (size_t p = 0; p < n; ++p) {
+        double e = 0;
+        for (int k = 0; k < 3; ++k) {
+            const double a = xa[p * 3 + k], b = xb[p * 3 + k], x = combined(0, p, k);
+            e += 0.25 * (a - b) * (a - b) / (std::max(a * b, kHalvesProductFloor * x * x) + kEps);
+        }
+        kept[p] = float(e / 3.0);
+    }
     auto departs = [&](size_t c, size_t p) {
         double d = 0, v = 0;
         for (int k = 0; k < 3; ++k) {
@@ -603,13 +613,13 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
             e += w[c] / wsum * bias_of[c][p];
             if (candidates) candidates->weight[p * C + c] = float(w[c] / wsum);
         }
-        // A pixel that keeps its value: its error relative to its own halves' product, unbiased
-        // for the square of the truth (the candidates' common stand-in is another filter's
-        // output, wrong for a pixel no filter may touch, such as a silhouette against the sky).
-        if (best == 0) e = own0[p];
+        // A pixel that keeps its value: its error relative to its own halves (the candidates'
+        // common stand-in is another filter's output, wrong for a pixel no filter may touch, such
+        // as a silhouette against the sky), as the convergence curve's estimate is.
+        if (best == 0) e = kept[p];
         d.image.sample_count[p] = float(film.count[p]);
         est += e;
-        noisy_est += own0[p];
+        noisy_est += kept[p];
     }
     d.est_rel_mse = est / double(n);
     d.noisy_est_rel_mse = noisy_est / double(n);
