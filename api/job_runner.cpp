@@ -115,11 +115,15 @@ std::shared_ptr<PreparedScene> prepare_scene(const std::string& source, const Lo
     p->scene = build_render_scene(desc, options);
     p->load_s = seconds_between(t0, t1);
     p->build_s = seconds_between(t1, Clock::now());
-    // What the scene cache counts against its budget: geometry, its acceleration structure and
-    // the decoded texels (a textured model's largest part).
-    size_t texel_bytes = 0;
+    // What the scene cache counts against its budget: geometry, its acceleration structure, the
+    // decoded texels (a textured model's largest part) and the objects' and materials' names
+    // (Cryptomatte's: a file may give long ones to many meshes).
+    size_t texel_bytes = 0, name_bytes = 0;
     for (const auto& img : p->scene.images) texel_bytes += img->rgba.size();
-    p->bytes = p->scene.triangle_accel_bytes() + p->scene.triangle_count() * 160 + p->scene.spheres.size() * 64 + texel_bytes + 4096;
+    for (const auto* names : {&p->scene.object_names, &p->scene.material_names})
+        for (const std::string& n : *names) name_bytes += sizeof(std::string) + n.capacity() + sizeof(uint32_t);
+    p->bytes = p->scene.triangle_accel_bytes() + p->scene.triangle_count() * 160 + p->scene.spheres.size() * 64 + texel_bytes +
+               name_bytes + 4096;
     return p;
 }
 

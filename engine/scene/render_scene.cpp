@@ -547,8 +547,6 @@ bool same_camera(const CameraDesc& a, const CameraDesc& b) {
            a.hfov_deg == b.hfov_deg && a.focal_px == b.focal_px;
 }
 
-}  // namespace
-
 // Cryptomatte's names: the file's, or the kind and number where it gave none (a lamp the loader
 // made, a sphere). Objects of one name share a matte, as the specification intends.
 void name_objects(const SceneDescription& desc, const std::vector<const MeshDesc*>& meshes, uint32_t default_material, RenderScene& s) {
@@ -563,6 +561,8 @@ void name_objects(const SceneDescription& desc, const std::vector<const MeshDesc
     for (const std::string& n : s.object_names) s.object_hashes.push_back(murmur3_32(n));
     for (const std::string& n : s.material_names) s.material_hashes.push_back(murmur3_32(n));
 }
+
+}  // namespace
 
 RenderScene build_render_scene(const SceneDescription& desc, const RenderSceneOptions& options, PrototypeCache* cache,
                                const SceneDescription* close) {

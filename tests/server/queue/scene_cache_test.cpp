@@ -6,10 +6,12 @@
 #include "server/queue/scene_cache.h"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
+#include <fstream>
 #include <filesystem>
 #include <fstream>
 #include <thread>
@@ -94,6 +96,25 @@ TEST_F(SceneCacheTest, TheLeastRecentlyUsedGoFirstWhenTheBoundIsPassed) {
     const auto held = tiny.get_local(path("box.gltf"), {}).first;
     EXPECT_GT(held->scene.triangle_count(), 0u);
     EXPECT_FALSE(tiny.get_local(path("box.gltf"), {}).second);
+}
+
+// The objects' and materials' names (Cryptomatte's) count against the bound: the same box with
+// every mesh and material named at the loader's longest (200 characters) weighs that much more.
+TEST_F(SceneCacheTest, NamesCountAgainstTheBound) {
+    nlohmann::json g;
+    {
+        std::ifstream in(path("box.gltf"));
+        in >> g;
+    }
+    size_t names = 0;
+    for (const char* list : {"meshes", "materials"})
+        for (size_t i = 0; i < g[list].size(); ++i, ++names) g[list][i]["name"] = std::string(199, 'a') + char('A' + i);
+    ASSERT_GT(names, 2u);
+    std::ofstream(path("named.gltf")) << g.dump();
+    SceneCache cache((dir_ / "cache").string(), int64_t(1) << 30, LoadLimits{}, 60);
+    const size_t plain = cache.get_local(path("box.gltf"), {}).first->bytes;
+    const size_t named = cache.get_local(path("named.gltf"), {}).first->bytes;
+    EXPECT_GE(named, plain + names * 150) << "each name about 180 bytes longer than the loader's own";
 }
 
 TEST_F(SceneCacheTest, IdleScenesGoAfterTheirIdleTime) {
