@@ -188,18 +188,27 @@ int bench_denoise(int argc, char** argv) {
         RenderSettings rs = base;
         rs.spp = ref_spp;
         rs.seed = 7;
-        rs.aovs = aov_bit(Aov::albedo) | aov_bit(Aov::normal) | aov_bit(Aov::depth);
+        rs.aovs = aov_bit(Aov::albedo) | aov_bit(Aov::normal) | aov_bit(Aov::depth) | aov_bit(Aov::emission) | aov_bit(Aov::environment);
         const RenderResult ref = render(scene, rs);
         const std::vector<uint8_t> mask = detail_mask(ref, W, H);
         // Elsewhere: the other pixels that saw a surface (the sky and a black void have nothing to denoise).
         std::vector<uint8_t> rest(mask.size(), 0);
         if (const AovPlane* z = plane_of(ref.aovs, Aov::depth))
             for (size_t p = 0; p < rest.size(); ++p) rest[p] = !mask[p] && z->values[p] < kNoDepth / 2;
+        // Pixels whose reference sees a lamp or the sky (at all): their error is mostly coverage
+        // (how much of the pixel the light fills), which no filter lowers and which a pixel whose
+        // samples all missed the light cannot see in itself.
+        std::vector<uint8_t> lit(mask.size(), 0);
+        for (Aov a : {Aov::emission, Aov::environment})
+            if (const AovPlane* e = plane_of(ref.aovs, a))
+                for (size_t p = 0; p < lit.size(); ++p) lit[p] |= e->values[p * 3] + e->values[p * 3 + 1] + e->values[p * 3 + 2] > 0.f;
+        const double lit_share = double(std::count(lit.begin(), lit.end(), 1)) / double(lit.size());
         const double mask_share = double(std::count(mask.begin(), mask.end(), 1)) / double(mask.size());
         std::printf("## %s\nreference: %d spp in %.1f s; edges and textures: %.1f%% of the pixels\n\n", bs.label.c_str(), ref_spp,
                     ref.stats.render_seconds, 100 * mask_share);
         std::printf("| spp | render (s) | denoise (s) | relMSE noisy | estimate | relMSE denoised | its estimate | estimate/true | "
-                    "edges+textures noisy | denoised | elsewhere noisy | denoised |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+                    "edges+textures noisy | denoised | elsewhere noisy | denoised | left as they are: pixels, share of the error | "
+                    "seeing a light: pixels, share of the error |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
         struct Row { int spp; double render_s, denoise_s, noisy, denoised; };
         std::vector<Row> rows;
         for (int spp = 4; spp <= max_spp; spp *= 2) {
@@ -226,8 +235,19 @@ int bench_denoise(int argc, char** argv) {
             const double edge_noisy = masked_rel_mse(r.image, ref.image, mask), edge_dn = masked_rel_mse(d->image, ref.image, mask);
             const double rest_noisy = masked_rel_mse(r.image, ref.image, rest), rest_dn = masked_rel_mse(d->image, ref.image, rest);
             const double ratio = d->est_rel_mse / dn;
-            std::printf("| %d | %.3f | %.3f | %.4g | %.4g | %.4g | %.4g | %.2f | %.4g | %.4g | %.4g | %.4g |\n", spp, render_s,
-                        d->seconds, noisy, est_noisy, dn, d->est_rel_mse, ratio, edge_noisy, edge_dn, rest_noisy, rest_dn);
+            // The pixels the denoiser left as they are (that saw a lamp or the sky in part, or
+            // where no candidate may touch them) and their share of the denoised image's error:
+            // what no filter of these candidates can lower.
+            std::vector<uint8_t> kept(mask.size(), 0);
+            for (size_t p = 0; p < kept.size(); ++p)
+                kept[p] = r.image.rgb[p * 3] == d->image.rgb[p * 3] && r.image.rgb[p * 3 + 1] == d->image.rgb[p * 3 + 1] &&
+                          r.image.rgb[p * 3 + 2] == d->image.rgb[p * 3 + 2];
+            const double kept_share = double(std::count(kept.begin(), kept.end(), 1)) / double(kept.size());
+            const double kept_error = dn > 0 ? masked_rel_mse(d->image, ref.image, kept) * kept_share / dn : 0.0;
+            const double lit_error = dn > 0 ? masked_rel_mse(d->image, ref.image, lit) * lit_share / dn : 0.0;
+            std::printf("| %d | %.3f | %.3f | %.4g | %.4g | %.4g | %.4g | %.2f | %.4g | %.4g | %.4g | %.4g | %.2f, %.2f | %.3f, %.2f |\n",
+                        spp, render_s, d->seconds, noisy, est_noisy, dn, d->est_rel_mse, ratio, edge_noisy, edge_dn, rest_noisy, rest_dn,
+                        kept_share, kept_error, lit_share, lit_error);
             if (show_candidates && !cands.taken.empty()) print_candidates(cands, ref.image, d->image, mask, rest);
             all_better = all_better && dn < noisy && edge_dn < edge_noisy;
             all_tracked = all_tracked && ratio >= 0.5 && ratio <= 2.0;

@@ -1,7 +1,7 @@
 #pragma once
 // A denoiser whose error is estimated from the render's own data.
 //
-// Filter: candidates of three kinds, chosen per pixel by their estimated error.
+// Filter: candidates of three kinds, blended per pixel by their estimated error.
 // - NFOR's own: first-order regression of the colour on the pixel's place, each neighbour
 //   weighted by NL-means (below) as Bitterli et al. (2016) weight theirs: the weights keep a
 //   window to one surface and one side of a shadow, the first order keeps a gradient that a
@@ -34,9 +34,10 @@
 // neighbourhood; the variance of a candidate is (f(A) − f(B))²/4, and its bias beyond the
 // first filter's comes from the difference of their outputs less that difference's variance
 // (both filtered, so little noise). Bias estimates are pooled and then held at zero or more.
-// Each pixel takes the candidate of least estimated error pooled over its neighbourhood; the
-// denoised image's error estimate is the chosen candidates', relative as the convergence curve's
-// relMSE is. docs/denoising.md has the figures.
+// Each pixel is led by the candidate of least estimated error pooled over its neighbourhood and
+// blends in the noisy pixel and the others not refused there, each weighed by the inverse square
+// of its estimate; the blend's error estimate is its own halves' variance plus the weighted mean
+// of their bias, relative as the convergence curve's relMSE is. docs/denoising.md has the figures.
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -79,7 +80,7 @@ struct Denoised {
     double est_rel_mse = -1;        // estimate of the denoised image's relMSE (ε = 0.01)
     double noisy_est_rel_mse = -1;  // the noisy image's, from its halves
     double seconds = 0;
-    std::array<double, kDenoiseCandidates.size()> share{};  // fraction of pixels that took each candidate
+    std::array<double, kDenoiseCandidates.size()> share{};  // fraction of pixels whose blend each candidate leads
 };
 
 // Each candidate's output and the candidate each pixel took: what a benchmark needs to measure
@@ -87,7 +88,7 @@ struct Denoised {
 // asked for.
 struct DenoiseCandidates {
     std::array<std::vector<float>, kDenoiseCandidates.size()> rgb;  // 3 per pixel, the halves mixed
-    std::vector<uint8_t> taken;                               // per pixel, an index into kDenoiseCandidates
+    std::vector<uint8_t> taken;                               // per pixel, the candidate leading its blend
     std::vector<float> weight;  // per pixel, each candidate's share of the blend (kDenoiseCandidates.size() each)
 };
 
