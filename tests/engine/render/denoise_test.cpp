@@ -11,6 +11,7 @@
 #include <random>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "engine/io/image_io.h"
 #include "engine/render/film.h"
@@ -33,35 +34,49 @@ RenderSettings settings(int spp) {
     return s;
 }
 
-void expect_tracks_the_truth(const std::string& name) {
-    SCOPED_TRACE(name);
-    const RenderScene scene = build_render_scene(builtin_scene(name), {});
-    RenderSettings rs = settings(2048);
+// Renders `base` at a reference count (seed 7) and at each of `spps` (seed 1, denoised): the
+// denoised image gains at least `min_gain` over the noisy one, and the denoised and the noisy
+// images' estimates lie within [lo, hi] and [noisy_lo, noisy_hi] of the truth.
+struct Tracking {
+    int ref_spp = 2048;
+    std::vector<int> spps;
+    double min_gain = 1.0;
+    double lo = 0.5, hi = 2.0, noisy_lo = 0.7, noisy_hi = 1.4;
+};
+void expect_tracks_the_truth(const RenderScene& scene, const RenderSettings& base, const Tracking& t) {
+    RenderSettings rs = base;
+    rs.spp = t.ref_spp;
     rs.seed = 7;
     rs.estimate_error = true;
     const RenderResult ref = render(scene, rs);
     // The reference's own error adds to what is measured against it.
     const double ref_err = ref.curve.points.back().est_rel_mse;
     ASSERT_GT(ref_err, 0.0);
-    for (int spp : {8, 32}) {
+    for (int spp : t.spps) {
         SCOPED_TRACE(spp);
-        RenderSettings s = settings(spp);
+        RenderSettings s = base;
+        s.spp = spp;
         s.seed = 1;
         s.denoise = true;
         const RenderResult r = render(scene, s);
         ASSERT_TRUE(r.denoised);
         const double noisy = relative_mse(r.image, ref.image) - ref_err;
         const double denoised = relative_mse(r.denoised->image, ref.image) - ref_err;
-        EXPECT_LT(denoised, noisy / 3) << "denoising gains at least 3x";
+        EXPECT_LT(denoised, noisy / t.min_gain) << "denoising gains at least " << t.min_gain << "x";
         const double est = r.curve.points.back().denoised_est_rel_mse;
         EXPECT_EQ(est, r.denoised->est_rel_mse);
-        EXPECT_GE(est / denoised, 0.5) << "estimate " << est << ", true " << denoised;
-        EXPECT_LE(est / denoised, 2.0) << "estimate " << est << ", true " << denoised;
-        // The noisy image's estimate from the independent halves, exact in expectation.
+        EXPECT_GE(est / denoised, t.lo) << "estimate " << est << ", true " << denoised;
+        EXPECT_LE(est / denoised, t.hi) << "estimate " << est << ", true " << denoised;
+        // The noisy image's estimate from the independent halves.
         const double noisy_est = r.curve.points.back().est_rel_mse;
-        EXPECT_GE(noisy_est / noisy, 0.7) << "estimate " << noisy_est << ", true " << noisy;
-        EXPECT_LE(noisy_est / noisy, 1.4) << "estimate " << noisy_est << ", true " << noisy;
+        EXPECT_GE(noisy_est / noisy, t.noisy_lo) << "estimate " << noisy_est << ", true " << noisy;
+        EXPECT_LE(noisy_est / noisy, t.noisy_hi) << "estimate " << noisy_est << ", true " << noisy;
     }
+}
+
+void expect_tracks_the_truth(const std::string& name) {
+    SCOPED_TRACE(name);
+    expect_tracks_the_truth(build_render_scene(builtin_scene(name), {}), settings(1), Tracking{2048, {8, 32}, 3.0});
 }
 
 TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthOnTheCornellBox) { expect_tracks_the_truth("builtin:cornell_box"); }
@@ -71,44 +86,19 @@ TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthInTheLampRoom) { expect
 // the pixels that saw the sky in part (kept as they are). Relative to the square of the pixel's own
 // mean, the estimate was 0.44 of the truth on `tessera bench denoise`'s Duck at 4 spp (the mean's
 // square is too large by its variance there); relative to the halves' product floored at 1/16 of
-// the mean's square, 3.9 in the lamp room (kHalvesProductFloor).
+// the mean's square, 3.9 in the lamp room (kHalvesProductFloor). Here both within 0.7-1.4x
+// (measured 0.92-1.14; the mean's square gave 0.55, the product floored at 1/16 of it 1.89). The
+// denoiser gains nothing at 8 spp on so small a model (every pixel is an edge or a texel).
 TEST(Denoise, ItsEstimateTracksTheTruthOnTheDuckUnderTheSky) {
     TESSERA_REQUIRE_SHARED_DIR(dir, gltf_pbr_dir, "the glTF PBR sample models (../shared/scenes/gltf-pbr)");
     SceneDescription desc = load_scene(dir + "/Duck.gltf");
     if (desc.camera) desc.camera->focal_px = 0.f;  // the whole model in view
-    const RenderScene scene = build_render_scene(desc, {});
-    const Image sky_image = read_image(std::string(TESSERA_DEFAULT_SCENES_DIR) + "/sky.exr");
-    const auto sky = std::make_shared<const EnvironmentMap>(build_environment(sky_image.width, sky_image.height, sky_image.rgb, "sky"));
-    auto at = [&](int spp) {
-        RenderSettings s = settings(spp);
-        s.width = 80;
-        s.height = 60;
-        s.environment = sky;
-        return s;
-    };
-    RenderSettings rs = at(1024);
-    rs.seed = 7;
-    rs.estimate_error = true;
-    const RenderResult ref = render(scene, rs);
-    const double ref_err = ref.curve.points.back().est_rel_mse;
-    ASSERT_GT(ref_err, 0.0);
-    for (int spp : {4, 8}) {
-        SCOPED_TRACE(spp);
-        RenderSettings s = at(spp);
-        s.seed = 1;
-        s.denoise = true;
-        const RenderResult r = render(scene, s);
-        ASSERT_TRUE(r.denoised);
-        const double noisy = relative_mse(r.image, ref.image) - ref_err;
-        const double denoised = relative_mse(r.denoised->image, ref.image) - ref_err;
-        // Within 0.7-1.4x (measured 0.92-1.14; the mean's square gave 0.55, the product floored at
-        // 1/16 of it 1.89).
-        const double est = r.denoised->est_rel_mse, noisy_est = r.curve.points.back().est_rel_mse;
-        EXPECT_GE(est / denoised, 0.7) << "estimate " << est << ", true " << denoised;
-        EXPECT_LE(est / denoised, 1.4) << "estimate " << est << ", true " << denoised;
-        EXPECT_GE(noisy_est / noisy, 0.7) << "estimate " << noisy_est << ", true " << noisy;
-        EXPECT_LE(noisy_est / noisy, 1.4) << "estimate " << noisy_est << ", true " << noisy;
-    }
+    const Image sky = read_image(std::string(TESSERA_DEFAULT_SCENES_DIR) + "/sky.exr");
+    RenderSettings base = settings(1);
+    base.width = 80;
+    base.height = 60;
+    base.environment = std::make_shared<const EnvironmentMap>(build_environment(sky.width, sky.height, sky.rgb, "sky"));
+    expect_tracks_the_truth(build_render_scene(desc, {}), base, Tracking{1024, {4, 8}, 0.8, 0.7, 1.4, 0.7, 1.4});
 }
 
 // What `tessera bench denoise --candidates` reads: every pixel of the denoised image is the
