@@ -509,26 +509,21 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     // eye beside it, which the pooled estimates do not see.
     // All relative to the pixel's own value (the product of its halves): the stand-in for the
     // truth used elsewhere is the NL-means candidate's output, which is the one at fault here.
-    std::vector<float> q0(n * 3), own0(n);
+    // `kept`: the noisy pixel's own error estimate as the convergence curve takes it
+    // (kHalvesProductFloor), for the pixels that keep their value.
+    std::vector<float> q0(n * 3), own0(n), kept(n);
     for (size_t p = 0; p < n; ++p) {
-        double e = 0;
+        double e = 0, ek = 0;
         for (int k = 0; k < 3; ++k) {
-            const double a = xa[p * 3 + k], b = xb[p * 3 + k], x = combined(0, p, k);
+            const double a = xa[p * 3 + k], b = xb[p * 3 + k], x = combined(0, p, k), v = 0.25 * (a - b) * (a - b);
             q0[p * 3 + k] = float(1.0 / (std::max(a * b, 0.0625 * x * x) + kEps));
-            e += q0[p * 3 + k] * 0.25 * (a - b) * (a - b);
+            e += q0[p * 3 + k] * v;
+            ek += v / (std::max(a * b, kHalvesProductFloor * x * x) + kEps);
         }
         own0[p] = float(e / 3.0);
+        kept[p] = float(ek / 3.0);
     }
     const std::vector<float> local0 = box_mean_within(own0, in.use, W, H, 1);
-    std::vector<float> kept(n);
-    for (size_t p = 0; p < n; ++p) {
-        double e = 0;
-        for (int k = 0; k < 3; ++k) {
-            const double a = xa[p * 3 + k], b = xb[p * 3 + k], x = combined(0, p, k);
-            e += 0.25 * (a - b) * (a - b) / (std::max(a * b, kHalvesProductFloor * x * x) + kEps);
-        }
-        kept[p] = float(e / 3.0);
-    }
     auto departs = [&](size_t c, size_t p) {
         double d = 0, v = 0;
         for (int k = 0; k < 3; ++k) {
@@ -573,9 +568,13 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         // is its surface's times a coverage known only from the same samples (the mean normal's
         // length), whose noise a filter of its neighbours would not share. That was most of the
         // Duck's loss at 16 and 32 spp (its silhouette against the sky).
+        std::array<bool, C> allowed{};
+        allowed[0] = true;
         if (in.use[p] && !dark_detail[p])
-            for (size_t c = 1; c < C; ++c)
-                if (pooled[c][p] < pooled[best][p] && !contradicted(c, p) && !departs(c, p)) best = c;
+            for (size_t c = 1; c < C; ++c) {
+                allowed[c] = !contradicted(c, p) && !departs(c, p);
+                if (allowed[c] && pooled[c][p] < pooled[best][p]) best = c;
+            }
         // Nor where its own estimate here is above what the noisy pixel's is, here or around.
         if (rel[best][p] > std::max(rel[0][p], pooled[0][p])) best = 0;
         ++taken[best];
@@ -590,7 +589,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         double wsum = 0;
         if (best != 0)
             for (size_t c = 0; c < C; ++c) {
-                if (c > 0 && c != best && (contradicted(c, p) || departs(c, p))) continue;
+                if (!allowed[c]) continue;
                 const double e = double(pooled[c][p]) + 1e-12;
                 w[c] = 1.0 / (e * e);
                 wsum += w[c];
