@@ -555,6 +555,19 @@ const Field<RenderJob> kRenderFields[] = {
         f.per_config = false;
         return f;
     }(),
+    [] {
+        Field<RenderJob> f = field<RenderJob>(
+            "guided_sampling", FieldKind::boolean,
+            "With denoise: after the uniform passes up to 8 spp, each pass spends its samples where the denoised image's "
+            "estimated error is (silhouettes, lamp rims, detail), spp being the mean; false samples every pixel alike. "
+            "No effect without denoise.",
+            "true");
+        f.cli = "--guided-sampling";
+        f.set = &set_bool<RenderJob, &RenderJob::render, &RenderSettings::guided>;
+        f.get = &get_member<RenderJob, &RenderJob::render, &RenderSettings::guided>;
+        f.per_config = false;
+        return f;
+    }(),
     after_field<RenderJob>(),
     notify_field<RenderJob>(),
     requires_field<RenderJob>(),

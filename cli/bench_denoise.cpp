@@ -2,7 +2,9 @@
 // samples (its own seed), then renders at 4 … 1024 spp that denoise; the true relMSE of the
 // noisy and the denoised image, the estimates beside them, also over the pixels at edges and in
 // textures alone (found from the reference's albedo, normal and depth), the denoiser's time, and
-// the time the denoised render needs to reach the error of the largest undenoised spp.
+// the time the denoised render needs to reach the error of the largest undenoised spp (a uniform
+// render without the denoiser; the denoising renders are guided, as a job's are by default, or
+// uniform with --uniform). Errors against the reference have the reference's own taken off.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -150,7 +152,8 @@ int bench_denoise(int argc, char** argv) {
     app.add_option("--max-spp", max_spp, "the largest spp rendered (a power of two)")->check(CLI::Range(4, 1 << 16));
     app.add_option("--depth", depth, "maximum bounce depth")->check(CLI::Range(1, 100));
     app.add_option("--figures", figures, "write each scene's noisy, denoised and reference images here")->type_name("DIR");
-    bool show_candidates = false;
+    bool show_candidates = false, uniform = false;
+    app.add_flag("--uniform", uniform, "renders that denoise sample every pixel alike (guided_sampling false)");
     app.add_flag("--candidates", show_candidates,
                  "after each row, each candidate's true relMSE (whole image, edges and textures, elsewhere), the blended image's, "
                  "and that of a per-pixel choice by the true error (an oracle: what a perfect choice among these candidates reaches)");
@@ -188,6 +191,7 @@ int bench_denoise(int argc, char** argv) {
         RenderSettings rs = base;
         rs.spp = ref_spp;
         rs.seed = 7;
+        rs.estimate_error = true;  // its own error, which adds to every error measured against it
         rs.aovs = aov_bit(Aov::albedo) | aov_bit(Aov::normal) | aov_bit(Aov::depth) | aov_bit(Aov::emission) | aov_bit(Aov::environment);
         const RenderResult ref = render(scene, rs);
         const std::vector<uint8_t> mask = detail_mask(ref, W, H);
@@ -204,8 +208,12 @@ int bench_denoise(int argc, char** argv) {
                 for (size_t p = 0; p < lit.size(); ++p) lit[p] |= e->values[p * 3] + e->values[p * 3 + 1] + e->values[p * 3 + 2] > 0.f;
         const double lit_share = double(std::count(lit.begin(), lit.end(), 1)) / double(lit.size());
         const double mask_share = double(std::count(mask.begin(), mask.end(), 1)) / double(mask.size());
-        std::printf("## %s\nreference: %d spp in %.1f s; edges and textures: %.1f%% of the pixels\n\n", bs.label.c_str(), ref_spp,
-                    ref.stats.render_seconds, 100 * mask_share);
+        const double ref_err = ref.curve.points.empty() ? 0.0 : std::max(0.0, ref.curve.points.back().est_rel_mse);
+        // relMSE against the reference less the reference's own (independent of the render's).
+        auto true_error = [&](const Image& img) { return std::max(1e-12, relative_mse(img, ref.image) - ref_err); };
+        std::printf("## %s\nreference: %d spp in %.1f s, its own estimated relMSE %.3g (taken off every whole-image error "
+                    "below); edges and textures: %.1f%% of the pixels\n\n",
+                    bs.label.c_str(), ref_spp, ref.stats.render_seconds, ref_err, 100 * mask_share);
         std::printf("| spp | render (s) | denoise (s) | relMSE noisy | estimate | relMSE denoised | its estimate | estimate/true | "
                     "edges+textures noisy | denoised | elsewhere noisy | denoised | left as they are: pixels, share of the error | "
                     "seeing a light: pixels, share of the error |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
@@ -216,6 +224,7 @@ int bench_denoise(int argc, char** argv) {
             s.spp = spp;
             s.seed = 1;
             s.denoise = true;
+            s.guided = !uniform;
             // Denoised after every pass, as a job does; the render's own time is without them.
             // --candidates: the last pass's film denoised once more, keeping every candidate.
             DenoiseCandidates cands;
@@ -230,7 +239,7 @@ int bench_denoise(int argc, char** argv) {
             double denoising = 0;
             for (const ConvergencePoint& p : r.curve.points) denoising += p.denoise_seconds;
             const double render_s = r.stats.render_seconds - denoising;
-            const double noisy = relative_mse(r.image, ref.image), dn = relative_mse(d->image, ref.image);
+            const double noisy = true_error(r.image), dn = true_error(d->image);
             const double est_noisy = r.curve.points.empty() ? -1 : r.curve.points.back().est_rel_mse;
             const double edge_noisy = masked_rel_mse(r.image, ref.image, mask), edge_dn = masked_rel_mse(d->image, ref.image, mask);
             const double rest_noisy = masked_rel_mse(r.image, ref.image, rest), rest_dn = masked_rel_mse(d->image, ref.image, rest);
@@ -262,7 +271,14 @@ int bench_denoise(int argc, char** argv) {
             }
         }
         if (!rows.empty()) {
-            const Row& top = rows.back();
+            Row top = rows.back();
+            if (!uniform) {  // the baseline: uniform sampling, no denoiser
+                RenderSettings s = base;
+                s.spp = max_spp;
+                s.seed = 1;
+                const RenderResult r = render(scene, s);
+                top = {max_spp, r.stats.render_seconds, 0.0, true_error(r.image), 0.0};
+            }
             // The first denoised row at or below that error, and the time to it interpolated in
             // log-log from the row before (error falls about as a power of the time).
             const Row* reach = nullptr;

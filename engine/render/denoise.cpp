@@ -490,6 +490,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
 
     Denoised d;
     d.image = Image(W, H);
+    d.error.resize(n);
     double est = 0, noisy_est = 0;
     std::array<size_t, C> taken{};
     // The pixel's own cross-validation (noisy, but not pooled away): a candidate whose output its
@@ -616,6 +617,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         // common stand-in is another filter's output, wrong for a pixel no filter may touch, such
         // as a silhouette against the sky), as the convergence curve's estimate is.
         if (best == 0) e = kept[p];
+        d.error[p] = float(e);
         d.image.sample_count[p] = float(film.count[p]);
         est += e;
         noisy_est += kept[p];

@@ -83,6 +83,9 @@ struct Denoised {
     double noisy_est_rel_mse = -1;  // the noisy image's, from its halves
     double seconds = 0;
     std::array<double, kDenoiseCandidates.size()> share{};  // fraction of pixels whose blend each candidate leads
+    // Per pixel, the estimate of its relative squared error (the mean of which is est_rel_mse):
+    // what guided sampling spends the next pass's samples by (sampling_guide.h).
+    std::vector<float> error;
 };
 
 // Each candidate's output and the candidate each pixel took: what a benchmark needs to measure

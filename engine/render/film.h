@@ -50,6 +50,9 @@ struct Film {
     // beside it (features do not tell a lamp from the ceiling it hangs in).
     std::vector<glm::dvec3> seen, seen_odd;
     std::vector<uint32_t> count;       // samples taken
+    // Guided sampling (sampling_guide.h): each pixel's sample target in this pass; empty, the
+    // pass's own target for every pixel.
+    std::vector<uint32_t> goal;
     std::vector<RunningStats> stats;   // illuminance statistics (adaptive only)
     std::vector<uint8_t> done;         // adaptive: converged
     // The AOVs a render asked for (and the denoiser reads): layout.stride doubles per pixel.
@@ -80,7 +83,8 @@ struct Film {
         size_t b = sizeof(glm::dvec3) + sizeof(uint32_t);
         if (half_buffer) b += 3 * sizeof(glm::dvec3);
         if (adaptive) b += sizeof(RunningStats) + 1;
-        if (aovs & kSplitHalves) b += 3 * sizeof(glm::dvec3) + kDenoiseBytesPerPixel;  // the odd and seen sums; the denoiser's own
+        // The odd and seen sums, guided sampling's targets, the denoiser's own.
+        if (aovs & kSplitHalves) b += 3 * sizeof(glm::dvec3) + sizeof(uint32_t) + kDenoiseBytesPerPixel;
         return b + size_t(AovLayout(aovs).stride) * sizeof(double);
     }
     // A film of one tile's pixels, for a render node that renders one tile at a time.

@@ -14,7 +14,7 @@ constexpr char kMagic[4] = {'T', 'F', 'L', '4'};  // 2: the error estimate's pre
 struct Header {
     char magic[4];
     int32_t width, height, x0, y0;
-    uint8_t half_buffer, adaptive, pad[2];
+    uint8_t half_buffer, adaptive, guided, pad;  // guided: per-pixel targets follow the counts (0 in films before them)
     uint32_t aovs;  // AovSet: the AOV entries follow the rest
 };
 
@@ -37,10 +37,12 @@ std::string encode_film(const Film& f) {
     h.y0 = f.y0;
     h.half_buffer = !f.sum_half.empty();
     h.adaptive = !f.stats.empty();
+    h.guided = !f.goal.empty();
     h.aovs = f.aov_layout.set | (f.sum_odd.empty() ? 0 : kSplitHalves);
     std::string out(reinterpret_cast<const char*>(&h), sizeof h);
     put(out, f.sum);
     put(out, f.count);
+    put(out, f.goal);
     if (h.half_buffer) {
         put(out, f.sum_half);
         put(out, f.sum_quarter);
@@ -68,6 +70,10 @@ Film decode_film(const std::string& bytes) {
     size_t at = sizeof h;
     get(bytes, at, f.sum);
     get(bytes, at, f.count);
+    if (h.guided) {
+        f.goal.resize(f.count.size());
+        get(bytes, at, f.goal);
+    }
     if (h.half_buffer) {
         get(bytes, at, f.sum_half);
         get(bytes, at, f.sum_quarter);

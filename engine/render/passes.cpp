@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "engine/render/light_sampler.h"
+#include "engine/render/sampling_guide.h"
 #include "engine/render/tile_context.h"
 #include "engine/scene/render_scene.h"
 
@@ -26,6 +27,7 @@ PassPlan plan_passes(const RenderSettings& settings, bool has_reference, bool ob
     // A denoising render estimates its noisy error from its two independent halves instead.
     p.half_buffer = (settings.estimate_error || (settings.target_error > 0 && !has_reference)) && !settings.denoise;
     p.aovs = settings.aovs | (settings.denoise ? kDenoiseAovs : 0);
+    p.guided = settings.denoise && settings.guided && !p.adaptive && settings.spp > kGuidedFrom;
     p.max_passes = p.adaptive ? (settings.spp + std::max(1, settings.adaptive->batch) - 1) / std::max(1, settings.adaptive->batch) + 1
                               : 64;
     p.tiles = make_tiles(settings.width, settings.height, settings.tile_size);
@@ -80,6 +82,8 @@ PassEnd end_pass(const RenderSettings& settings, const PassPlan& plan, const Fil
     e.stop = stop_after_pass(settings, plan, film, target, e.point, out_of_time, canceled);
     if (!e.stop && pass + 1 >= plan.max_passes) e.stop = StopReason::spp;
     if (!e.stop) e.next_target = pass_target(settings, plan, target);
+    if (!e.stop && plan.guided && e.denoised && target >= kGuidedFrom)
+        e.goals = guided_targets(film, e.denoised->error, e.next_target, kGuidedCap * e.next_target);
     return e;
 }
 
@@ -154,7 +158,10 @@ bool render_tile(TileContext& ctx, const TileRect& t, Film& film, int target, co
     for (int y = t.y0; y < t.y1; ++y) {
         if (out_of_time && out_of_time()) return false;
         const size_t row = size_t(y - film.y0) * size_t(film.width);
-        for (int x = t.x0; x < t.x1; ++x) ctx.render_pixel(x, y, film, row + size_t(x - film.x0), target);
+        for (int x = t.x0; x < t.x1; ++x) {
+            const size_t p = row + size_t(x - film.x0);
+            ctx.render_pixel(x, y, film, p, film.goal.empty() ? target : int(film.goal[p]));
+        }
     }
     return true;
 }
@@ -180,6 +187,7 @@ void copy_entry(const Film& from, size_t i, Film& to, size_t j) {
         to.stats[j] = from.stats[i];
         to.done[j] = from.done[i];
     }
+    if (!to.goal.empty() && !from.goal.empty()) to.goal[j] = from.goal[i];
     if (!to.sum_odd.empty() && !from.sum_odd.empty()) {
         to.sum_odd[j] = from.sum_odd[i];
         to.seen[j] = from.seen[i];
@@ -199,6 +207,14 @@ void copy_tile_into(const Film& tile_film, const TileRect& tile, Film& image_fil
 
 void copy_tile_from(const Film& image_film, const TileRect& tile, Film& tile_film) {
     for_tile_pixels(tile, image_film, tile_film, [&](size_t i, size_t j) { copy_entry(image_film, i, tile_film, j); });
+}
+
+std::vector<uint32_t> tile_goals(const std::vector<uint32_t>& image_goals, int image_width, const TileRect& tile) {
+    std::vector<uint32_t> out;
+    out.reserve(tile.pixels());
+    for (int y = tile.y0; y < tile.y1; ++y)
+        for (int x = tile.x0; x < tile.x1; ++x) out.push_back(image_goals.at(size_t(y) * size_t(image_width) + size_t(x)));
+    return out;
 }
 
 }  // namespace tessera

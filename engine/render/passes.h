@@ -35,11 +35,18 @@ struct TileRect {
 std::vector<TileRect> make_tiles(int width, int height, int size);
 
 // The schedule of a render, fixed by its settings before its first sample.
+// Guided sampling starts after the uniform pass of this many samples per pixel (fewer give the
+// denoiser's estimate too little to go by), and gives no pixel more than kGuidedCap times the
+// pass's mean.
+inline constexpr int kGuidedFrom = 8;
+inline constexpr int kGuidedCap = 16;
+
 struct PassPlan {
     bool adaptive = false;
     bool measuring = false;    // an error is measured after each pass
     bool progressive = false;  // several passes (doubling spp, or adaptive batches)
     bool half_buffer = false;  // the film keeps the odd samples (error estimate)
+    bool guided = false;       // passes after kGuidedFrom spend their samples by the denoised error
     int max_passes = 1;
     std::vector<TileRect> tiles;
     // No stop rule needs the whole image between passes (the render stops on spp alone): a
@@ -62,6 +69,7 @@ std::optional<StopReason> stop_after_pass(const RenderSettings& settings, const 
 struct PassEnd {
     ConvergencePoint point;
     std::shared_ptr<const Denoised> denoised;  // the pass's denoised image, when the render denoises
+    std::vector<uint32_t> goals;  // guided: each pixel's target in the next pass (Film::goal); empty, next_target
     std::optional<StopReason> stop;  // nothing: pass + 1 follows, at next_target
     int next_target = 0;
 };
@@ -105,5 +113,8 @@ bool render_tile(TileContext& ctx, const TileRect& tile, Film& film, int target,
 // Copies a tile's entries between two films that both cover it (the image's and the tile's).
 void copy_tile_into(const Film& tile_film, const TileRect& tile, Film& image_film);
 void copy_tile_from(const Film& image_film, const TileRect& tile, Film& tile_film);
+// A tile's part of an image's guided targets (PassEnd::goals), row by row: what a farm's node
+// that renders the tile sets as its film's goal.
+std::vector<uint32_t> tile_goals(const std::vector<uint32_t>& image_goals, int image_width, const TileRect& tile);
 
 }  // namespace tessera

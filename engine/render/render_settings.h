@@ -67,6 +67,9 @@ struct RenderSettings {
     // Denoise after every pass (engine/render/denoise.h) and report the denoised image's error;
     // target_error then applies to the denoised image.
     bool denoise = false;
+    // With denoise: after the first passes, each pass spends its samples where the denoised
+    // image's estimated error is (engine/render/sampling_guide.h); spp is then the mean.
+    bool guided = true;
 };
 
 }  // namespace tessera

@@ -172,7 +172,7 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
             }
         }
 
-        const PassEnd end = end_pass(settings, plan, film, reference, pass, target, samples_done.load(), elapsed(), stop_time, stop_cancel);
+        PassEnd end = end_pass(settings, plan, film, reference, pass, target, samples_done.load(), elapsed(), stop_time, stop_cancel);
         result.curve.points.push_back(end.point);
         if (end.denoised) result.denoised = end.denoised;
         if (callbacks.on_pass) callbacks.on_pass(PassView{pass, target, end.point, film, end.denoised});
@@ -181,6 +181,7 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
             break;
         }
         target = end.next_target;
+        film.goal = std::move(end.goals);
         std::fill(pass_done.begin(), pass_done.end(), 0);
     }
     result.stats.add(carried);

@@ -757,6 +757,17 @@ struct RenderNode::Impl {
             const RedisValue f = r.command({"HGET", keys::film(t.job), "t" + std::to_string(t.tile)});
             if (f.is_nil()) throw JobFailure("the film of tile " + std::to_string(t.tile) + " is missing from Redis");
             film = decode_film(f.text);
+            // A guided pass's targets per pixel, which the pass before it set (none: uniform).
+            film.goal.clear();
+            if (plan.guided) {
+                const RedisValue g = r.command({"HGET", keys::film(t.job), "g" + std::to_string(t.tile)});
+                if (!g.is_nil()) {
+                    film.goal.resize(rect.pixels());
+                    size_t at = 0;
+                    get_raw(g.text, at, film.goal, "guided targets");
+                    if (at != g.text.size()) throw JobFailure("the guided targets of tile " + std::to_string(t.tile) + " are the wrong size");
+                }
+            }
         }
         const long long deadline = s.time_limit_s > 0 ? run.started_ms + (long long)(s.time_limit_s * 1000.0) : 0;
         auto late = [&] { return deadline && now_ms() > deadline; };
@@ -848,8 +859,20 @@ struct RenderNode::Impl {
         const PassEnd end = end_pass(s, plan, film, info->reference ? &*info->reference : nullptr, t.pass, int(run.target),
                                      run.stats.samples, seconds, run.timed_out, false);
         if (!end.stop) {
-            r.eval(kAdvance, {keys::job(t.job), keys::curve(t.job), t.stream},
-                   {t.job, std::to_string(t.pass), std::to_string(end.next_target), json_text(api::to_json(end.point)), std::to_string(n)});
+            // Guided sampling's targets for the next pass, a field per tile beside the tiles'
+            // films, stored with the pass's advance.
+            std::vector<std::string> script_keys = {keys::job(t.job), keys::curve(t.job), t.stream};
+            std::vector<std::string> args = {t.job, std::to_string(t.pass), std::to_string(end.next_target),
+                                             json_text(api::to_json(end.point)), std::to_string(n)};
+            if (!end.goals.empty()) {
+                script_keys.push_back(keys::film(t.job));
+                for (size_t k = 0; k < n; ++k) {
+                    args.push_back("g" + std::to_string(k));
+                    args.emplace_back();
+                    put_raw(args.back(), tile_goals(end.goals, s.width, plan.tiles[k]));
+                }
+            }
+            r.eval(kAdvance, script_keys, args);
             return;
         }
         RenderResult result;

@@ -127,9 +127,12 @@ return 1
 // Ends a pass that does not stop the render: its point on the curve, the next pass's target
 // and tiles (once: a pass gone by returns 0).
 inline const std::string advance_pass = add_tiles + R"lua(
--- KEYS: job, curve, stream; ARGV: id, pass, next target, point, tiles
+-- KEYS: job, curve, stream[, film]; ARGV: id, pass, next target, point, tiles[, field, value, ...]
+-- The pairs after `tiles` go into the film's hash with the pass (guided sampling's targets per
+-- tile): an assembler that lost the race for this pass writes none.
 if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return 0 end
 if tonumber(redis.call('HGET', KEYS[1], 'pass')) ~= tonumber(ARGV[2]) then return 0 end
+for i = 6, #ARGV - 1, 2 do redis.call('HSET', KEYS[4], ARGV[i], ARGV[i + 1]) end
 redis.call('RPUSH', KEYS[2], ARGV[4])
 local next = tonumber(ARGV[2]) + 1
 redis.call('HSET', KEYS[1], 'pass', next, 'target', ARGV[3], 'tiles_done', 0)

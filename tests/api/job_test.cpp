@@ -202,7 +202,7 @@ TEST(RenderJob, RoundTripsEveryField) {
         "light_selection":"power","adaptive":{"batch":16,"tolerance":0.25},"tile_size":16,"seed":7,"priority":3,
         "time_limit_s":12.5,"target_error":0.125,"reference":"0123456789abcdef","max_leaf_size":4,
         "triangle_test":"moller_trumbore","integrator":"path","sampler":"independent","environment":"sky",
-        "lens_radius":0.25,"focal_distance":3.5,"passes":["variance","albedo"],"denoise":true,
+        "lens_radius":0.25,"focal_distance":3.5,"passes":["variance","albedo"],"denoise":true,"guided_sampling":false,
         "after":["00000000000000aa","0123456789abcdef"],"notify":{"url":"http://hooks.test:8080/done","frames":true},
         "requires":["gpu","bigmem"],"max_retries":0,"blocklist_after":7})");
     json want = body;

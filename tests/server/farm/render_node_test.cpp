@@ -7,6 +7,7 @@
 #include "build_paths.h"
 #include "server/farm/render_node.h"
 
+#include <algorithm>
 #include <gtest/gtest.h>
 
 #include <map>
@@ -167,8 +168,9 @@ TEST_F(RenderNodeFarm, EveryPassScheduleGivesOneProcessImageBitForBit) {
         {"passes", {{"scene", "cornell_spheres"}, {"width", 40}, {"height", 30}, {"spp", 8}, {"max_depth", 3}, {"tile_size", 16},
                     {"passes", {"albedo", "depth", "object_id", "emission", "diffuse_direct", "glossy_indirect", "variance", "crypto_object", "crypto_material"}}},
          "cornell_spheres.gltf"},
-        // Denoised after every pass, from the assembled film.
-        {"denoise", {{"scene", "cornell_box"}, {"width", 40}, {"height", 30}, {"spp", 8}, {"max_depth", 3}, {"tile_size", 16},
+        // Denoised after every pass, from the assembled film; past 8 spp the passes are guided
+        // (their per-pixel targets travel beside the tiles' films).
+        {"denoise", {{"scene", "cornell_box"}, {"width", 40}, {"height", 30}, {"spp", 32}, {"max_depth", 3}, {"tile_size", 16},
                      {"denoise", true}, {"passes", {"normal"}}},
          "cornell_box.gltf"},
     };
@@ -198,6 +200,8 @@ TEST_F(RenderNodeFarm, EveryPassScheduleGivesOneProcessImageBitForBit) {
             const Image da = read_image((farm / "denoised.exr").string()), db = read_image((one / "denoised.exr").string());
             ASSERT_EQ(da.rgb.size(), db.rgb.size());
             EXPECT_EQ(0, std::memcmp(da.rgb.data(), db.rgb.data(), da.rgb.size() * sizeof(float))) << "denoised pixels";
+            const auto [fewest, most] = std::minmax_element(a.sample_count.begin(), a.sample_count.end());
+            EXPECT_LT(*fewest, *most) << "guided sampling gave some pixels more samples than others";
         }
         const json fr = json::parse(std::ifstream(farm / "report.json")), orep = json::parse(std::ifstream(one / "report.json"));
         for (const char* k : {"rays_camera", "rays_shadow", "rays_bounce", "nonfinite_samples", "spp_mean", "max_sample_luminance"})

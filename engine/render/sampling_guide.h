@@ -1,0 +1,27 @@
+#pragma once
+// Guided sampling for a denoising render: after each pass, the next pass's samples go where the
+// denoised image's estimated error is (Rousselle, Knaus and Zwicker 2012, "Adaptive Rendering with
+// Non-Local Means Filtering"), not evenly. The denoiser keeps smooth regions at a small error
+// with few samples; what it cannot lower (a silhouette's coverage, a lamp's rim, detail no
+// feature explains) only samples lower, and those pixels are a few in a hundred.
+//
+// The rule: a pixel's error falls about as 1/n with its samples n, so an image's error
+// Σ e_p n_p / n'_p is least for a total Σ n'_p when n'_p ∝ √(e_p n_p) (Lagrange), with no pixel
+// losing the samples it has (water-filling) and none above `cap`. The error map is widened
+// first (a neighbourhood's mean, then its maximum): a rim pixel whose samples all missed the lamp
+// beside it cannot see its own error, its neighbours can.
+#include <cstdint>
+#include <vector>
+
+namespace tessera {
+
+struct Film;
+
+// Each pixel's sample target for a pass that takes the film's mean to `mean_target` samples,
+// from the denoiser's per-pixel error estimate (Denoised::error). Targets are even (the film's
+// two halves stay equal), at least the pixel's count, at most `cap`; their mean is
+// `mean_target` up to that rounding. Depends on nothing but its arguments (a farm's coordinator
+// computes the same targets as one process).
+std::vector<uint32_t> guided_targets(const Film& film, const std::vector<float>& error, int mean_target, int cap);
+
+}  // namespace tessera
