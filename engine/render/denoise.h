@@ -54,7 +54,7 @@ struct Film;
 // The denoiser's working memory per pixel at its peak, counted from denoise.cpp's buffers: the
 // resolved features (28 bytes), its inputs (61), the halves and the light they saw (52), four
 // candidates' halves (96), the NL-means guide (28), the error maps (108, the candidates' bias
-// among them, which the blend's estimate reads) and the image (16): 389, with the pooling's
+// among them, which the blend's estimate reads), the image (16) and its per-pixel error (4): 393, with the pooling's
 // temporaries (36) living after the NL-means guide is gone. A job's memory bound
 // (Film::bytes_per_pixel) counts it.
 inline constexpr size_t kDenoiseBytesPerPixel = 400;

@@ -53,6 +53,9 @@ struct Film {
     // Guided sampling (sampling_guide.h): each pixel's sample target in this pass; empty, the
     // pass's own target for every pixel.
     std::vector<uint32_t> goal;
+    // A denoising render's: the rays its samples traced, per pixel, so that guided sampling
+    // weighs what a pixel's samples cost against the error they remove.
+    std::vector<float> rays;
     std::vector<RunningStats> stats;   // illuminance statistics (adaptive only)
     std::vector<uint8_t> done;         // adaptive: converged
     // The AOVs a render asked for (and the denoiser reads): layout.stride doubles per pixel.
@@ -65,6 +68,7 @@ struct Film {
             sum_odd.assign(size_t(w) * h, glm::dvec3(0.0));
             seen.assign(size_t(w) * h, glm::dvec3(0.0));
             seen_odd.assign(size_t(w) * h, glm::dvec3(0.0));
+            rays.assign(size_t(w) * h, 0.f);
         }
         if (aov_layout.stride > 0) {
             aov.resize(size_t(w) * h * size_t(aov_layout.stride));
@@ -83,8 +87,8 @@ struct Film {
         size_t b = sizeof(glm::dvec3) + sizeof(uint32_t);
         if (half_buffer) b += 3 * sizeof(glm::dvec3);
         if (adaptive) b += sizeof(RunningStats) + 1;
-        // The odd and seen sums, guided sampling's targets, the denoiser's own.
-        if (aovs & kSplitHalves) b += 3 * sizeof(glm::dvec3) + sizeof(uint32_t) + kDenoiseBytesPerPixel;
+        // The odd and seen sums, the rays traced and guided sampling's targets, the denoiser's own.
+        if (aovs & kSplitHalves) b += 3 * sizeof(glm::dvec3) + sizeof(float) + sizeof(uint32_t) + kDenoiseBytesPerPixel;
         return b + size_t(AovLayout(aovs).stride) * sizeof(double);
     }
     // A film of one tile's pixels, for a render node that renders one tile at a time.

@@ -14,7 +14,9 @@ constexpr char kMagic[4] = {'T', 'F', 'L', '4'};  // 2: the error estimate's pre
 struct Header {
     char magic[4];
     int32_t width, height, x0, y0;
-    uint8_t half_buffer, adaptive, guided, pad;  // guided: per-pixel targets follow the counts (0 in films before them)
+    // guided: per-pixel targets follow the counts; rays: the rays traced per pixel follow the
+    // seen light's halves (both 0 in films written before them)
+    uint8_t half_buffer, adaptive, guided, rays;
     uint32_t aovs;  // AovSet: the AOV entries follow the rest
 };
 
@@ -38,6 +40,7 @@ std::string encode_film(const Film& f) {
     h.half_buffer = !f.sum_half.empty();
     h.adaptive = !f.stats.empty();
     h.guided = !f.goal.empty();
+    h.rays = !f.rays.empty();
     h.aovs = f.aov_layout.set | (f.sum_odd.empty() ? 0 : kSplitHalves);
     std::string out(reinterpret_cast<const char*>(&h), sizeof h);
     put(out, f.sum);
@@ -55,6 +58,7 @@ std::string encode_film(const Film& f) {
     put(out, f.sum_odd);
     put(out, f.seen);
     put(out, f.seen_odd);
+    put(out, f.rays);
     put(out, f.aov);
     return out;
 }
@@ -86,6 +90,8 @@ Film decode_film(const std::string& bytes) {
     get(bytes, at, f.sum_odd);
     get(bytes, at, f.seen);
     get(bytes, at, f.seen_odd);
+    f.rays.resize(h.rays ? f.count.size() : 0);
+    get(bytes, at, f.rays);
     get(bytes, at, f.aov);
     if (at != bytes.size()) throw std::runtime_error("tile film: trailing bytes");
     return f;

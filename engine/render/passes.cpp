@@ -193,6 +193,7 @@ void copy_entry(const Film& from, size_t i, Film& to, size_t j) {
         to.seen[j] = from.seen[i];
         to.seen_odd[j] = from.seen_odd[i];
     }
+    if (!to.rays.empty() && !from.rays.empty()) to.rays[j] = from.rays[i];
     if (to.aov_layout.set == from.aov_layout.set && to.aov_layout.stride > 0) {
         const size_t n = size_t(to.aov_layout.stride);
         std::copy_n(&from.aov[i * n], n, &to.aov[j * n]);

@@ -47,7 +47,8 @@ std::vector<uint32_t> guided_targets(const Film& film, const std::vector<float>&
     std::vector<double> w(n);
     double have = 0, wsum = 0;
     for (size_t p = 0; p < n; ++p) {
-        w[p] = std::sqrt(e[p] * double(film.count[p]));
+        const double cost = film.rays.empty() || film.count[p] == 0 ? 1.0 : std::max(1.0, double(film.rays[p]) / film.count[p]);
+        w[p] = std::sqrt(e[p] * double(film.count[p]) / cost);
         have += film.count[p];
         wsum += w[p];
     }

@@ -51,6 +51,7 @@ public:
             eighth = film.sum_eighth[p];
         }
         int s = int(film.count[p]);
+        const uint64_t rays_before = stats.rays();
         const AovLayout& layout = film.aov_layout;
         double* aov_entry = layout.stride > 0 ? &film.aov[p * size_t(layout.stride)] : nullptr;
         const bool split = !film.sum_odd.empty();
@@ -104,6 +105,7 @@ public:
             stats.max_sample = std::max(stats.max_sample, illuminance(L));
             if (adaptive) film.stats[p].add(illuminance(L));
         }
+        if (!film.rays.empty()) film.rays[p] += float(stats.rays() - rays_before);
         stats.samples += uint64_t(s) - film.count[p];
         film.sum[p] = sum;
         if (halves) {
