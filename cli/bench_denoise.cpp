@@ -252,8 +252,10 @@ int bench_denoise(int argc, char** argv) {
                 kept[p] = r.image.rgb[p * 3] == d->image.rgb[p * 3] && r.image.rgb[p * 3 + 1] == d->image.rgb[p * 3 + 1] &&
                           r.image.rgb[p * 3 + 2] == d->image.rgb[p * 3 + 2];
             const double kept_share = double(std::count(kept.begin(), kept.end(), 1)) / double(kept.size());
-            const double kept_error = dn > 0 ? masked_rel_mse(d->image, ref.image, kept) * kept_share / dn : 0.0;
-            const double lit_error = dn > 0 ? masked_rel_mse(d->image, ref.image, lit) * lit_share / dn : 0.0;
+            // Shares of the error against the reference as it is, as the regions' own errors are.
+            const double dn_as_is = relative_mse(d->image, ref.image);
+            const double kept_error = dn_as_is > 0 ? masked_rel_mse(d->image, ref.image, kept) * kept_share / dn_as_is : 0.0;
+            const double lit_error = dn_as_is > 0 ? masked_rel_mse(d->image, ref.image, lit) * lit_share / dn_as_is : 0.0;
             std::printf("| %d | %.3f | %.3f | %.4g | %.4g | %.4g | %.4g | %.2f | %.4g | %.4g | %.4g | %.4g | %.2f, %.2f | %.3f, %.2f |\n",
                         spp, render_s, d->seconds, noisy, est_noisy, dn, d->est_rel_mse, ratio, edge_noisy, edge_dn, rest_noisy, rest_dn,
                         kept_share, kept_error, lit_share, lit_error);

@@ -17,6 +17,10 @@ std::vector<TileRect> make_tiles(int width, int height, int size) {
     return tiles;
 }
 
+bool guides_samples(const RenderSettings& settings) {
+    return settings.denoise && settings.guided && !settings.adaptive && settings.spp > kGuidedFrom;
+}
+
 PassPlan plan_passes(const RenderSettings& settings, bool has_reference, bool observed) {
     PassPlan p;
     p.adaptive = settings.adaptive.has_value();
@@ -27,7 +31,7 @@ PassPlan plan_passes(const RenderSettings& settings, bool has_reference, bool ob
     // A denoising render estimates its noisy error from its two independent halves instead.
     p.half_buffer = (settings.estimate_error || (settings.target_error > 0 && !has_reference)) && !settings.denoise;
     p.aovs = settings.aovs | (settings.denoise ? kDenoiseAovs : 0);
-    p.guided = settings.denoise && settings.guided && !p.adaptive && settings.spp > kGuidedFrom;
+    p.guided = guides_samples(settings);
     p.max_passes = p.adaptive ? (settings.spp + std::max(1, settings.adaptive->batch) - 1) / std::max(1, settings.adaptive->batch) + 1
                               : 64;
     p.tiles = make_tiles(settings.width, settings.height, settings.tile_size);
@@ -126,6 +130,12 @@ void describe_render(const RenderScene& scene, const RenderSettings& settings, c
     film.describe(built, left_out);
     if (settings.denoise) built.push_back("denoiser: feature regression over 2 window sizes and cross-filtered NL-means, chosen per pixel by the error its two independent halves give (after every pass)");
     else left_out.push_back("denoiser (not asked for)");
+    if (guides_samples(settings))
+        built.push_back("guided sampling: past " + std::to_string(kGuidedFrom) +
+                        " spp each pass spends its samples by the denoised image's error and each pixel's cost in rays");
+    else if (settings.denoise)
+        left_out.push_back(settings.spp > kGuidedFrom && !settings.adaptive ? "guided sampling (guided_sampling false)"
+                                                                             : "guided sampling (no pass past " + std::to_string(kGuidedFrom) + " spp)");
     if (settings.integrator == Integrator::path) {
         (settings.max_depth > 1 ? built : left_out)
             .push_back(settings.max_depth > 1 ? "indirect bounces up to depth " + std::to_string(settings.max_depth)

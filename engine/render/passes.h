@@ -59,6 +59,9 @@ struct PassPlan {
 };
 
 PassPlan plan_passes(const RenderSettings& settings, bool has_reference, bool observed);
+// Whether a render's passes past kGuidedFrom are guided (a denoising render that asks, is not
+// the CS184 adaptive sampler's, and goes past that count).
+bool guides_samples(const RenderSettings& settings);
 // The per-pixel sample target of the pass after one that reached `previous` (0 before the first).
 int pass_target(const RenderSettings& settings, const PassPlan& plan, int previous);
 // After a pass: why the render stops now, or nothing if another pass follows.

@@ -58,6 +58,24 @@ TEST(FilmCodec, ADenoisingFilmsHalvesRoundTrip) {
     EXPECT_THROW(decode_film(bytes), std::runtime_error);
 }
 
+// Guided sampling's per-pixel targets and the rays each pixel's samples traced travel with the
+// film (a farm's tiles, checkpoints); a film without targets reads back without them.
+TEST(FilmCodec, GuidedTargetsAndRaysRoundTrip) {
+    Film f = Film::tile(8, 4, 3, 2, false, false, kDenoiseAovs);
+    ASSERT_EQ(f.rays.size(), f.sum.size());
+    EXPECT_TRUE(decode_film(encode_film(f)).goal.empty());
+    f.goal.assign(f.sum.size(), 0);
+    for (size_t i = 0; i < f.sum.size(); ++i) {
+        f.count[i] = 8;
+        f.goal[i] = uint32_t(8 + 2 * i);
+        f.rays[i] = 8.f * float(i + 1) + 0.25f;
+    }
+    const Film g = decode_film(encode_film(f));
+    EXPECT_EQ(g.goal, f.goal);
+    EXPECT_EQ(g.rays, f.rays);
+    EXPECT_EQ(g.count, f.count);
+}
+
 TEST(FilmCodec, RefusesWhatItDidNotWrite) {
     const std::string good = encode_film(sample_film(true, true));
     EXPECT_THROW(decode_film(""), std::runtime_error);
