@@ -86,8 +86,11 @@ PassEnd end_pass(const RenderSettings& settings, const PassPlan& plan, const Fil
     e.stop = stop_after_pass(settings, plan, film, target, e.point, out_of_time, canceled);
     if (!e.stop && pass + 1 >= plan.max_passes) e.stop = StopReason::spp;
     if (!e.stop) e.next_target = pass_target(settings, plan, target);
-    if (!e.stop && plan.guided && e.denoised && target >= kGuidedFrom)
-        e.goals = guided_targets(film, e.denoised->error, e.next_target, kGuidedCap * e.next_target);
+    // Every guided pass has targets, so that one process and a farm's tiles (which keep the
+    // last ones they were given) never differ: even ones where nothing was denoised.
+    if (!e.stop && plan.guided && target >= kGuidedFrom)
+        e.goals = guided_targets(film, e.denoised ? e.denoised->error : std::vector<float>(film.count.size(), 0.f), e.next_target,
+                                 kGuidedCap * e.next_target);
     return e;
 }
 
@@ -134,8 +137,9 @@ void describe_render(const RenderScene& scene, const RenderSettings& settings, c
         built.push_back("guided sampling: past " + std::to_string(kGuidedFrom) +
                         " spp each pass spends its samples by the denoised image's error and each pixel's cost in rays");
     else if (settings.denoise)
-        left_out.push_back(settings.spp > kGuidedFrom && !settings.adaptive ? "guided sampling (guided_sampling false)"
-                                                                             : "guided sampling (no pass past " + std::to_string(kGuidedFrom) + " spp)");
+        left_out.push_back(settings.adaptive ? "guided sampling (the adaptive sampler decides instead)"
+                           : !settings.guided ? "guided sampling (guided_sampling false)"
+                                              : "guided sampling (no pass past " + std::to_string(kGuidedFrom) + " spp)");
     if (settings.integrator == Integrator::path) {
         (settings.max_depth > 1 ? built : left_out)
             .push_back(settings.max_depth > 1 ? "indirect bounces up to depth " + std::to_string(settings.max_depth)

@@ -43,6 +43,12 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
     const auto t0 = Clock::now() - std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(resume ? resume->seconds : 0.0));
     auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
     Film film = resume ? resume->film : Film(settings.width, settings.height, plan.half_buffer, plan.adaptive, plan.aovs);
+    // A checkpoint's guided targets only where this render guides, and none beyond its cap (a
+    // damaged or foreign file would otherwise ask a pixel for billions of samples).
+    if (!film.goal.empty() &&
+        (!plan.guided || film.goal.size() != film.count.size() ||
+         std::any_of(film.goal.begin(), film.goal.end(), [&](uint32_t g) { return g > uint32_t(kGuidedCap) * uint32_t(settings.spp); })))
+        film.goal.clear();
     describe_render(scene, settings, film, result.built, result.left_out);
     const Camera camera = camera_for(scene, settings);
     result.stats.tile_seconds.assign(tiles.size(), 0.0);

@@ -9,6 +9,9 @@ namespace tessera {
 
 namespace {
 
+// A pixel's error is held at no less than this share of the image's mean (see below).
+constexpr double kErrorFloor = 1e-3;
+
 // The mean over a (2r+1)² window, then the maximum over 3×3: noise in one pixel's estimate
 // averages out, and an edge's error reaches both of its sides.
 std::vector<double> widened(const std::vector<float>& e, int W, int H) {
@@ -43,7 +46,13 @@ std::vector<uint32_t> guided_targets(const Film& film, const std::vector<float>&
     const size_t n = size_t(W) * H;
     std::vector<uint32_t> goal(film.count.begin(), film.count.end());
     if (n == 0 || error.size() != n) return goal;
-    const std::vector<double> e = widened(error, W, H);
+    std::vector<double> e = widened(error, W, H);
+    // No pixel's error is taken for exactly zero (all its samples alike so far, such as a dim
+    // corner no path has lit yet): a trickle keeps sampling it, and the pass spends its budget.
+    double mean_e = 0;
+    for (double v : e) mean_e += v;
+    mean_e /= double(n);
+    for (double& v : e) v = std::max(v, kErrorFloor * mean_e);
     std::vector<double> w(n);
     double have = 0, wsum = 0;
     for (size_t p = 0; p < n; ++p) {
@@ -63,9 +72,19 @@ std::vector<uint32_t> guided_targets(const Film& film, const std::vector<float>&
         for (size_t p = 0; p < n; ++p) goal[p] = std::max<uint32_t>(goal[p], uint32_t(std::min(mean_target, cap)));
         return goal;
     }
-    // The largest λ whose targets fit the total (bisection in log: λ spans many decades).
+    // Every pixel with an error at the cap spends no more than the total (a budget above 16
+    // times the mean's reach): that is the pass.
+    double at_cap = 0;
+    for (size_t p = 0; p < n; ++p) at_cap += w[p] > 0 ? std::max(double(film.count[p]), top) : double(film.count[p]);
+    if (at_cap <= total) {
+        for (size_t p = 0; p < n; ++p)
+            if (w[p] > 0 && top > double(film.count[p]))
+                goal[p] = film.count[p] + 2 * uint32_t((top - double(film.count[p])) / 2.0);
+        return goal;
+    }
+    // The largest λ whose targets fit the total (bisection: λ spans many decades).
     double lo = 0, hi = 1;
-    while (spent(hi) < total && hi < 1e300) hi *= 4;
+    while (spent(hi) < total) hi *= 4;
     for (int it = 0; it < 64; ++it) {
         const double mid = 0.5 * (lo + hi);
         (spent(mid) <= total ? lo : hi) = mid;

@@ -22,10 +22,12 @@ struct Film;
 
 // Each pixel's sample target for a pass that takes the film's mean to `mean_target` samples,
 // from the denoiser's per-pixel error estimate (Denoised::error) and the film's rays (a film
-// without them: every sample costs the same). Targets are even (the film's
-// two halves stay equal), at least the pixel's count, at most `cap`; their mean is
-// `mean_target` up to that rounding. Depends on nothing but its arguments (a farm's coordinator
-// computes the same targets as one process).
+// without them: every sample costs the same). Each target adds an even number of samples to
+// the pixel's count (the film's two halves stay equal) and is at most `cap`; their mean is
+// `mean_target` up to that rounding (below it only where the cap binds everywhere). No pixel's
+// error counts as zero (a thousandth of the mean at least), so none stops being sampled.
+// Depends on nothing but its arguments (a farm's coordinator computes the same targets as one
+// process).
 std::vector<uint32_t> guided_targets(const Film& film, const std::vector<float>& error, int mean_target, int cap);
 
 }  // namespace tessera

@@ -795,6 +795,7 @@ struct RenderNode::Impl {
         // A whole tile is finished with this task: it ships the resolved pixels (its film where
         // the job has AOVs, which resolve from the whole film's sums as one process's do). A
         // pass-by-pass job's next pass goes on from the whole film.
+        film.goal.clear();  // the targets travel in their own field (g<tile>), not twice
         commit.payload = plan.whole_tiles && plan.aovs == 0 ? encode_tile_image(film) : encode_film(film);
         acked = true;
         const long long rc = r.eval(commit_tile(),

@@ -1,5 +1,7 @@
 #include "engine/render/checkpoint.h"
+#include "engine/render/passes.h"
 
+#include <algorithm>
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -77,7 +79,10 @@ TEST(Checkpoint, AResumedRenderEndsBitForBitAsOneNeverStopped) {
         const RenderSettings s = settings(kind);
         const Stopped whole = render_with(scene, s, nullptr, size_t(-1), 0);
         ASSERT_FALSE(whole.result.stats.canceled);
-        for (size_t stop_after : {size_t(3), size_t(40), size_t(95)}) {
+        // 30 tiles a pass; a denoising render's fifth pass (to 16 spp) is guided: 130 stops in it.
+        std::vector<size_t> stops = {3, 40, 95};
+        if (std::string(kind) == "denoise") stops.push_back(130);
+        for (size_t stop_after : stops) {
             // Every tile a checkpoint is due: they are taken from render threads between tiles.
             const Stopped stopped = render_with(scene, s, nullptr, stop_after, 1e-9);
             ASSERT_TRUE(stopped.result.stats.canceled) << kind;
@@ -98,6 +103,24 @@ TEST(Checkpoint, AResumedRenderEndsBitForBitAsOneNeverStopped) {
             }
         }
     }
+}
+
+// A checkpoint whose guided targets are absurd (a damaged or foreign file) is continued without
+// them: the render ends, and no pixel gets more than the cap's samples.
+TEST(Checkpoint, AbsurdGuidedTargetsAreDropped) {
+    const RenderScene scene = build_render_scene(cornell_spheres(), {});
+    const RenderSettings s = settings("denoise");
+    const Stopped stopped = render_with(scene, s, nullptr, 130, 0);
+    ASSERT_TRUE(stopped.result.stats.canceled);
+    RenderCheckpoint c = *stopped.checkpoints.back();
+    ASSERT_FALSE(c.film.goal.empty()) << "stopped in a guided pass";
+    // Four times the cap (16 × 16 spp): without the check, every pixel would be taken there.
+    std::fill(c.film.goal.begin(), c.film.goal.end(), uint32_t(4 * kGuidedCap * s.spp));
+    const Stopped resumed = render_with(scene, s, &c, size_t(-1), 0);
+    EXPECT_FALSE(resumed.result.stats.canceled);
+    EXPECT_EQ(resumed.result.resumed_samples, c.film_samples());
+    const float most = *std::max_element(resumed.result.image.sample_count.begin(), resumed.result.image.sample_count.end());
+    EXPECT_LE(most, float(kGuidedCap * s.spp));
 }
 
 // Twice stopped, twice resumed (a job paused twice): still the same image.

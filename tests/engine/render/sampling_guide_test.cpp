@@ -81,6 +81,15 @@ TEST(SamplingGuide, SamplesGoWhereTheErrorIsAndToItsNeighbours) {
     EXPECT_GT(g[hot + 1], 32u);
     EXPECT_GT(g[hot - W], 32u);
     EXPECT_LE(g[0], 16u) << "a far pixel gets less than the mean";
+    // Error in one pixel alone (and its neighbours', widened) and a budget beyond what they can
+    // take at the cap: they get the cap, and the pixels whose error is zero so far (all their
+    // samples alike) still share the rest, so that the pass keeps its mean.
+    std::vector<float> lone(size_t(W) * H, 0.f);
+    lone[hot] = 1e-2f;
+    const std::vector<uint32_t> capped = guided_targets(f, lone, 64, 128);
+    EXPECT_EQ(capped[hot], 128u);
+    EXPECT_GT(capped[0], 8u) << "a pixel whose error is zero so far is still sampled";
+    EXPECT_NEAR(std::accumulate(capped.begin(), capped.end(), 0.0) / double(capped.size()), 64.0, 1.0);
     // Nothing to go by (no error anywhere, or none finite): every pixel alike.
     for (float bad : {0.f, std::nanf(""), -1.f}) {
         const std::vector<float> flat(size_t(W) * H, bad);
