@@ -185,7 +185,11 @@ TEST(RenderJob, RequiresTakesDistinctNodeTags) {
              {json{{"scene", "x"}, {"requires", many}}, "/requires"},
              {json::parse(R"({"scene":"x","max_retries":-1})"), "/max_retries"},
              {json::parse(R"({"scene":"x","max_retries":101})"), "/max_retries"},
-             {json::parse(R"({"scene":"x","blocklist_after":0})"), "/blocklist_after"}}) {
+             {json::parse(R"({"scene":"x","blocklist_after":0})"), "/blocklist_after"},
+             {json::parse(R"({"scene":"x","denoise":true,"guided_sampling":"yes"})"), "/guided_sampling"},
+             {json::parse(R"({"scene":"x","denoise":true,"guided_sampling":1})"), "/guided_sampling"},
+             {json::parse(R"({"scene":"x","denoise":true,"guided_sampling":null})"), "/guided_sampling"},
+             {json::parse(R"({"scene":"x","denoise":true,"guided_sampling":{"on":true}})"), "/guided_sampling"}}) {
         try {
             parse_render_job(body);
             ADD_FAILURE() << body.dump() << " was accepted";
