@@ -303,16 +303,38 @@ void LocalQueue::worker() {
         } catch (...) {
             spdlog::error("job {}: unknown exception", rec.id);
         }
+        bool late_cancel = false;
         {
             std::lock_guard<std::mutex> lock(mutex_);
             // Only this run's entry: a job queued again by a pause taken back may run on another
             // worker already.
             if (auto it = running_.find(rec.id); it != running_.end() && it->second == running) running_.erase(it);
+            // A cancel that found this run after run() last looked (while it was recording a pause,
+            // say) marked only this entry; from here on a cancel finds the job in the store. The job
+            // is ours to cancel unless it is queued or running again, where that cancel reached it.
+            late_cancel = running->cancel && running_.find(rec.id) == running_.end() &&
+                          std::none_of(queue_.begin(), queue_.end(), [&](const QueueKey& k) { return k.id == rec.id; });
         }
+        if (late_cancel) cancel_stopped(rec.id);
         publish_state(rec.id);  // finished, failed, canceled, or queued again by a shutdown
         settle_waiting();       // jobs that run after it
         running.reset();
         release_free_memory();  // the job's film, images and a scene the cache did not keep
+    }
+}
+
+void LocalQueue::cancel_stopped(const std::string& id) {
+    std::optional<JobRecord> now;
+    try {
+        now = store_->get(id);
+    } catch (const std::exception& e) {
+        spdlog::error("job {}: cannot read it to cancel it: {}", id, e.what());
+        return;
+    }
+    if (!now || is_final(now->state)) return;
+    if (until_stored(id, "canceled", [&] { store_->finish(id, JobState::canceled, unix_time_s(), "", ""); })) {
+        remove_checkpoints(job_dir(id));
+        spdlog::info("job {} canceled as its run stopped", id);
     }
 }
 

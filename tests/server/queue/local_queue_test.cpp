@@ -1,7 +1,14 @@
-// One process's queue (LocalQueue): its own bound and stop, and a running job's progress from
-// the worker's typed job. What every kind of queue shares (submission checks, reads of records and
+// One process's queue (LocalQueue): its own bound and stop, a running job's progress from the
+// worker's typed job, and a cancel that comes while the worker records a pause. What every kind of queue shares (submission checks, reads of records and
 // results) is tested in job_queue_test.cpp.
 #include "server/queue/local_queue.h"
+
+#include <spdlog/sinks/base_sink.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <atomic>
+#include <string_view>
 
 #include "tests/server/queue/local_queue_fixture.h"
 
@@ -50,6 +57,50 @@ TEST_F(LocalQueueTest, ARunningJobShowsItsProgressFromTheTypedJob) {
     EXPECT_NEAR(s.live_progress->fraction,
                 double(s.live_progress->samples_done) / (400.0 * 300.0 * 4096.0), 1e-12);
     queue_->cancel(id);
+}
+
+// Runs `act` on the thread that logs a line holding `needle`, as it logs it: a way in to the
+// moment between two steps of a worker, which no poll from outside can hit every time.
+class WhenLogged : public spdlog::sinks::base_sink<spdlog::details::null_mutex> {
+public:
+    WhenLogged(std::string needle, std::function<void()> act) : needle_(std::move(needle)), act_(std::move(act)) {}
+
+protected:
+    void sink_it_(const spdlog::details::log_msg& msg) override {
+        if (done_ || std::string_view(msg.payload.data(), msg.payload.size()).find(needle_) == std::string_view::npos) return;
+        done_ = true;  // before acting: what `act` logs comes back here
+        act_();
+    }
+    void flush_() override {}
+
+private:
+    std::string needle_;
+    std::function<void()> act_;
+    bool done_ = false;
+};
+
+TEST_F(LocalQueueTest, ACancelWhileTheWorkerRecordsAPauseCancelsTheJob) {
+    open();
+    // The cancel lands after the store says "paused" and before the worker lets go of the job:
+    // what a client does that cancels as soon as it reads "paused".
+    std::string id;
+    std::atomic<int> seen{-1};
+    auto sink = std::make_shared<WhenLogged>("paused; its film is kept", [&] {
+        seen = int(queue_->status(id).state);
+        queue_->cancel(id);
+    });
+    auto& sinks = spdlog::default_logger()->sinks();
+    sinks.push_back(sink);  // before any job: no thread logs while the list changes
+    id = queue_->submit(kLong).id;
+    for (int i = 0; i < 2000 && queue_->status(id).state != api::JobState::running; ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    queue_->pause(id);
+    const api::JobStatus end = wait_final(id);
+    queue_.reset();  // its workers gone, the sink can go
+    sinks.erase(std::remove(sinks.begin(), sinks.end(), sink), sinks.end());
+    EXPECT_EQ(seen, int(api::JobState::paused));
+    EXPECT_EQ(end.state, api::JobState::canceled);
+    EXPECT_FALSE(fs::exists(dir_ / "jobs" / id / "checkpoint.tck")) << "a canceled job keeps no checkpoint";
 }
 
 }  // namespace
