@@ -217,7 +217,7 @@ int bench_denoise(int argc, char** argv) {
         std::printf("| spp | render (s) | denoise (s) | relMSE noisy | estimate | relMSE denoised | its estimate | estimate/true | "
                     "edges+textures noisy | denoised | elsewhere noisy | denoised | left as they are: pixels, share of the error | "
                     "seeing a light: pixels, share of the error |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
-        struct Row { int spp; double render_s, denoise_s, noisy, denoised; };
+        struct Row { int spp; double render_s, denoise_s, denoise_all_s, noisy, denoised; };
         std::vector<Row> rows;
         for (int spp = 4; spp <= max_spp; spp *= 2) {
             RenderSettings s = base;
@@ -262,7 +262,7 @@ int bench_denoise(int argc, char** argv) {
             if (show_candidates && !cands.taken.empty()) print_candidates(cands, ref.image, d->image, mask, rest);
             all_better = all_better && dn < noisy && edge_dn < edge_noisy;
             all_tracked = all_tracked && ratio >= 0.5 && ratio <= 2.0;
-            rows.push_back({spp, render_s, d->seconds, noisy, dn});
+            rows.push_back({spp, render_s, d->seconds, denoising, noisy, dn});
             if (!figures.empty() && (spp == 16 || spp == max_spp)) {
                 std::filesystem::create_directories(figures);
                 std::string stem = bs.source.substr(bs.source.find_last_of("/:") + 1);
@@ -279,10 +279,12 @@ int bench_denoise(int argc, char** argv) {
                 s.spp = max_spp;
                 s.seed = 1;
                 const RenderResult r = render(scene, s);
-                top = {max_spp, r.stats.render_seconds, 0.0, true_error(r.image), 0.0};
+                top = {max_spp, r.stats.render_seconds, 0.0, 0.0, true_error(r.image), 0.0};
             }
             // The first denoised row at or below that error, and the time to it interpolated in
-            // log-log from the row before (error falls about as a power of the time).
+            // log-log from the row before (error falls about as a power of the time). The time is
+            // the render's and every pass's denoising: a job denoises after each, and guided
+            // sampling needs each.
             const Row* reach = nullptr;
             const Row* before = nullptr;
             for (const Row& r : rows) {
@@ -290,10 +292,10 @@ int bench_denoise(int argc, char** argv) {
                 before = &r;
             }
             if (reach) {
-                const double t1 = reach->render_s + reach->denoise_s;
+                const double t1 = reach->render_s + reach->denoise_all_s;
                 double t = t1;
                 if (before && before->denoised > reach->denoised && reach->denoised > 0) {
-                    const double t0 = before->render_s + before->denoise_s;
+                    const double t0 = before->render_s + before->denoise_all_s;
                     const double f = std::log(top.noisy / before->denoised) / std::log(reach->denoised / before->denoised);
                     t = std::exp(std::log(t0) + f * (std::log(t1) - std::log(t0)));
                 }

@@ -1,12 +1,14 @@
 #include "engine/render/denoise.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <thread>
 #include <vector>
 
+#include "engine/core/exp_nonpositive.h"
 #include "engine/render/convergence.h"
 #include "engine/render/film.h"
 
@@ -109,17 +111,16 @@ void regress(const double* S, const float* fi, const float* yi, const float* mi,
         A[a * kF + a] += kTau * std::max(0.0, A[a * kF + a]) + kDelta;
         d[a] = double(fi[a]) - mf[a];
     }
+    // The fit at the pixel is mean + c·A⁻¹d for each channel's covariances c: one solve for the
+    // pixel (A⁻¹d, A symmetric), not one per channel.
     const bool solved = cholesky(A, kF);
+    if (solved) cholesky_solve(A, kF, d);
     for (int k = 0; k < kY; ++k) {
         const double my = S[o] / n;
-        double coef[kF];
-        for (int a = 0; a < kF; ++a) coef[a] = S[o + 1 + a] / n - mf[a] * my;
-        o += 1 + kF;
         double pred = my;
-        if (solved) {
-            cholesky_solve(A, kF, coef);
-            for (int a = 0; a < kF; ++a) pred += coef[a] * d[a];
-        }
+        if (solved)
+            for (int a = 0; a < kF; ++a) pred += (S[o + 1 + a] / n - mf[a] * my) * d[a];
+        o += 1 + kF;
         out[k] = float(pred * mi[k % 3]);
     }
 }
@@ -187,11 +188,25 @@ void filter(const Inputs& in, int r, int threads, std::vector<float>& out) {
 constexpr double kSlopeRidge = 0.01;
 constexpr size_t kNlmRegression = 1;  // its place among the candidates
 static_assert(kDenoiseCandidates[kNlmRegression].filter == DenoiseFilter::nlm_regression);
+
+// What the NL-means loop reads of a pixel, one plane each, so that a row of them is contiguous.
+struct NlmPlanes {
+    enum : int { nx, ny, nz, z, var, use, gA, gB = gA + 3, yA = gB + 3, yB = yA + 3, count = yB + 3 };
+    std::array<std::vector<float>, count> at;
+};
+
+// Per pixel of a row, what the window's weights sum: per half h, Σw, Σw·{dx, dy, dx², dx·dy,
+// dy²}, and per channel Σw·y·{1, dx, dy}.
+struct NlmSums {
+    enum : int { w, wx, wy, wxx, wxy, wyy, y = 6, per_half = y + 9, count = 2 * per_half };
+};
+
 void filter_nlm(const Inputs& in, int r, int threads, std::vector<float>& out, std::vector<float>& first) {
     const int W = in.w, H = in.h;
     const size_t n = size_t(W) * H;
     // Guides (3×3 means of each half) and their variance per pixel, per half.
-    std::vector<float> g(n * kY), v(n);
+    NlmPlanes P;
+    for (auto& a : P.at) a.resize(n);
     for (int y = 0; y < H; ++y)
         for (int x = 0; x < W; ++x) {
             const size_t p = size_t(y) * W + x;
@@ -210,76 +225,112 @@ void filter_nlm(const Inputs& in, int r, int threads, std::vector<float>& out, s
                     }
                     ++cnt;
                 }
-            for (int k = 0; k < kY; ++k) g[p * kY + k] = float(s[k] / cnt);
+            for (int k = 0; k < kY; ++k) {
+                P.at[NlmPlanes::gA + k][p] = float(s[k] / cnt);
+                P.at[NlmPlanes::yA + k][p] = in.y[p * kY + k];
+            }
             // One half's variance is (A − B)²/2 per channel; the 3×3 mean's, that over cnt.
-            v[p] = float(d / 3.0 / 2.0 / cnt / cnt);
+            P.at[NlmPlanes::var][p] = float(d / 3.0 / 2.0 / cnt / cnt);
+            for (int k = 0; k < 4; ++k) P.at[NlmPlanes::nx + k][p] = in.f[p * kF + k];
+            P.at[NlmPlanes::use][p] = in.use[p] ? 1.f : 0.f;
         }
     out.assign(n * kY, 0.f);
     first.assign(n * kY, 0.f);
-    constexpr double kK2 = 0.45 * 0.45, kVarFloor = 1e-4;
+    constexpr float kK2 = 0.45f * 0.45f, kVarFloor = 1e-4f;
+    // Offset by offset over a whole row (not neighbour by neighbour per pixel): the inner loop
+    // runs along the row with no branch and no sum across its steps, so it vectorizes; each
+    // pixel's sums still take the offsets in one fixed order, so the image does not depend on
+    // the threads.
     for_bands(H, threads, [&](int y0, int y1) {
-        for (int y = y0; y < y1; ++y)
-            for (int x = 0; x < W; ++x) {
-                const size_t p = size_t(y) * W + x;
-                const float* fi = &in.f[p * kF];
-                if (fi[3] > 1.5f) {
-                    for (int k = 0; k < kY; ++k) out[p * kY + k] = first[p * kY + k] = in.y[p * kY + k] * in.m[p * 3 + k % 3];
-                    continue;
-                }
-                double wsum[2] = {}, acc[kY] = {};
-                // Per half: Σw·{dx, dy, dx², dx·dy, dy²}, and Σw·y·{dx, dy} per channel.
-                double mom[2][5] = {}, lin[2][3][2] = {};
-                for (int yy = std::max(0, y - r); yy <= std::min(H - 1, y + r); ++yy)
-                    for (int xx = std::max(0, x - r); xx <= std::min(W - 1, x + r); ++xx) {
-                        const size_t q = size_t(yy) * W + xx;
-                        if (!in.use[q] && q != p) continue;
-                        const float* fq = &in.f[q * kF];
+        std::vector<float> sums(size_t(NlmSums::count) * W);
+        auto sum = [&](int h, int k) { return &sums[size_t(h * NlmSums::per_half + k) * W]; };
+        for (int y = y0; y < y1; ++y) {
+            std::fill(sums.begin(), sums.end(), 0.f);
+            const size_t row = size_t(y) * W;
+            // Only the row's span of pixels that saw a surface: the void around a model has
+            // nothing to filter.
+            int first_x = W, end_x = 0;
+            for (int x = 0; x < W; ++x)
+                if (in.f[(row + size_t(x)) * kF + 3] <= 1.5f) { first_x = std::min(first_x, x); end_x = x + 1; }
+            for (int oy = -r; oy <= r; ++oy) {
+                const int yy = y + oy;
+                if (yy < 0 || yy >= H) continue;
+                const float dy = float(oy) / float(r);
+                for (int ox = -r; ox <= r; ++ox) {
+                    const int x0 = std::max(first_x, -ox), x1 = std::min(end_x, W - ox);
+                    const float dx = float(ox) / float(r);
+                    const bool centre = ox == 0 && oy == 0;  // the pixel itself joins its window whatever it saw
+                    const ptrdiff_t off = ptrdiff_t(yy - y) * W + ox;
+                    const float* pl[NlmPlanes::count];
+                    for (int c = 0; c < NlmPlanes::count; ++c) pl[c] = P.at[size_t(c)].data() + row;
+                    float* s0[NlmSums::per_half];
+                    float* s1[NlmSums::per_half];
+                    for (int k = 0; k < NlmSums::per_half; ++k) { s0[k] = sum(0, k); s1[k] = sum(1, k); }
+                    const float m[6] = {1.f, dx, dy, dx * dx, dx * dy, dy * dy};
+#pragma GCC ivdep
+                    for (int x = x0; x < x1; ++x) {
+                        auto P0 = [&](int c) { return pl[c][x]; };
+                        auto Q = [&](int c) { return pl[c][x + off]; };
                         // Geometry: a neighbour on another surface is not one of this pixel's kind.
-                        const double dn = double(fi[0] - fq[0]) * (fi[0] - fq[0]) + double(fi[1] - fq[1]) * (fi[1] - fq[1]) +
-                                          double(fi[2] - fq[2]) * (fi[2] - fq[2]);
-                        const double dz = double(fi[3] - fq[3]) / (0.02 + fi[3]);
-                        const double gf = dn / 0.05 + dz * dz / 0.0025;
-                        if (gf > 9.2) continue;  // a weight below 1e-4
-                        const double vi = v[p], vq = v[q], scale = 1.0 / (3.0 * (kVarFloor + kK2 * (vi + vq)));
-                        const double floor = vi + std::min(vi, vq);
+                        const float e0 = P0(NlmPlanes::nx) - Q(NlmPlanes::nx), e1 = P0(NlmPlanes::ny) - Q(NlmPlanes::ny),
+                                    e2 = P0(NlmPlanes::nz) - Q(NlmPlanes::nz);
+                        const float dz = (P0(NlmPlanes::z) - Q(NlmPlanes::z)) / (0.02f + P0(NlmPlanes::z));
+                        const float gf = (e0 * e0 + e1 * e1 + e2 * e2) / 0.05f + dz * dz / 0.0025f;
+                        // A weight below 1e-4 counts as none; so does a neighbour that saw light directly.
+                        const float keep = (gf <= 9.2f ? 1.f : 0.f) * (centre ? 1.f : Q(NlmPlanes::use));
+                        const float vi = P0(NlmPlanes::var), vq = Q(NlmPlanes::var);
+                        const float scale = 1.f / (3.f * (kVarFloor + kK2 * (vi + vq)));
+                        const float floor = vi + std::min(vi, vq);
+                        float wh[2];
                         for (int h = 0; h < 2; ++h) {
-                            const int o = 3 * (1 - h);  // the other half's guide
-                            double d2 = 0;
+                            const int g = h == 0 ? NlmPlanes::gB : NlmPlanes::gA;  // the other half's guide
+                            float d2 = 0.f;
                             for (int k = 0; k < 3; ++k) {
-                                const double e = double(g[p * kY + o + k]) - g[q * kY + o + k];
+                                const float e = P0(g + k) - Q(g + k);
                                 d2 += e * e - floor;
                             }
-                            const double w = std::exp(float(-gf - std::max(0.0, d2 * scale)));  // float: half the time
-                            wsum[h] += w;
-                            const double dx = double(xx - x) / r, dy = double(yy - y) / r;
-                            double* m = mom[h];
-                            m[0] += w * dx;
-                            m[1] += w * dy;
-                            m[2] += w * dx * dx;
-                            m[3] += w * dx * dy;
-                            m[4] += w * dy * dy;
-                            for (int k = 0; k < 3; ++k) {
-                                const double wy = w * in.y[q * kY + 3 * h + k];
-                                acc[3 * h + k] += wy;
-                                lin[h][k][0] += wy * dx;
-                                lin[h][k][1] += wy * dy;
-                            }
+                            wh[h] = keep * exp_nonpositive(-gf - std::max(0.f, d2 * scale));
                         }
-                    }
-                for (int k = 0; k < kY; ++k) out[p * kY + k] = float(acc[k] / wsum[k / 3] * in.m[p * 3 + k % 3]);
-                for (int h = 0; h < 2; ++h) {
-                    const double* m = mom[h];
-                    const double S = wsum[h];
-                    double A[9] = {S, m[0], m[1], m[0], m[2] + kSlopeRidge * S, m[3], m[1], m[3], m[4] + kSlopeRidge * S};
-                    const bool solved = cholesky(A, 3);
-                    for (int k = 0; k < 3; ++k) {
-                        double z[3] = {acc[3 * h + k], lin[h][k][0], lin[h][k][1]};
-                        if (solved) cholesky_solve(A, 3, z);
-                        else z[0] /= S;
-                        first[p * kY + 3 * h + k] = float(z[0] * in.m[p * 3 + k]);
+                        for (int k = 0; k < 6; ++k) {
+                            s0[k][x] += wh[0] * m[k];
+                            s1[k][x] += wh[1] * m[k];
+                        }
+                        for (int k = 0; k < 3; ++k) {
+                            const float ya = wh[0] * Q(NlmPlanes::yA + k), yb = wh[1] * Q(NlmPlanes::yB + k);
+                            s0[NlmSums::y + 3 * k][x] += ya;
+                            s0[NlmSums::y + 3 * k + 1][x] += ya * dx;
+                            s0[NlmSums::y + 3 * k + 2][x] += ya * dy;
+                            s1[NlmSums::y + 3 * k][x] += yb;
+                            s1[NlmSums::y + 3 * k + 1][x] += yb * dx;
+                            s1[NlmSums::y + 3 * k + 2][x] += yb * dy;
+                        }
                     }
                 }
             }
+            for (int x = 0; x < W; ++x) {
+                const size_t p = row + size_t(x);
+                if (in.f[p * kF + 3] > 1.5f) {  // no surface: nothing to filter
+                    for (int k = 0; k < kY; ++k) out[p * kY + k] = first[p * kY + k] = in.y[p * kY + k] * in.m[p * 3 + k % 3];
+                    continue;
+                }
+                for (int h = 0; h < 2; ++h) {
+                    auto S = [&](int k) { return double(sum(h, k)[x]); };
+                    const double w = S(NlmSums::w);
+                    double A[9] = {w,           S(NlmSums::wx),  S(NlmSums::wy),
+                                   S(NlmSums::wx), S(NlmSums::wxx) + kSlopeRidge * w, S(NlmSums::wxy),
+                                   S(NlmSums::wy), S(NlmSums::wxy), S(NlmSums::wyy) + kSlopeRidge * w};
+                    const bool solved = cholesky(A, 3);
+                    for (int k = 0; k < 3; ++k) {
+                        const double mk = in.m[p * 3 + k];
+                        out[p * kY + 3 * h + k] = float(S(NlmSums::y + 3 * k) / w * mk);
+                        double z[3] = {S(NlmSums::y + 3 * k), S(NlmSums::y + 3 * k + 1), S(NlmSums::y + 3 * k + 2)};
+                        if (solved) cholesky_solve(A, 3, z);
+                        else z[0] /= w;
+                        first[p * kY + 3 * h + k] = float(z[0] * mk);
+                    }
+                }
+            }
+        }
     });
 }
 
