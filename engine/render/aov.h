@@ -82,7 +82,8 @@ inline constexpr AovSet kLightAovs = aov_bit(Aov::emission) | aov_bit(Aov::envir
 // from a second, independent scramble (denoise.h: two independent halves).
 inline constexpr AovSet kSplitHalves = AovSet(1) << 31;
 // What the denoiser reads besides the image.
-inline constexpr AovSet kDenoiseAovs = aov_bit(Aov::albedo) | aov_bit(Aov::normal) | aov_bit(Aov::depth) | kSplitHalves;
+inline constexpr AovSet kDenoiseAovs =
+    aov_bit(Aov::albedo) | aov_bit(Aov::normal) | aov_bit(Aov::depth) | aov_bit(Aov::variance) | kSplitHalves;
 
 // An AOV by its job name; false if there is none.
 bool aov_named(std::string_view name, Aov& out);

@@ -353,5 +353,61 @@ TEST(Denoise, TheRegressionKeepsAGradientWhereTheWindowIsOneSided) {
     }
 }
 
+// Two halves alone cannot tell a highlight the features do not explain from a rare bright path
+// both halves happened to sample: both agree far from their neighbours. The samples' spread
+// does: a highlight's samples agree with each other, a bright path's do not. On a flat field of
+// 32 samples per pixel, isolated pixels twice as bright in both halves, some by one bright
+// sample in each half, some by samples all alike.
+TEST(Denoise, ABrightPathBothHalvesSampledIsFilteredAndAHighlightIsKept) {
+    const int W = 64, H = 48, N = 32;
+    Film f(W, H, false, false, kDenoiseAovs);
+    const AovLayout& l = f.aov_layout;
+    ASSERT_GE(l.offset[size_t(Aov::variance)], 0) << "a denoising film keeps the samples' second moment";
+    std::mt19937 rng(5);
+    const double base = 0.3, sigma_sample = 0.08;  // each half's mean: noise 0.02
+    std::normal_distribution<double> noise(0.0, sigma_sample / std::sqrt(N / 2.0));
+    enum Kind { field, bright_path, highlight };
+    auto kind = [&](int x, int y) {
+        if (x % 8 != 4 || y % 8 != 4) return field;
+        return (x / 8 + y / 8) % 2 ? bright_path : highlight;
+    };
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            const size_t p = size_t(y) * W + x;
+            f.count[p] = N;
+            double* e = &f.aov[p * size_t(l.stride)];
+            const Kind k = kind(x, y);
+            for (int c = 0; c < 3; ++c) {
+                double even = base + noise(rng), odd = base + noise(rng), second = N * (base * base + sigma_sample * sigma_sample);
+                if (k != field) even = odd = 2 * base;
+                // One sample of v in each half of 16 doubles the half's mean: v = base + 16·base.
+                if (k == bright_path) second = (N - 2) * (base * base + sigma_sample * sigma_sample) + 2 * 17 * base * 17 * base;
+                if (k == highlight) second = N * (4 * base * base + sigma_sample * sigma_sample);
+                f.sum_odd[p][c] = odd * (N / 2);
+                f.sum[p][c] = f.sum_odd[p][c] + even * (N / 2);
+                e[l.offset[size_t(Aov::albedo)] + c] = 0.5 * N;
+                e[l.offset[size_t(Aov::variance)] + c] = second;
+            }
+            e[l.offset[size_t(Aov::normal)] + 2] = N;
+            e[l.offset[size_t(Aov::depth)]] = 1.0;
+        }
+    const std::optional<Denoised> d = denoise(f, 2);
+    ASSERT_TRUE(d);
+    int paths = 0, highlights = 0;
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            const double v = d->image.rgb[(size_t(y) * W + x) * 3 + 1];
+            if (kind(x, y) == bright_path) {
+                ++paths;
+                EXPECT_NEAR(v, base, 0.25 * base) << "a bright path both halves sampled (kept, it is 2 * base), at " << x << "," << y;
+            } else if (kind(x, y) == highlight) {
+                ++highlights;
+                EXPECT_NEAR(v, 2 * base, 0.25 * base) << "a highlight, at " << x << "," << y;
+            }
+        }
+    EXPECT_EQ(paths, 24);
+    EXPECT_EQ(highlights, 24);
+}
+
 }  // namespace
 }  // namespace tessera
