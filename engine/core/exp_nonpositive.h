@@ -11,9 +11,10 @@ namespace tessera {
 // 2^i · e^r with i = round(x / ln 2) and r = x − i·ln 2 in [−ln2/2, ln2/2] (Cody and Waite's
 // reduction: ln 2 in two parts, so that r carries no rounding of i·ln 2), e^r by its Taylor
 // series to the sixth power: a relative error of a few float ulps. Below e^-86 it is held at
-// about 2^-125 (the weights compared with it are at least 10⁻⁴). Positive x is not its domain.
+// about 2^-125 (the weights compared with it are at least 10⁻⁴), and so is NaN; positive x
+// gives 1.
 inline float exp_nonpositive(float x) {
-    x = std::max(x, -86.6f);
+    x = x > -86.6f ? std::min(x, 0.f) : -86.6f;  // NaN (an overflowed distance) weighs nothing
     const float i = std::nearbyint(x * 1.44269504f);
     const float r = (x - i * 0.693145751953125f) - i * 1.428606765330187e-06f;
     const float p =

@@ -52,12 +52,13 @@ namespace tessera {
 struct Film;
 
 // The denoiser's working memory per pixel at its peak, counted from denoise.cpp's buffers: the
-// resolved features (28 bytes), its inputs (61), the halves and the light they saw (52), four
-// candidates' halves (96), the NL-means guide (28), the error maps (108, the candidates' bias
-// among them, which the blend's estimate reads), the image (16) and its per-pixel error (4): 393, with the pooling's
-// temporaries (36) living after the NL-means guide is gone. A job's memory bound
-// (Film::bytes_per_pixel) counts it.
-inline constexpr size_t kDenoiseBytesPerPixel = 400;
+// resolved features and the samples' spread (40 bytes), its inputs (61), the halves and the
+// light they saw (52), four candidates' halves (96), the error maps (108, the candidates' bias
+// among them, which the blend's estimate reads), the spread relative two ways and the noise
+// around (20), the image (16) and its per-pixel error (4): 397, with the pooling's temporaries
+// (36). Before them, NL-means' planes (68) and sums (a band's rows) have come and gone. A
+// job's memory bound (Film::bytes_per_pixel) counts it.
+inline constexpr size_t kDenoiseBytesPerPixel = 440;
 
 // The candidates each pixel chooses from. The noisy pixel is the first; the first filter is the
 // one whose bias the others' is measured beyond (denoise.cpp); NL-means is the last (the

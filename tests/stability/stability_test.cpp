@@ -43,6 +43,32 @@ TEST(Stability, EmissionSpanningTwelveOrders) {
     }
 }
 
+// The denoiser at the same twelve orders of light (its NL-means distances and exponentials run
+// in float): the Cornell box's lamps at 1e-6 and 1e6 of their radiance, denoised after every
+// pass: every denoised pixel finite, the image's mean that of the noisy one within 5%, and the
+// estimate a finite number.
+TEST(Stability, DenoisingSpanningTwelveOrders) {
+    for (float scale : {1e-6f, 1e6f}) {
+        SceneDescription d = builtin_scene("cornell_box");
+        for (MaterialDesc& m : d.materials) m.emission *= scale;
+        for (LightDesc& l : d.lights) l.radiance *= scale;
+        RenderSettings s = furnace(4, 0.f, 32, 24, 16);
+        s.denoise = true;
+        const RenderResult r = test::render_desc(d, s);
+        expect_finite(r);
+        ASSERT_TRUE(r.denoised) << "scale " << scale;
+        double noisy = 0, denoised = 0;
+        for (size_t i = 0; i < r.image.rgb.size(); ++i) {
+            ASSERT_TRUE(std::isfinite(r.denoised->image.rgb[i])) << "scale " << scale << ", value " << i;
+            noisy += r.image.rgb[i];
+            denoised += r.denoised->image.rgb[i];
+        }
+        EXPECT_GT(noisy, 0.0);
+        EXPECT_NEAR(denoised / noisy, 1.0, 0.05) << "scale " << scale;
+        EXPECT_TRUE(std::isfinite(r.denoised->est_rel_mse)) << "scale " << scale;
+    }
+}
+
 // Max depth 0 and 100; Russian roulette continuation near 0 and near 1: same expectation.
 // Roulette with continuation probability q multiplies a surviving path by 1/q per bounce: with
 // albedo a the k-th bounce's second moment grows as (a²/q)^k, so for q < a² (0.02 and 0.05

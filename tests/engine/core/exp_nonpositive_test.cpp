@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 namespace tessera {
 namespace {
@@ -25,12 +26,15 @@ TEST(ExpNonpositive, MatchesTheLibraryToAFewUlpsWhereItMatters) {
             worst = std::max(worst, std::abs(double(exp_nonpositive(x)) - want) / want);
         }
     EXPECT_LT(worst, 6e-7);  // a few float ulps (1.2e-7 relative each); 4e-6 without the two-part ln 2
-    // Far below: tiny and positive, never a NaN, an infinity or a negative.
-    for (const float x : {-87.f, -100.f, -1e6f, -std::numeric_limits<float>::infinity()}) {
+    // Far below, and NaN (a distance that overflowed): tiny and positive, never a NaN, an
+    // infinity or a negative; above the domain, 1.
+    for (const float x : {-87.f, -100.f, -1e6f, -std::numeric_limits<float>::infinity(), std::numeric_limits<float>::quiet_NaN()}) {
         const float e = exp_nonpositive(x);
         EXPECT_GE(e, 0.f) << x;
         EXPECT_LT(e, 1e-37f) << x;
     }
+    EXPECT_EQ(exp_nonpositive(3.f), 1.f);
+    EXPECT_EQ(exp_nonpositive(std::numeric_limits<float>::infinity()), 1.f);
 }
 
 }  // namespace
