@@ -49,7 +49,7 @@ TEST(Stability, EmissionSpanningTwelveOrders) {
 // estimate a finite number.
 TEST(Stability, DenoisingSpanningTwelveOrders) {
     for (float scale : {1e-6f, 1e6f}) {
-        SceneDescription d = builtin_scene("cornell_box");
+        SceneDescription d = builtin_scene("builtin:cornell_box");
         for (MaterialDesc& m : d.materials) m.emission *= scale;
         for (LightDesc& l : d.lights) l.radiance *= scale;
         RenderSettings s = furnace(4, 0.f, 32, 24, 16);
