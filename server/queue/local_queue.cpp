@@ -156,6 +156,18 @@ api::JobStatus LocalQueue::cancel(const std::string& id) {
         if (r != running_.end()) {
             r->second->cancel = true;
             r->second->stop = true;
+            // A run that has recorded its pause looks at its marks no more: the job is paused
+            // in the store, and this cancel ends it (the run, seeing the mark, does nothing more).
+            try {
+                const std::optional<JobRecord> rec = store_->get(id);
+                if (rec && rec->state == JobState::paused && store_->finish(id, JobState::canceled, unix_time_s(), "", "")) {
+                    spdlog::info("job {} canceled as its run paused", id);
+                    remove_checkpoints(job_dir(id));
+                    canceled_queued = true;
+                }
+            } catch (const StoreError& e) {
+                throw store_refusal(e);
+            }
         } else if (!canceled_queued) {
             // Paused (or waiting): in neither the queue nor a worker. Its checkpoint goes with it.
             try {
@@ -303,19 +315,12 @@ void LocalQueue::worker() {
         } catch (...) {
             spdlog::error("job {}: unknown exception", rec.id);
         }
-        bool late_cancel = false;
         {
             std::lock_guard<std::mutex> lock(mutex_);
             // Only this run's entry: a job queued again by a pause taken back may run on another
             // worker already.
             if (auto it = running_.find(rec.id); it != running_.end() && it->second == running) running_.erase(it);
-            // A cancel that found this run after run() last looked (while it was recording a pause,
-            // say) marked only this entry; from here on a cancel finds the job in the store. The job
-            // is ours to cancel unless it is queued or running again, where that cancel reached it.
-            late_cancel = running->cancel && running_.find(rec.id) == running_.end() &&
-                          std::none_of(queue_.begin(), queue_.end(), [&](const QueueKey& k) { return k.id == rec.id; });
         }
-        if (late_cancel) cancel_stopped(rec.id);
         publish_state(rec.id);  // finished, failed, canceled, or queued again by a shutdown
         settle_waiting();       // jobs that run after it
         running.reset();
@@ -324,18 +329,20 @@ void LocalQueue::worker() {
 }
 
 void LocalQueue::cancel_stopped(const std::string& id) {
-    std::optional<JobRecord> now;
-    try {
-        now = store_->get(id);
-    } catch (const std::exception& e) {
-        spdlog::error("job {}: cannot read it to cancel it: {}", id, e.what());
-        return;
+    bool canceled = false;
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        try {
+            const std::optional<JobRecord> now = store_->get(id);
+            if (now && now->state == JobState::paused && store_->finish(id, JobState::canceled, unix_time_s(), "", "")) {
+                remove_checkpoints(job_dir(id));
+                canceled = true;
+            }
+        } catch (const std::exception& e) {
+            spdlog::error("job {}: cannot cancel it as its run paused: {}", id, e.what());
+        }
     }
-    if (!now || is_final(now->state)) return;
-    if (until_stored(id, "canceled", [&] { store_->finish(id, JobState::canceled, unix_time_s(), "", ""); })) {
-        remove_checkpoints(job_dir(id));
-        spdlog::info("job {} canceled as its run stopped", id);
-    }
+    if (canceled) spdlog::info("job {} canceled as its run paused", id);
 }
 
 void LocalQueue::release_memory() {
@@ -522,13 +529,17 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         } else if (pausing) {
             if (until_stored(rec.id, "paused", [&] { store_->pause(rec.id); }))
                 spdlog::info("job {} paused; its film is kept in its checkpoint", rec.id);
-            // A resume that came while it was being paused (the store said "running" then): now.
-            bool again = false;
+            // A cancel or a resume that came while it was being paused (the store said
+            // "running" then, so they only marked the run): now. A cancel that comes after this
+            // look finds the job paused in the store and ends it itself.
+            bool again = false, canceled = false;
             {
                 std::lock_guard<std::mutex> lock(mutex_);
-                again = running.resume;
+                canceled = running.cancel;
+                again = running.resume && !canceled;
             }
-            if (again) resume(rec.id);
+            if (canceled) cancel_stopped(rec.id);
+            else if (again) resume(rec.id);
         } else if (until_stored(rec.id, "queued again", [&] { store_->requeue(rec.id); })) {
             if (running.shutdown) {
                 spdlog::warn("job {} interrupted by shutdown; queued again", rec.id);
@@ -574,8 +585,14 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
                 }
                 if (canceled && until_stored(rec.id, "canceled", [&] { store_->finish(rec.id, JobState::canceled, unix_time_s(), "", ""); }))
                     remove_checkpoints(job_dir(rec.id));
-                else if (paused)
-                    until_stored(rec.id, "paused", [&] { store_->pause(rec.id); });
+                else if (paused && until_stored(rec.id, "paused", [&] { store_->pause(rec.id); })) {
+                    bool late = false;  // a cancel that only marked the run while the pause was recorded
+                    {
+                        std::lock_guard<std::mutex> lock(mutex_);
+                        late = running.cancel;
+                    }
+                    if (late) cancel_stopped(rec.id);
+                }
                 // A shutdown leaves it queued: the next start runs it.
             }
             return;

@@ -81,8 +81,8 @@ private:
     // Runs a store change until the store takes it (a full disk, a read-only file: retried
     // with back-off); false if the queue stops first.
     bool until_stored(const std::string& id, const char* what, const std::function<void()>& change);
-    // Cancels a job whose run has stopped and left it paused or queued nowhere: a cancel that
-    // marked the run after the run's last look at its marks.
+    // Cancels a job its run has just recorded as paused, for a cancel that only marked the run
+    // (the store said "running" then); a job resumed or finished meanwhile is left as it is.
     void cancel_stopped(const std::string& id);
     std::string scene_source(const std::string& scene);
 

@@ -68,7 +68,7 @@ public:
 protected:
     void sink_it_(const spdlog::details::log_msg& msg) override {
         if (done_ || std::string_view(msg.payload.data(), msg.payload.size()).find(needle_) == std::string_view::npos) return;
-        done_ = true;  // before acting: what `act` logs comes back here
+        done_ = true;  // before acting: what `act` logs comes back here (on this thread; others may log meanwhile)
         act_();
     }
     void flush_() override {}
@@ -76,7 +76,7 @@ protected:
 private:
     std::string needle_;
     std::function<void()> act_;
-    bool done_ = false;
+    std::atomic<bool> done_{false};
 };
 
 TEST_F(LocalQueueTest, ACancelWhileTheWorkerRecordsAPauseCancelsTheJob) {
