@@ -533,6 +533,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     // sampled makes it huge); pooled as it is, the tail was read as bias over whole
     // neighbourhoods (the Cornell box's estimate at 8 spp, 48×36: 3.6 times the truth, once the
     // rules below let such pixels be filtered).
+    std::vector<float> bias1(n, 0.f);  // the last round's pooled terms
     {
         std::vector<float> noise(n);
         for (size_t p = 0; p < n; ++p) {
@@ -549,7 +550,8 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         // times at 8 spp). A lone bright path barely moves its
         // neighbourhood's pooled bias, so its bound stays near the noise. Where the bias is far
         // above the noise the estimate errs low (docs/denoising.md).
-        std::vector<float> bias(n, 0.f), held(n);
+        std::vector<float>& bias = bias1;
+        std::vector<float> held(n);
         for (int round = 0; round < kBiasRounds; ++round) {
             for (size_t p = 0; p < n; ++p) {
                 const float bound = kBiasClamp * (noise[p] + std::max(0.f, bias[p]));
@@ -557,9 +559,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
             }
             bias = box_mean_within(held, in.use, W, H, kBiasSmooth);
         }
-        cv1 = held;
     }
-    const std::vector<float> bias1 = box_mean_within(cv1, in.use, W, H, kBiasSmooth);
     // Per candidate: its variance, and its bias beyond the first filter's, pooled over the
     // neighbourhood (filtered differences are smooth: a pixel's own value says little that its
     // neighbours do not) and held at zero or more.
