@@ -141,6 +141,26 @@ void for_bands(int height, int threads, Fn&& fn) {
     for (auto& t : pool) t.join();
 }
 
+// Runs fn(x0, x1) for `threads` strips of [0, count) at once: for work whose result does not
+// depend on where the strips are cut.
+template <class Fn>
+void for_strips(int count, int threads, Fn&& fn) {
+    const int parts = std::max(1, std::min(threads, count));
+    std::vector<std::thread> pool;
+    for (int t = 1; t < parts; ++t) pool.emplace_back([&, t] { fn(count * t / parts, count * (t + 1) / parts); });
+    fn(0, count / parts);
+    for (auto& t : pool) t.join();
+}
+
+// Runs fn(p) for every pixel p of a W × H map, bands of rows on `threads` threads: for work
+// that is the pixel's own, so the result does not depend on the threads.
+template <class Fn>
+void for_pixels(int W, int H, int threads, Fn&& fn) {
+    for_bands(H, threads, [&](int y0, int y1) {
+        for (size_t p = size_t(y0) * W, end = size_t(y1) * W; p < end; ++p) fn(p);
+    });
+}
+
 // The candidate of window radius r at every pixel: both halves filtered (kY per pixel).
 void filter(const Inputs& in, int r, int threads, std::vector<float>& out) {
     const int W = in.w, H = in.h;
@@ -209,7 +229,8 @@ void filter_nlm(const Inputs& in, int r, int threads, std::vector<float>& out, s
     // Guides (3×3 means of each half) and their variance per pixel, per half.
     NlmPlanes P;
     for (auto& a : P.at) a.resize(n);
-    for (int y = 0; y < H; ++y)
+    for_bands(H, threads, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
         for (int x = 0; x < W; ++x) {
             const size_t p = size_t(y) * W + x;
             double s[kY] = {}, d = 0;
@@ -236,6 +257,7 @@ void filter_nlm(const Inputs& in, int r, int threads, std::vector<float>& out, s
             for (int k = 0; k < 4; ++k) P.at[NlmPlanes::nx + k][p] = in.f[p * kF + k];
             P.at[NlmPlanes::use][p] = in.use[p] ? 1.f : 0.f;
         }
+    });
     out.assign(n * kY, 0.f);
     first.assign(n * kY, 0.f);
     constexpr float kK2 = 0.45f * 0.45f, kVarFloor = 1e-4f;
@@ -341,52 +363,106 @@ void filter_nlm(const Inputs& in, int r, int threads, std::vector<float>& out, s
     });
 }
 
-// Box mean of a one-channel map over radius r (clipped at the border); rows then columns.
-std::vector<float> box_mean(const std::vector<float>& a, int W, int H, int r) {
-    // Running sums, rows then columns: O(1) per pixel whatever the radius.
+// Box mean of a one-channel map over radius r (clipped at the border); rows then columns, each
+// row and each column a running sum of its own (O(1) per pixel whatever the radius), so bands of
+// rows and strips of columns run on threads of their own and every sum is taken in one order.
+std::vector<float> box_mean(const std::vector<float>& a, int W, int H, int r, int threads) {
     std::vector<double> rows(a.size());
     std::vector<float> out(a.size());
-    for (int y = 0; y < H; ++y) {
-        const float* in = &a[size_t(y) * W];
-        double s = 0;
-        for (int k = 0; k <= std::min(W - 1, r); ++k) s += in[k];
-        for (int x = 0; x < W; ++x) {
-            rows[size_t(y) * W + x] = s / double(std::min(W - 1, x + r) - std::max(0, x - r) + 1);
-            if (x + r + 1 < W) s += in[x + r + 1];
-            if (x - r >= 0) s -= in[x - r];
+    for_bands(H, threads, [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+            const float* in = &a[size_t(y) * W];
+            double s = 0;
+            for (int k = 0; k <= std::min(W - 1, r); ++k) s += in[k];
+            for (int x = 0; x < W; ++x) {
+                rows[size_t(y) * W + x] = s / double(std::min(W - 1, x + r) - std::max(0, x - r) + 1);
+                if (x + r + 1 < W) s += in[x + r + 1];
+                if (x - r >= 0) s -= in[x - r];
+            }
         }
-    }
-    std::vector<double> col(size_t(W), 0.0);
-    for (int k = 0; k <= std::min(H - 1, r); ++k)
-        for (int x = 0; x < W; ++x) col[x] += rows[size_t(k) * W + x];
-    for (int y = 0; y < H; ++y) {
-        const double n = double(std::min(H - 1, y + r) - std::max(0, y - r) + 1);
-        for (int x = 0; x < W; ++x) out[size_t(y) * W + x] = float(col[x] / n);
-        if (y + r + 1 < H)
-            for (int x = 0; x < W; ++x) col[x] += rows[size_t(y + r + 1) * W + x];
-        if (y - r >= 0)
-            for (int x = 0; x < W; ++x) col[x] -= rows[size_t(y - r) * W + x];
-    }
+    });
+    for_strips(W, threads, [&](int x0, int x1) {
+        std::vector<double> col(size_t(x1 - x0), 0.0);
+        for (int k = 0; k <= std::min(H - 1, r); ++k)
+            for (int x = x0; x < x1; ++x) col[size_t(x - x0)] += rows[size_t(k) * W + x];
+        for (int y = 0; y < H; ++y) {
+            const double n = double(std::min(H - 1, y + r) - std::max(0, y - r) + 1);
+            for (int x = x0; x < x1; ++x) out[size_t(y) * W + x] = float(col[size_t(x - x0)] / n);
+            if (y + r + 1 < H)
+                for (int x = x0; x < x1; ++x) col[size_t(x - x0)] += rows[size_t(y + r + 1) * W + x];
+            if (y - r >= 0)
+                for (int x = x0; x < x1; ++x) col[size_t(x - x0)] -= rows[size_t(y - r) * W + x];
+        }
+    });
     return out;
 }
 
-// Box mean of a one-channel map over radius r, each pixel pooled with its own kind only (`kind`
-// 1 or 0): an error estimate of a pixel that saw a lamp or the sky beside it (an edge whose
-// coverage noise no filter removes) says nothing of the surface next to it.
-std::vector<float> box_mean_within(const std::vector<float>& a, const std::vector<uint8_t>& kind, int W, int H, int r) {
-    const size_t n = a.size();
-    std::vector<float> in1(n), in0(n), m1(n);
-    for (size_t p = 0; p < n; ++p) {
-        in1[p] = kind[p] ? a[p] : 0.f;
-        in0[p] = kind[p] ? 0.f : a[p];
-        m1[p] = kind[p] ? 1.f : 0.f;
+// Box means over radius r, each pixel pooled with its own kind only (`kind` 1 or 0): an error
+// estimate of a pixel that saw a lamp or the sky beside it (an edge whose coverage noise no
+// filter removes) says nothing of the surface next to it. Every map of a denoising is pooled
+// over the same kinds, so their share around each pixel is found once.
+class Pooling {
+public:
+    Pooling(const std::vector<uint8_t>& kind, int W, int H, int r, int threads)
+        : kind_(kind), w_(W), h_(H), r_(r), threads_(threads) {
+        std::vector<float> m1(kind.size());
+        for (size_t p = 0; p < kind.size(); ++p) m1[p] = kind[p] ? 1.f : 0.f;
+        share_ = box_mean(m1, W, H, r, threads);
     }
-    const std::vector<float> s1 = box_mean(in1, W, H, r), s0 = box_mean(in0, W, H, r), share = box_mean(m1, W, H, r);
-    std::vector<float> out(n);
-    for (size_t p = 0; p < n; ++p)
-        out[p] = kind[p] ? s1[p] / std::max(share[p], 1e-6f) : s0[p] / std::max(1.f - share[p], 1e-6f);
-    return out;
-}
+    // Both kinds' sums in one pass of rows and one of columns, into scratch kept between calls
+    // (a denoising pools some twenty maps; fresh pages for each cost more than the sums).
+    std::vector<float> operator()(const std::vector<float>& a) const {
+        const int W = w_, H = h_, r = r_;
+        std::vector<double>& rows = rows_;
+        rows.resize(a.size() * 2);
+        for_bands(H, threads_, [&](int y0, int y1) {
+            for (int y = y0; y < y1; ++y) {
+                const size_t row = size_t(y) * W;
+                auto in = [&](int x, int k) { return (kind_[row + x] != 0) == (k == 1) ? double(a[row + x]) : 0.0; };
+                double s[2] = {0, 0};
+                for (int x = 0; x <= std::min(W - 1, r); ++x)
+                    for (int k = 0; k < 2; ++k) s[k] += in(x, k);
+                for (int x = 0; x < W; ++x) {
+                    const double cnt = double(std::min(W - 1, x + r) - std::max(0, x - r) + 1);
+                    for (int k = 0; k < 2; ++k) {
+                        rows[(row + x) * 2 + k] = s[k] / cnt;
+                        if (x + r + 1 < W) s[k] += in(x + r + 1, k);
+                        if (x - r >= 0) s[k] -= in(x - r, k);
+                    }
+                }
+            }
+        });
+        std::vector<float> out(a.size());
+        // A strip of columns per thread: each column's sums are its own whatever the strips, and
+        // wide strips read the rows in long runs.
+        for_strips(W, threads_, [&](int x0, int x1) {
+            const size_t span = size_t(x1 - x0) * 2;
+            std::vector<double> col(span, 0.0);
+            auto add = [&](int y, double sign) {
+                const double* rw = &rows[(size_t(y) * W + x0) * 2];
+                for (size_t i = 0; i < span; ++i) col[i] += sign * rw[i];
+            };
+            for (int y = 0; y <= std::min(H - 1, r); ++y) add(y, 1.0);
+            for (int y = 0; y < H; ++y) {
+                const double cnt = double(std::min(H - 1, y + r) - std::max(0, y - r) + 1);
+                for (int x = x0; x < x1; ++x) {
+                    const size_t p = size_t(y) * W + x;
+                    const double s1 = col[size_t(x - x0) * 2 + 1] / cnt, s0 = col[size_t(x - x0) * 2] / cnt;
+                    out[p] = kind_[p] ? float(s1) / std::max(share_[p], 1e-6f) : float(s0) / std::max(1.f - share_[p], 1e-6f);
+                }
+                if (y + r + 1 < H) add(y + r + 1, 1.0);
+                if (y - r >= 0) add(y - r, -1.0);
+            }
+        });
+        return out;
+    }
+
+private:
+    const std::vector<uint8_t>& kind_;
+    int w_, h_, r_, threads_;
+    std::vector<float> share_;
+    mutable std::vector<double> rows_;
+};
 
 }  // namespace
 
@@ -430,7 +506,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     for (size_t p = 0; p < n; ++p)
         if (depth[p] < float(kNoDepth) * 0.5f) zmax = std::max(zmax, depth[p]);
     const float zscale = zmax > 0.f ? 1.f / zmax : 1.f;
-    for (size_t p = 0; p < n; ++p) {
+    for_pixels(W, H, threads, [&](size_t p) {
         const uint32_t c = film.count[p];
         const double na = double((c + 1) / 2), nb = double(c / 2);
         wa[p] = float(na / double(c));
@@ -455,8 +531,10 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         in.f[p * kF + 3] = depth[p] < float(kNoDepth) * 0.5f ? depth[p] * zscale : 2.f;
         in.f[p * kF + 4] = float(p % size_t(W)) / 16.f;
         in.f[p * kF + 5] = float(p / size_t(W)) / 16.f;
-    }
+    });
 
+    const Pooling pool_wide(in.use, W, H, kSmooth, threads), pool_bias(in.use, W, H, kBiasSmooth, threads),
+        pool_near(in.use, W, H, 1, threads);
     constexpr size_t C = kDenoiseCandidates.size();
     std::array<std::vector<float>, C> halves;  // each candidate's two filtered halves
     for (size_t c = 1; c < C; ++c) {
@@ -465,19 +543,18 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         else if (cand.filter == DenoiseFilter::nlm) filter_nlm(in, cand.radius, threads, halves[c], halves[kNlmRegression]);
         else continue;  // the NL-means regression: made with NL-means, from its weights
     }
-    for (size_t c = 1; c < C; ++c) {
-        for (size_t p = 0; p < n; ++p)
+    halves[0].resize(n * kY);  // the noisy halves themselves
+    for_pixels(W, H, threads, [&](size_t p) {
+        for (size_t c = 1; c < C; ++c)
             for (int k = 0; k < 3; ++k) {
                 halves[c][p * kY + k] += ea[p * 3 + k];
                 halves[c][p * kY + 3 + k] += eb[p * 3 + k];
             }
-    }
-    halves[0].resize(n * kY);  // the noisy halves themselves
-    for (size_t p = 0; p < n; ++p)
         for (int k = 0; k < 3; ++k) {
             halves[0][p * kY + k] = xa[p * 3 + k];
             halves[0][p * kY + 3 + k] = xb[p * 3 + k];
         }
+    });
     auto combined = [&](size_t c, size_t p, int k) {
         return wa[p] * halves[c][p * kY + k] + (1.f - wa[p]) * halves[c][p * kY + 3 + k];
     };
@@ -487,7 +564,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     // where it is bright by chance, its error would be weighed the least.)
     auto at = [&](size_t c, size_t p, int k, int half) { return double(halves[c][p * kY + 3 * half + k]); };
     std::vector<float> q(n * 3);
-    for (size_t p = 0; p < n; ++p)
+    for_pixels(W, H, threads, [&](size_t p) {
         for (int k = 0; k < 3; ++k) {
             // The product of the two halves' outputs: unbiased for the square of the truth, where
             // the square of their mean is too large by its variance (which made every relative
@@ -497,6 +574,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
             const double r2 = std::max(fa * fb, 0.0625 * (fa + fb) * (fa + fb));
             q[p * 3 + k] = float(1.0 / (r2 + kEps));
         }
+    });
     // The pixel's own noise from its samples' spread, relative as `rel` is. Two halves alone
     // cannot tell a highlight the features do not explain from a rare bright path that both
     // halves happened to sample (in a diffuse box at 32 spp, 1.4% of the pixels; they carried
@@ -505,8 +583,9 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     // highlight's samples agree with each other, a bright path's do not.
     std::vector<double> spread_q(n, 0.0), spread0(n, 0.0);
     if (spread)
-        for (size_t p = 0; p < n; ++p)
+        for_pixels(W, H, threads, [&](size_t p) {
             for (int k = 0; k < 3; ++k) spread_q[p] += q[p * 3 + k] * double((*spread)[p * 3 + k]) / 3.0;
+        });
     // Each candidate's error per pixel from the two independent halves A and B; f is the
     // candidate, applied to each. Exactly, with nothing to calibrate:
     //   MSE = [(f(A) − B)² + (f(B) − A)²]/2 − (A − B)²/2 − (f(A) − f(B))²/4         (cross-validation)
@@ -519,7 +598,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     //     ((f_c(A) − f_1(A)) − (f_c(B) − f_1(B)))²/4
     // and for the noisy image, (A − B)²/4.
     std::vector<float> cv1(n);
-    for (size_t p = 0; p < n; ++p) {
+    for_pixels(W, H, threads, [&](size_t p) {
         double e = 0, v = 0;
         for (int k = 0; k < 3; ++k) {
             const double fa = at(1, p, k, 0), fb = at(1, p, k, 1), a = xa[p * 3 + k], b = xb[p * 3 + k];
@@ -527,7 +606,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
             v += q[p * 3 + k] * 0.25 * (fa - fb) * (fa - fb);
         }
         cv1[p] = float((e - v) / 3.0);  // the first filter's bias², per pixel (noisy)
-    }
+    });
     // Each pixel's term held within K times the noise around: (A − μ)(B − μ) is symmetric about
     // zero where the filter has no bias and heavy-tailed (a rare bright path that both halves
     // sampled makes it huge); pooled as it is, the tail was read as bias over whole
@@ -536,12 +615,12 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     std::vector<float> bias1(n, 0.f);  // the last round's pooled terms
     {
         std::vector<float> noise(n);
-        for (size_t p = 0; p < n; ++p) {
+        for_pixels(W, H, threads, [&](size_t p) {
             double v = 0;
             for (int k = 0; k < 3; ++k) v += q[p * 3 + k] * 0.25 * (xa[p * 3 + k] - xb[p * 3 + k]) * (xa[p * 3 + k] - xb[p * 3 + k]);
             noise[p] = float(v / 3.0);
-        }
-        noise = box_mean_within(noise, in.use, W, H, kSmooth);
+        });
+        noise = pool_wide(noise);
         // Where the filter is biased every term is about the bias², which a bound of the noise
         // alone would cut (at 1024 spp the estimate fell to 0.4 of the truth): the bound grows
         // with the bias pooled under the bound before, by up to the noise each round (so to
@@ -553,11 +632,11 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         std::vector<float>& bias = bias1;
         std::vector<float> held(n);
         for (int round = 0; round < kBiasRounds; ++round) {
-            for (size_t p = 0; p < n; ++p) {
+            for_pixels(W, H, threads, [&](size_t p) {
                 const float bound = kBiasClamp * (noise[p] + std::max(0.f, bias[p]));
                 held[p] = std::clamp(cv1[p], -bound, bound);
-            }
-            bias = box_mean_within(held, in.use, W, H, kBiasSmooth);
+            });
+            bias = pool_bias(held);
         }
     }
     // Per candidate: its variance, and its bias beyond the first filter's, pooled over the
@@ -568,7 +647,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         rel[c].resize(n);
         bias_of[c].assign(n, 0.f);
         std::vector<float> bias(n, 0.f);
-        for (size_t p = 0; p < n; ++p) {
+        for_pixels(W, H, threads, [&](size_t p) {
             double v = 0, b = 0;
             for (int k = 0; k < 3; ++k) {
                 const double fa = at(c, p, k, 0), fb = at(c, p, k, 1);
@@ -581,15 +660,15 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
             }
             rel[c][p] = float(v / 3.0);
             bias[p] = float(b / 3.0) + (c > 0 ? bias1[p] : 0.f);
-        }
+        });
         if (c > 0) {
-            bias = box_mean_within(bias, in.use, W, H, kBiasSmooth);
-            for (size_t p = 0; p < n; ++p) {
+            bias = pool_bias(bias);
+            for_pixels(W, H, threads, [&](size_t p) {
                 bias_of[c][p] = std::max(0.f, bias[p]);
                 rel[c][p] += bias_of[c][p];
-            }
+            });
         }
-        pooled[c] = box_mean_within(rel[c], in.use, W, H, kSmooth);
+        pooled[c] = pool_wide(rel[c]);
     }
 
     Denoised d;
@@ -617,7 +696,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     // `kept`: the noisy pixel's own error estimate as the convergence curve takes it
     // (kHalvesProductFloor), for the pixels that keep their value.
     std::vector<float> q0(n * 3), own0(n), kept(n);
-    for (size_t p = 0; p < n; ++p) {
+    for_pixels(W, H, threads, [&](size_t p) {
         double e = 0, ek = 0;
         for (int k = 0; k < 3; ++k) {
             const double a = xa[p * 3 + k], b = xb[p * 3 + k], x = combined(0, p, k), v = 0.25 * (a - b) * (a - b);
@@ -629,8 +708,8 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         kept[p] = float(ek / 3.0);
         if (spread)
             for (int k = 0; k < 3; ++k) spread0[p] += q0[p * 3 + k] * double((*spread)[p * 3 + k]) / 3.0;
-    }
-    const std::vector<float> local0 = box_mean_within(own0, in.use, W, H, 1);
+    });
+    const std::vector<float> local0 = pool_near(own0);
     auto departs = [&](size_t c, size_t p) {
         double d = 0, v = 0;
         for (int k = 0; k < 3; ++k) {
@@ -656,7 +735,8 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     // highlight in part of it) that no estimate notices: measured, two such pixels made the
     // whole loss of the Duck at 16 spp (320×240), twice the noisy image's error.
     std::vector<uint8_t> dark_detail(n, 0);
-    for (int y = 0; y < H; ++y)
+    for_bands(H, threads, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
         for (int x = 0; x < W; ++x) {
             const size_t p = size_t(y) * W + x;
             for (int k = 0; k < 3 && !dark_detail[p]; ++k) {
@@ -669,7 +749,11 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
                     }
             }
         }
-    for (size_t p = 0; p < n; ++p) {
+    });
+    // Each pixel's own; the sums over the image after, in one order whatever the threads.
+    std::vector<double> error_of(n);
+    std::vector<uint8_t> best_of(n);
+    for_pixels(W, H, threads, [&](size_t p) {
         size_t best = 0;
         // A pixel that saw a lamp or the sky in part keeps its value: its colour less that light
         // is its surface's times a coverage known only from the same samples (the mean normal's
@@ -684,7 +768,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
             }
         // Nor where its own estimate here is above what the noisy pixel's is, here or around.
         if (rel[best][p] > std::max(rel[0][p], pooled[0][p])) best = 0;
-        ++taken[best];
+        best_of[p] = uint8_t(best);
         if (candidates) candidates->taken[p] = uint8_t(best);
         // A filtered pixel is the blend of the noisy pixel and every candidate not refused there,
         // each weighed by the inverse square of its pooled estimate (so the best leads): their
@@ -725,8 +809,12 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         if (best == 0) e = kept[p];
         d.error[p] = float(e);
         d.image.sample_count[p] = float(film.count[p]);
-        est += e;
+        error_of[p] = e;
+    });
+    for (size_t p = 0; p < n; ++p) {
+        est += error_of[p];
         noisy_est += kept[p];
+        ++taken[best_of[p]];
     }
     d.est_rel_mse = est / double(n);
     d.noisy_est_rel_mse = noisy_est / double(n);
