@@ -403,8 +403,9 @@ std::vector<float> box_mean(const std::vector<float>& a, int W, int H, int r, in
 // over the same kinds, so their share around each pixel is found once.
 class Pooling {
 public:
-    Pooling(const std::vector<uint8_t>& kind, int W, int H, int r, int threads)
-        : kind_(kind), w_(W), h_(H), r_(r), threads_(threads) {
+    // `scratch`: the row sums, which poolings used one after another share.
+    Pooling(const std::vector<uint8_t>& kind, int W, int H, int r, int threads, std::vector<double>& scratch)
+        : kind_(kind), w_(W), h_(H), r_(r), threads_(threads), rows_(scratch) {
         std::vector<float> m1(kind.size());
         for (size_t p = 0; p < kind.size(); ++p) m1[p] = kind[p] ? 1.f : 0.f;
         share_ = box_mean(m1, W, H, r, threads);
@@ -461,7 +462,7 @@ private:
     const std::vector<uint8_t>& kind_;
     int w_, h_, r_, threads_;
     std::vector<float> share_;
-    mutable std::vector<double> rows_;
+    std::vector<double>& rows_;
 };
 
 }  // namespace
@@ -533,8 +534,9 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         in.f[p * kF + 5] = float(p / size_t(W)) / 16.f;
     });
 
-    const Pooling pool_wide(in.use, W, H, kSmooth, threads), pool_bias(in.use, W, H, kBiasSmooth, threads),
-        pool_near(in.use, W, H, 1, threads);
+    std::vector<double> pooling_rows;
+    const Pooling pool_wide(in.use, W, H, kSmooth, threads, pooling_rows),
+        pool_bias(in.use, W, H, kBiasSmooth, threads, pooling_rows), pool_near(in.use, W, H, 1, threads, pooling_rows);
     constexpr size_t C = kDenoiseCandidates.size();
     std::array<std::vector<float>, C> halves;  // each candidate's two filtered halves
     for (size_t c = 1; c < C; ++c) {

@@ -55,9 +55,11 @@ struct Film;
 // resolved features and the samples' spread (40 bytes), its inputs (61), the halves and the
 // light they saw (52), four candidates' halves (96), the error maps (108, the candidates' bias
 // among them, which the blend's estimate reads), the spread relative two ways and the noise
-// around (20), the image (16) and its per-pixel error (4): 397, with the pooling's temporaries
-// (36). Before them, NL-means' planes (68) and sums (a band's rows) have come and gone. A
-// job's memory bound (Film::bytes_per_pixel) counts it.
+// around (20), the image (16), its per-pixel error (4) and that error in double with the blend's
+// leader, summed in pixel order after the threads (9): 406, with the poolings' (32: the kinds'
+// shares at three radii, the row sums they share, a pooled map). Before them, NL-means' planes
+// (68) and sums (a band's rows) have come and gone. A job's memory bound
+// (Film::bytes_per_pixel) counts it.
 inline constexpr size_t kDenoiseBytesPerPixel = 440;
 
 // The candidates each pixel chooses from. The noisy pixel is the first; the first filter is the
