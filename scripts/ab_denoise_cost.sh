@@ -13,6 +13,7 @@ if [ $# -ne 3 ]; then
   exit 2
 fi
 reps=$1 a=$2 b=$3
+case "$reps" in '' | *[!0-9]* | 0) echo "REPS must be a positive whole number, not '$reps'" >&2; exit 2 ;; esac
 root=$(cd "$(dirname "$0")/.." && pwd)
 scene="${TESSERA_SHARED_SCENES:-$root/../shared/scenes}/cs184/sky/CBspheres_lambertian.dae"
 [ -f "$scene" ] || { echo "no scene at $scene" >&2; exit 2; }
@@ -22,15 +23,19 @@ echo "| size | A (s) | B (s) | B, s per megapixel |"
 echo "|---|---:|---:|---:|"
 for size in ${SIZES:-320x240 640x480 1280x960 1920x1440}; do
   w=${size%x*} h=${size#*x}
-  for r in $(seq "$reps"); do
+  times=$(for r in $(seq "$reps"); do
     for bin in A B; do
       exe=$a; [ $bin = B ] && exe=$b
-      t=$("$exe" render "$scene" -r "$w" "$h" -s 4 -m 1 -t 2 --denoise true --guided-sampling false -f "$out/i.exr" 2>&1 |
-        grep -oE 'denoising took [0-9.]+' | grep -oE '[0-9.]+$')
+      "$exe" render "$scene" -r "$w" "$h" -s 4 -m 1 -t 2 --denoise true --guided-sampling false -f "$out/i.exr" \
+        >"$out/log" 2>&1 || { echo "$exe failed at $size:" >&2; tail -5 "$out/log" >&2; exit 1; }
+      t=$(grep -oE 'denoising took [0-9.]+' "$out/log" | grep -oE '[0-9.]+$' || true)
+      [ -n "$t" ] || { echo "$exe printed no denoising time at $size" >&2; exit 1; }
       echo "$bin $t"
     done
-  done | sort -k1,1 -k2,2n | awk -v size="$size" -v w="$w" -v h="$h" '
-    { v[$1] = v[$1] " " $2; n[$1]++; all[$1, n[$1]] = $2 }
-    END { ma = all["A", int((n["A"] + 1) / 2)]; mb = all["B", int((n["B"] + 1) / 2)]
+  done)
+  printf '%s\n' "$times" | sort -k1,1 -k2,2n | awk -v size="$size" -v w="$w" -v h="$h" '
+    function median(k) { return (all[k, int((n[k] + 1) / 2)] + all[k, int(n[k] / 2) + 1]) / 2 }
+    { n[$1]++; all[$1, n[$1]] = $2 }
+    END { ma = median("A"); mb = median("B")
           printf "| %s | %.3f | %.3f | %.2f |\n", size, ma, mb, mb / (w * h / 1e6) }'
 done

@@ -267,13 +267,15 @@ TEST(Denoise, SameImageWhateverTheThreadCount) {
     EXPECT_LT(one.curve.points.front().denoised_est_rel_mse, 0.0);
     for (size_t i = 1; i < one.curve.points.size(); ++i) EXPECT_GE(one.curve.points[i].denoised_est_rel_mse, 0.0);
 
-    // The denoiser alone on the last pass's film, at thread counts that cut its bands of rows and
-    // strips of columns elsewhere (7 strips of a 48-pixel row): the same image, per-pixel error
-    // (every pooling feeds it) and estimate, bit for bit.
+    // The denoiser alone on the last pass's film, at thread counts that share its bands of rows
+    // (32 each: four of a 100-row film) out differently and cut its strips of columns elsewhere
+    // (7 strips of a 48-pixel row): the same image, per-pixel error (every pooling feeds it) and
+    // estimate, bit for bit.
     std::optional<Film> last;
     RenderCallbacks calls;
     calls.on_pass = [&](const PassView& v) { last = v.film; };
     s.threads = 1;
+    s.height = 100;
     render(scene, s, calls);
     ASSERT_TRUE(last);
     const std::optional<Denoised> base = denoise(*last, 1);
