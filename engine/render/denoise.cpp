@@ -363,40 +363,6 @@ void filter_nlm(const Inputs& in, int r, int threads, std::vector<float>& out, s
     });
 }
 
-// Box mean of a one-channel map over radius r (clipped at the border); rows then columns, each
-// row and each column a running sum of its own (O(1) per pixel whatever the radius), so bands of
-// rows and strips of columns run on threads of their own and every sum is taken in one order.
-std::vector<float> box_mean(const std::vector<float>& a, int W, int H, int r, int threads) {
-    std::vector<double> rows(a.size());
-    std::vector<float> out(a.size());
-    for_bands(H, threads, [&](int y0, int y1) {
-        for (int y = y0; y < y1; ++y) {
-            const float* in = &a[size_t(y) * W];
-            double s = 0;
-            for (int k = 0; k <= std::min(W - 1, r); ++k) s += in[k];
-            for (int x = 0; x < W; ++x) {
-                rows[size_t(y) * W + x] = s / double(std::min(W - 1, x + r) - std::max(0, x - r) + 1);
-                if (x + r + 1 < W) s += in[x + r + 1];
-                if (x - r >= 0) s -= in[x - r];
-            }
-        }
-    });
-    for_strips(W, threads, [&](int x0, int x1) {
-        std::vector<double> col(size_t(x1 - x0), 0.0);
-        for (int k = 0; k <= std::min(H - 1, r); ++k)
-            for (int x = x0; x < x1; ++x) col[size_t(x - x0)] += rows[size_t(k) * W + x];
-        for (int y = 0; y < H; ++y) {
-            const double n = double(std::min(H - 1, y + r) - std::max(0, y - r) + 1);
-            for (int x = x0; x < x1; ++x) out[size_t(y) * W + x] = float(col[size_t(x - x0)] / n);
-            if (y + r + 1 < H)
-                for (int x = x0; x < x1; ++x) col[size_t(x - x0)] += rows[size_t(y + r + 1) * W + x];
-            if (y - r >= 0)
-                for (int x = x0; x < x1; ++x) col[size_t(x - x0)] -= rows[size_t(y - r) * W + x];
-        }
-    });
-    return out;
-}
-
 // Box means over radius r, each pixel pooled with its own kind only (`kind` 1 or 0): an error
 // estimate of a pixel that saw a lamp or the sky beside it (an edge whose coverage noise no
 // filter removes) says nothing of the surface next to it. Every map of a denoising is pooled
@@ -406,13 +372,25 @@ public:
     // `scratch`: the row sums, which poolings used one after another share.
     Pooling(const std::vector<uint8_t>& kind, int W, int H, int r, int threads, std::vector<double>& scratch)
         : kind_(kind), w_(W), h_(H), r_(r), threads_(threads), rows_(scratch) {
-        std::vector<float> m1(kind.size());
-        for (size_t p = 0; p < kind.size(); ++p) m1[p] = kind[p] ? 1.f : 0.f;
-        share_ = box_mean(m1, W, H, r, threads);
+        share_.resize(kind.size());
+        means(std::vector<float>(kind.size(), 1.f), [&](size_t p, double, double m1) { share_[p] = float(m1); });
     }
-    // Both kinds' sums in one pass of rows and one of columns, into scratch kept between calls
-    // (a denoising pools some twenty maps; fresh pages for each cost more than the sums).
     std::vector<float> operator()(const std::vector<float>& a) const {
+        std::vector<float> out(a.size());
+        means(a, [&](size_t p, double m0, double m1) {
+            out[p] = kind_[p] ? float(m1) / std::max(share_[p], 1e-6f) : float(m0) / std::max(1.f - share_[p], 1e-6f);
+        });
+        return out;
+    }
+
+private:
+    // emit(p, m0, m1): the box means at p of `a` where the kind is 0 and where it is 1 (zero
+    // elsewhere). Rows then columns, each row's and each column's running sum its own (O(1) per
+    // pixel whatever the radius), so bands of rows and strips of columns run on threads of their
+    // own and every sum is taken in one order. Both kinds in one pass, into scratch kept between
+    // calls (a denoising pools some twenty maps; fresh pages for each cost more than the sums).
+    template <class Emit>
+    void means(const std::vector<float>& a, Emit&& emit) const {
         const int W = w_, H = h_, r = r_;
         std::vector<double>& rows = rows_;
         rows.resize(a.size() * 2);
@@ -433,7 +411,6 @@ public:
                 }
             }
         });
-        std::vector<float> out(a.size());
         // A strip of columns per thread: each column's sums are its own whatever the strips, and
         // wide strips read the rows in long runs.
         for_strips(W, threads_, [&](int x0, int x1) {
@@ -446,19 +423,14 @@ public:
             for (int y = 0; y <= std::min(H - 1, r); ++y) add(y, 1.0);
             for (int y = 0; y < H; ++y) {
                 const double cnt = double(std::min(H - 1, y + r) - std::max(0, y - r) + 1);
-                for (int x = x0; x < x1; ++x) {
-                    const size_t p = size_t(y) * W + x;
-                    const double s1 = col[size_t(x - x0) * 2 + 1] / cnt, s0 = col[size_t(x - x0) * 2] / cnt;
-                    out[p] = kind_[p] ? float(s1) / std::max(share_[p], 1e-6f) : float(s0) / std::max(1.f - share_[p], 1e-6f);
-                }
+                for (int x = x0; x < x1; ++x)
+                    emit(size_t(y) * W + x, col[size_t(x - x0) * 2] / cnt, col[size_t(x - x0) * 2 + 1] / cnt);
                 if (y + r + 1 < H) add(y + r + 1, 1.0);
                 if (y - r >= 0) add(y - r, -1.0);
             }
         });
-        return out;
     }
 
-private:
     const std::vector<uint8_t>& kind_;
     int w_, h_, r_, threads_;
     std::vector<float> share_;

@@ -159,10 +159,8 @@ api::JobStatus LocalQueue::cancel(const std::string& id) {
             // A run that has recorded its pause looks at its marks no more: the job is paused
             // in the store, and this cancel ends it (the run, seeing the mark, does nothing more).
             try {
-                const std::optional<JobRecord> rec = store_->get(id);
-                if (rec && rec->state == JobState::paused && store_->finish(id, JobState::canceled, unix_time_s(), "", "")) {
+                if (cancel_if_paused(id)) {
                     spdlog::info("job {} canceled as its run paused", id);
-                    remove_checkpoints(job_dir(id));
                     canceled_queued = true;
                 }
             } catch (const StoreError& e) {
@@ -328,16 +326,19 @@ void LocalQueue::worker() {
     }
 }
 
+bool LocalQueue::cancel_if_paused(const std::string& id) {
+    const std::optional<JobRecord> now = store_->get(id);
+    if (!now || now->state != JobState::paused || !store_->finish(id, JobState::canceled, unix_time_s(), "", "")) return false;
+    remove_checkpoints(job_dir(id));
+    return true;
+}
+
 void LocalQueue::cancel_stopped(const std::string& id) {
     bool canceled = false;
     {
         std::lock_guard<std::mutex> lock(mutex_);
         try {
-            const std::optional<JobRecord> now = store_->get(id);
-            if (now && now->state == JobState::paused && store_->finish(id, JobState::canceled, unix_time_s(), "", "")) {
-                remove_checkpoints(job_dir(id));
-                canceled = true;
-            }
+            canceled = cancel_if_paused(id);
         } catch (const std::exception& e) {
             spdlog::error("job {}: cannot cancel it as its run paused: {}", id, e.what());
         }

@@ -84,6 +84,9 @@ private:
     // Cancels a job its run has just recorded as paused, for a cancel that only marked the run
     // (the store said "running" then); a job resumed or finished meanwhile is left as it is.
     void cancel_stopped(const std::string& id);
+    // Ends as canceled, with its checkpoints, a job the store holds paused; false for any other
+    // state. The caller holds mutex_; a store that refuses throws StoreError.
+    bool cancel_if_paused(const std::string& id);
     std::string scene_source(const std::string& scene);
 
     // Prepared scenes kept between jobs (bounded by scene_cache_mb).
