@@ -85,9 +85,10 @@ double masked_rel_mse(const Image& img, const Image& ref, const std::vector<uint
     return n ? s / double(n) : 0.0;
 }
 
-// Each candidate's true relMSE over the image, the edges and elsewhere; the blended image's; and a
-// per-pixel choice by the true error (optimistic: it also picks whichever candidate's noise
-// happens to land nearest the truth).
+// Each candidate's true relMSE over the image, the edges and elsewhere, and its variance from its
+// own two halves (what the true error has beyond it is bias and the reference's own error); the
+// blended image's; and a per-pixel choice by the true error (optimistic: it also picks whichever
+// candidate's noise happens to land nearest the truth).
 void print_candidates(const DenoiseCandidates& c, const Image& ref, const Image& chosen, const std::vector<uint8_t>& edges,
                       const std::vector<uint8_t>& rest) {
     const size_t n = c.taken.size();
@@ -102,9 +103,13 @@ void print_candidates(const DenoiseCandidates& c, const Image& ref, const Image&
     struct Sums {
         double all = 0, edge = 0, else_ = 0;
     };
+    const double ne = double(std::count(edges.begin(), edges.end(), 1)), nr = double(std::count(rest.begin(), rest.end(), 1));
+    auto means = [&](const Sums& s) {
+        return std::array<double, 3>{s.all / double(n), ne ? s.edge / ne : 0.0, nr ? s.else_ / nr : 0.0};
+    };
     auto line = [&](const char* name, const Sums& s) {
-        const double ne = double(std::count(edges.begin(), edges.end(), 1)), nr = double(std::count(rest.begin(), rest.end(), 1));
-        std::printf(" %s %.3g (edges %.3g, elsewhere %.3g);", name, s.all / double(n), ne ? s.edge / ne : 0.0, nr ? s.else_ / nr : 0.0);
+        const auto m = means(s);
+        std::printf(" %s %.3g (edges %.3g, elsewhere %.3g);", name, m[0], m[1], m[2]);
     };
     std::vector<double> best(n, 1e300);
     std::array<size_t, kDenoiseCandidates.size()> took{};
@@ -118,7 +123,22 @@ void print_candidates(const DenoiseCandidates& c, const Image& ref, const Image&
             if (edges[p]) s.edge += e;
             else if (rest[p]) s.else_ += e;
         }
-        line(kDenoiseCandidates[k].name, s);
+        // Its variance, (f(A) − f(B))²/4, relative as the error is.
+        Sums v;
+        for (size_t p = 0; p < n; ++p) {
+            double e = 0;
+            for (int j = 0; j < 3; ++j) {
+                const double r = ref.rgb[p * 3 + j], g = c.half_gap[k][p * 3 + j];
+                e += g * g / (r * r + 0.01);
+            }
+            e /= 3.0;
+            v.all += e;
+            if (edges[p]) v.edge += e;
+            else if (rest[p]) v.else_ += e;
+        }
+        const auto m = means(s), mv = means(v);
+        std::printf(" %s %.3g (edges %.3g, elsewhere %.3g), variance by its halves %.3g (%.3g, %.3g);", kDenoiseCandidates[k].name, m[0],
+                    m[1], m[2], mv[0], mv[1], mv[2]);
     }
     Sums chosen_s, oracle;
     for (size_t p = 0; p < n; ++p) {
@@ -130,7 +150,6 @@ void print_candidates(const DenoiseCandidates& c, const Image& ref, const Image&
     }
     line("blended", chosen_s);
     line("per-pixel oracle", oracle);
-    const double nr = double(std::count(rest.begin(), rest.end(), 1));
     std::printf(" leading the blend elsewhere:");
     for (size_t k = 0; k < took.size(); ++k) std::printf(" %.2f", nr ? double(took[k]) / nr : 0.0);
     std::printf("\n");
@@ -157,10 +176,18 @@ int bench_denoise(int argc, char** argv) {
     app.add_flag("--candidates", show_candidates,
                  "after each row, each candidate's true relMSE (whole image, edges and textures, elsewhere), the blended image's, "
                  "and that of a per-pixel choice by the true error (an oracle: what a perfect choice among these candidates reaches)");
+    int seed = 1;
+    app.add_option("--seed", seed, "the renders' seed (the references' is 7): two seeds' images differ by the noise alone, "
+                                   "so their difference measures a candidate's variance without its halves")
+        ->check(CLI::Range(0, 1 << 30));
     app.add_option("--scene", only, "only the scene whose label contains this")->type_name("TEXT");
     app.add_option("--cs184", cs184, "the CS184 scene folder")->type_name("DIR");
     app.add_option("--gltf-pbr", gltf, "the glTF sample models folder")->type_name("DIR");
     if (const auto status = parse_args(app, argc, argv)) return *status;
+    if (seed == 7) {
+        std::fprintf(stderr, "tessera bench denoise: --seed: 7 is the references' seed: the renders would repeat their samples\n");
+        return 2;
+    }
     const std::vector<BenchScene> scenes = {
         {"diffuse Cornell box (CBspheres_lambertian)", cs184 + "/sky/CBspheres_lambertian.dae", ""},
         {"glossy Cornell box (CBspheres_glossy)", cs184 + "/sky/CBspheres_glossy.dae", ""},
@@ -168,8 +195,8 @@ int bench_denoise(int argc, char** argv) {
         {"1,000-lamp room (builtin:lamp_room)", "builtin:lamp_room", ""},
     };
     const int W = size.first, H = size.second;
-    std::printf("denoiser: %dx%d, depth %d, MIS, references of %d spp (seed 7), renders seed 1, %u threads\n\n", W, H, depth, ref_spp,
-                std::max(1u, std::thread::hardware_concurrency()));
+    std::printf("denoiser: %dx%d, depth %d, MIS, references of %d spp (seed 7), renders seed %d, %u threads\n\n", W, H, depth, ref_spp,
+                seed, std::max(1u, std::thread::hardware_concurrency()));
     bool all_better = true, all_tracked = true;
     for (const BenchScene& bs : scenes) {
         if (!only.empty() && bs.label.find(only) == std::string::npos) continue;
@@ -222,7 +249,7 @@ int bench_denoise(int argc, char** argv) {
         for (int spp = 4; spp <= max_spp; spp *= 2) {
             RenderSettings s = base;
             s.spp = spp;
-            s.seed = 1;
+            s.seed = seed;
             s.denoise = true;
             s.guided = !uniform;
             // Denoised after every pass, as a job does; the render's own time is without them.
@@ -277,7 +304,7 @@ int bench_denoise(int argc, char** argv) {
             if (!uniform) {  // the baseline: uniform sampling, no denoiser
                 RenderSettings s = base;
                 s.spp = max_spp;
-                s.seed = 1;
+                s.seed = seed;
                 const RenderResult r = render(scene, s);
                 top = {max_spp, r.stats.render_seconds, 0.0, 0.0, true_error(r.image), 0.0};
             }

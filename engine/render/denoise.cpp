@@ -698,6 +698,9 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         candidates->weight.assign(n * C, 0.f);
         for (size_t c = 0; c < C; ++c) {
             candidates->rgb[c].resize(n * 3);
+            candidates->half_gap[c].resize(n * 3);
+            for (size_t p = 0; p < n; ++p)
+                for (int k = 0; k < 3; ++k) candidates->half_gap[c][p * 3 + k] = float(0.5 * (at(c, p, k, 0) - at(c, p, k, 1)));
             for (size_t p = 0; p < n; ++p)
                 for (int k = 0; k < 3; ++k)
                     candidates->rgb[c][p * 3 + k] = c == 0 ? float(film.sum[p][k] / double(film.count[p])) : combined(c, p, k);

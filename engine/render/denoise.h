@@ -98,6 +98,11 @@ struct DenoiseCandidates {
     std::array<std::vector<float>, kDenoiseCandidates.size()> rgb;  // 3 per pixel, the halves mixed
     std::vector<uint8_t> taken;                               // per pixel, the candidate leading its blend
     std::vector<float> weight;  // per pixel, each candidate's share of the blend (kDenoiseCandidates.size() each)
+    // 3 per pixel, half the gap between the candidate's two filtered halves, (f(A) − f(B))/2: its
+    // square is an estimate of the candidate's variance, which its true error less it leaves as
+    // bias. A cross-filtered candidate's reads low by the covariance its weights give its halves
+    // (docs/denoising.md, "Where the error is").
+    std::array<std::vector<float>, kDenoiseCandidates.size()> half_gap;
 };
 
 // Whether a film carries what the denoiser reads: its odd samples apart (kSplitHalves) and the

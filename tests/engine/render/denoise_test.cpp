@@ -110,9 +110,16 @@ TEST(Denoise, ItsCandidatesAreWhatEachPixelChoseFrom) {
     s.denoise = true;
     std::optional<Denoised> again;
     DenoiseCandidates cands;
+    std::vector<double> gap;  // the film's own halves, (A − B)/2
     RenderCallbacks calls;
     calls.on_pass = [&](const PassView& v) {
-        if (v.spp >= s.spp) again = denoise(v.film, 2, &cands);
+        if (v.spp < s.spp) return;
+        again = denoise(v.film, 2, &cands);
+        for (size_t p = 0; p < v.film.count.size(); ++p) {
+            const double na = double((v.film.count[p] + 1) / 2), nb = double(v.film.count[p] / 2);
+            for (int k = 0; k < 3; ++k)
+                gap.push_back(0.5 * ((v.film.sum[p][k] - v.film.sum_odd[p][k]) / na - v.film.sum_odd[p][k] / nb));
+        }
     };
     const RenderResult r = render(scene, s, calls);
     ASSERT_TRUE(r.denoised);
@@ -151,6 +158,21 @@ TEST(Denoise, ItsCandidatesAreWhatEachPixelChoseFrom) {
             ASSERT_EQ(cands.rgb[0][p * 3 + k], r.image.rgb[p * 3 + k]) << "pixel " << p;
             if (cands.taken[p] == 0) { ASSERT_EQ(again->image.rgb[p * 3 + k], r.image.rgb[p * 3 + k]) << "pixel " << p; }
         }
+    }
+    // Half the gap between each candidate's filtered halves: the noisy one's is the film's own;
+    // every filter narrows it (its variance is lower), none closes it.
+    ASSERT_EQ(gap.size(), n * 3);
+    std::array<double, C> gap2{};
+    for (size_t c = 0; c < C; ++c) {
+        ASSERT_EQ(cands.half_gap[c].size(), n * 3);
+        for (size_t i = 0; i < n * 3; ++i) {
+            if (c == 0) { ASSERT_NEAR(cands.half_gap[0][i], gap[i], 1e-6 * (std::abs(gap[i]) + 1.0)) << "entry " << i; }
+            gap2[c] += double(cands.half_gap[c][i]) * cands.half_gap[c][i];
+        }
+    }
+    for (size_t c = 1; c < C; ++c) {
+        EXPECT_LT(gap2[c], 0.5 * gap2[0]) << kDenoiseCandidates[c].name;
+        EXPECT_GT(gap2[c], 0.0) << kDenoiseCandidates[c].name;
     }
     for (size_t c = 0; c < took.size(); ++c) EXPECT_DOUBLE_EQ(double(took[c]) / double(n), again->share[c]);
     EXPECT_GT(took[0], 0u);
