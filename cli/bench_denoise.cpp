@@ -174,8 +174,9 @@ int bench_denoise(int argc, char** argv) {
     bool show_candidates = false, uniform = false;
     app.add_flag("--uniform", uniform, "renders that denoise sample every pixel alike (guided_sampling false)");
     app.add_flag("--candidates", show_candidates,
-                 "after each row, each candidate's true relMSE (whole image, edges and textures, elsewhere), the blended image's, "
-                 "and that of a per-pixel choice by the true error (an oracle: what a perfect choice among these candidates reaches)");
+                 "after each row, each candidate's true relMSE (whole image, edges and textures, elsewhere) and its variance by its "
+                 "two halves, the blended image's relMSE, and that of a per-pixel choice by the true error (an oracle: what a "
+                 "perfect choice among these candidates reaches)");
     int seed = 1;
     app.add_option("--seed", seed, "the renders' seed (the references' is 7): two seeds' images differ by the noise alone, "
                                    "so their difference measures a candidate's variance without its halves")
