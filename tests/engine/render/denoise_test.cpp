@@ -82,6 +82,18 @@ void expect_tracks_the_truth(const std::string& name) {
 TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthOnTheCornellBox) { expect_tracks_the_truth("builtin:cornell_box"); }
 TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthInTheLampRoom) { expect_tracks_the_truth("builtin:lamp_room"); }
 
+// Through a thin lens the features are noisy too: a defocused pixel's normal and depth are the
+// mean of the surfaces its samples saw, which differ sample by sample, and nothing filters them
+// first. Focused in front of the spheres, every edge is blurred; the denoiser must still gain as
+// on the pinhole's box, and its estimate still track the truth (measured: gains of 35 and 32 at
+// 8 and 32 spp, estimates 1.38 and 0.94 of the truth).
+TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthThroughADefocusedLens) {
+    RenderSettings base = settings(1);
+    base.lens_radius = 0.1f;
+    base.focal_distance = 3.f;  // the nearer sphere is 3.4 away, the back wall 4.6
+    expect_tracks_the_truth(build_render_scene(builtin_scene("builtin:cornell_spheres"), {}), base, Tracking{2048, {8, 32}, 3.0});
+}
+
 // The Duck under the sky at 4 and 8 spp (80×60), where the error is mostly the coverage noise of
 // the pixels that saw the sky in part (kept as they are). Relative to the square of the pixel's own
 // mean, the estimate was 0.44 of the truth on `tessera bench denoise`'s Duck at 4 spp (the mean's
