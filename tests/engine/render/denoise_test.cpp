@@ -84,14 +84,27 @@ TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthInTheLampRoom) { expect
 
 // Through a thin lens the features are noisy too: a defocused pixel's normal and depth are the
 // mean of the surfaces its samples saw, which differ sample by sample, and nothing filters them
-// first. Focused in front of the spheres, every edge is blurred; the denoiser must still gain as
-// on the pinhole's box, and its estimate still track the truth (measured: gains of 35 and 32 at
-// 8 and 32 spp, estimates 1.38 and 0.94 of the truth).
+// first. Focused in front of the spheres, every edge is blurred by several pixels (the image is
+// 17 times its noise away from the pinhole's); the denoiser must still gain as on the pinhole's
+// box (measured: 7.7 and 13.5 times at 8 and 32 spp). Its estimate leans lower here than on the
+// pinhole's images (measured 0.44 and 0.59 of the truth; docs/denoising.md, "Still to come"), so
+// it is held to 0.35-2.
 TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthThroughADefocusedLens) {
     RenderSettings base = settings(1);
-    base.lens_radius = 0.1f;
-    base.focal_distance = 3.f;  // the nearer sphere is 3.4 away, the back wall 4.6
-    expect_tracks_the_truth(build_render_scene(builtin_scene("builtin:cornell_spheres"), {}), base, Tracking{2048, {8, 32}, 3.0});
+    base.lens_radius = 0.4f;
+    base.focal_distance = 2.f;  // the nearer sphere is 3.4 away, the back wall 4.6: blurred by 4-6 pixels
+    const RenderScene scene = build_render_scene(builtin_scene("builtin:cornell_spheres"), {});
+    {
+        // The lens does blur: the defocused image is far from the pinhole's, beyond both their noise.
+        RenderSettings a = base, b = base;
+        a.spp = b.spp = 256;
+        a.estimate_error = b.estimate_error = true;
+        b.lens_radius = 0.f;
+        const RenderResult lens = render(scene, a), pinhole = render(scene, b);
+        const double noise = lens.curve.points.back().est_rel_mse + pinhole.curve.points.back().est_rel_mse;
+        EXPECT_GT(relative_mse(lens.image, pinhole.image), 5.0 * noise);
+    }
+    expect_tracks_the_truth(scene, base, Tracking{2048, {8, 32}, 3.0, 0.35});
 }
 
 // The Duck under the sky at 4 and 8 spp (80×60), where the error is mostly the coverage noise of
