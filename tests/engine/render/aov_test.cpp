@@ -18,6 +18,7 @@
 #include "engine/scene/environment.h"
 #include "engine/scene/procedural.h"
 #include "tests/scratch_dir.h"
+#include "tests/seen_whole.h"
 
 namespace tessera {
 namespace {
@@ -89,7 +90,7 @@ TEST(Aov, LightSplitSumsToTheImageEverywhere) {
     const auto env = std::make_shared<const EnvironmentMap>(build_environment(32, 16, sky, "gradient"));
     for (const Case& c : cases) {
         SCOPED_TRACE(std::string(c.scene) + " direct " + std::to_string(int(c.direct)) + (c.environment ? " +environment" : ""));
-        const RenderScene scene = build_render_scene(builtin_scene(c.scene), {});
+        const RenderScene scene = build_render_scene(test::seen_whole(builtin_scene(c.scene)), {});
         RenderSettings s = small();
         s.direct = c.direct;
         s.output = c.output;
@@ -105,7 +106,7 @@ TEST(Aov, LightSplitSumsToTheImageEverywhere) {
 }
 
 TEST(Aov, TheSplitGoesWhereTheLightDoes) {
-    const RenderScene box = build_render_scene(builtin_scene("builtin:cornell_box"), {});
+    const RenderScene box = build_render_scene(test::seen_whole(builtin_scene("builtin:cornell_box")), {});
     RenderSettings s = small(4, 1);
     const RenderResult direct_only = render(box, s);
     double emission = 0, direct = 0, indirect = 0, glossy = 0, environment = 0;
@@ -179,7 +180,7 @@ TEST(Aov, VarianceIsThatOfThePixelMean) {
     const RenderResult r = render(scene, small(16, 0));
     for (float v : plane(r, Aov::variance).values) EXPECT_EQ(v, 0.f);
     // With bounces the samples differ: the variance of the mean is positive and falls as 1/n.
-    const RenderScene lit = build_render_scene(builtin_scene("builtin:cornell_box"), {});
+    const RenderScene lit = build_render_scene(test::seen_whole(builtin_scene("builtin:cornell_box")), {});
     RenderSettings s = small(8, 3);
     s.sampler = SamplerKind::independent;
     double v8 = 0, v32 = 0;
@@ -193,7 +194,7 @@ TEST(Aov, VarianceIsThatOfThePixelMean) {
 }
 
 TEST(Aov, MultilayerExrNamesChannelsAsCompositorsReadThem) {
-    const RenderScene scene = build_render_scene(builtin_scene("builtin:cornell_spheres"), {});
+    const RenderScene scene = build_render_scene(test::seen_whole(builtin_scene("builtin:cornell_spheres")), {});
     const RenderResult r = render(scene, small(2, 2));
     const std::filesystem::path dir = test::scratch_dir("aov_exr");
     const std::string path = (dir / "passes.exr").string();

@@ -23,18 +23,13 @@
 #include "engine/scene/instancing.h"
 #include "engine/io/scene_loader.h"
 #include "engine/scene/procedural.h"
+#include "tests/seen_whole.h"
 #include "tests/test_paths.h"
 
 namespace tessera {
 namespace {
 
-// A builtin scene seen whole: the Cornell boxes' CS184 camera keeps its focal length in pixels,
-// so a small image would be a crop of the back wall's middle, with no edge, sphere or lamp in it.
-RenderScene whole(const std::string& name) {
-    SceneDescription desc = builtin_scene(name);
-    if (desc.camera) desc.camera->focal_px = 0.f;
-    return build_render_scene(desc, {});
-}
+RenderScene whole(const std::string& name) { return build_render_scene(test::seen_whole(builtin_scene(name)), {}); }
 
 RenderSettings settings(int spp) {
     RenderSettings s;
@@ -137,9 +132,8 @@ TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthThroughADefocusedLens) 
 // lamp's smear, as through the lens above).
 TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthUnderMotionBlur) {
     auto at = [](float time) {
-        SceneDescription d = cornell_spheres();
+        SceneDescription d = test::seen_whole(cornell_spheres());
         CameraDesc c;
-        d.camera->focal_px = 0.f;  // the whole box
         frame_camera(d.camera, scene_bounds(d), c);
         c.look_at += glm::vec3(0.8f * time, 0, 0);
         d.camera = c;

@@ -10,6 +10,7 @@
 #include "tests/engine/render/render_test_util.h"
 #include "tests/test_paths.h"
 #include "tests/test_scale.h"
+#include "tests/seen_whole.h"
 
 namespace tessera {
 namespace {
@@ -90,7 +91,7 @@ TEST(PathIntegratorMaterials, RoughConductorLosesOnlyMaskedEnergy) {
 // normalised Phong lobe. MIS weights use bsdf_pdf, so a density that disagreed with sampling
 // would move the MIS image away from the hemisphere one.
 TEST(PathIntegratorMaterials, StrategiesAgreeOnGlossyMaterials) {
-    SceneDescription d = cornell_spheres();
+    SceneDescription d = test::seen_whole(cornell_spheres());
     MaterialDesc conductor;
     conductor.kind = MaterialKind::microfacet;
     conductor.roughness = 0.2f;
@@ -249,7 +250,7 @@ TEST(PathIntegratorMaterials, GlossyFurnaceKeepsTheModelsAlbedo) {
 // find and whose mirror images only BSDF samples find.
 TEST(PathIntegratorMaterials, StrategiesAgreeOnGltfMetalsAndPlastics) {
     for (float metal_roughness : {0.f, 0.05f, 0.3f}) {
-        SceneDescription d = cornell_spheres();
+        SceneDescription d = test::seen_whole(cornell_spheres());
         d.materials.push_back(gltf_material(1.f, metal_roughness, {1.f, 0.78f, 0.34f}));
         d.spheres[0].material = int(d.materials.size()) - 1;
         d.materials.push_back(gltf_material(0.f, metal_roughness == 0.3f ? 0.15f : 0.f, {0.2f, 0.4f, 0.8f}));
@@ -272,7 +273,7 @@ TEST(PathIntegratorMaterials, Cs184MaterialScenesRenderAsIntended) {
     TESSERA_REQUIRE_CS184(dir);
     for (const char* file : {"CBspheres.dae", "CBspheres_microfacet_al_ag.dae", "CBspheres_glossy.dae", "CBgems.dae",
                              "CBcoil.dae", "CBbunny_microfacet_cu.dae"}) {
-        const SceneDescription d = load_scene(dir + "/sky/" + file);
+        const SceneDescription d = test::seen_whole(load_scene(dir + "/sky/" + file));
         for (const std::string& w : d.warnings) EXPECT_EQ(w.find("rendered as diffuse"), std::string::npos) << file << ": " << w;
         RenderSettings st;
         st.width = 32;

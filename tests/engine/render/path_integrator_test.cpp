@@ -7,6 +7,7 @@
 #include "tests/engine/render/render_test_util.h"
 #include "tests/test_paths.h"
 #include "tests/test_scale.h"
+#include "tests/seen_whole.h"
 
 namespace tessera {
 namespace {
@@ -133,7 +134,7 @@ TEST(PathIntegrator, KnownIrradianceUnderSquareLight) {
 // light pdf error makes light sampling ~35% too bright; this catches anything near that).
 TEST(PathIntegrator, StrategiesAgreeOnCBspheresLambertian) {
     TESSERA_REQUIRE_CS184(dir);
-    const SceneDescription d = load_scene(dir + "/sky/CBspheres_lambertian.dae");
+    const SceneDescription d = test::seen_whole(load_scene(dir + "/sky/CBspheres_lambertian.dae"));
     const RenderScene scene = build_render_scene(d, {});
     RenderSettings st;
     st.width = 64;

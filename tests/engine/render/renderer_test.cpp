@@ -12,6 +12,7 @@
 #include "engine/render/tile_context.h"
 #include "engine/scene/procedural.h"
 #include "tests/engine/render/render_test_util.h"
+#include "tests/seen_whole.h"
 
 namespace tessera {
 namespace {
@@ -111,7 +112,7 @@ TEST(Adaptive, ZeroMeanAndZeroVarianceStopWithoutNaN) {
 }
 
 TEST(Adaptive, NeverExceedsSppAndSpendsMoreAtEdges) {
-    const RenderScene scene = build_render_scene(cornell_spheres(), {});
+    const RenderScene scene = build_render_scene(test::seen_whole(cornell_spheres()), {});
     RenderSettings s = small(256);
     s.width = 80;
     s.height = 60;

@@ -18,6 +18,7 @@
 #include "engine/render/passes.h"
 #include "engine/render/renderer.h"
 #include "engine/scene/procedural.h"
+#include "tests/seen_whole.h"
 
 namespace tessera {
 namespace {
@@ -126,7 +127,7 @@ RenderSettings guided_settings(int spp, int threads) {
 }
 
 TEST(SamplingGuide, AGuidedRenderIsTheSameWhateverTheThreadCountAndSamplesUnevenly) {
-    const RenderScene scene = build_render_scene(builtin_scene("builtin:cornell_box"), {});
+    const RenderScene scene = build_render_scene(test::seen_whole(builtin_scene("builtin:cornell_box")), {});
     const RenderResult one = render(scene, guided_settings(32, 1)), two = render(scene, guided_settings(32, 2));
     ASSERT_TRUE(one.denoised && two.denoised);
     EXPECT_EQ(one.image.rgb, two.image.rgb);
@@ -147,7 +148,7 @@ TEST(SamplingGuide, AGuidedRenderIsTheSameWhateverTheThreadCountAndSamplesUneven
 // mean; the image's mean (each pixel's, averaged) against a uniform render's, over many seeds'
 // worth of pixels: the difference is within 4 standard errors of the two.
 TEST(SamplingGuide, AGuidedImageHasTheUniformImagesMean) {
-    const RenderScene scene = build_render_scene(builtin_scene("builtin:cornell_box"), {});
+    const RenderScene scene = build_render_scene(test::seen_whole(builtin_scene("builtin:cornell_box")), {});
     RenderSettings g = guided_settings(32, 2), u = guided_settings(32, 2);
     u.guided = false;
     u.seed = 11;

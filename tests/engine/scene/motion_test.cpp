@@ -19,6 +19,7 @@
 #include "engine/scene/instancing.h"
 #include "engine/scene/procedural.h"
 #include "engine/scene/render_scene.h"
+#include "tests/seen_whole.h"
 
 namespace tessera {
 namespace {
@@ -177,7 +178,7 @@ TEST(Motion, DeformingMeshesBlurToTheMeanOfStills) {
 }
 
 TEST(Motion, AMovingCameraBlursToTheMeanOfStills) {
-    const SceneDescription open = cornell_spheres();
+    const SceneDescription open = test::seen_whole(cornell_spheres());
     auto at = [&](float time) {
         SceneDescription d = open;
         CameraDesc c;
@@ -206,7 +207,7 @@ TEST(Motion, AShutterOverAStillSceneRendersTheStill) {
 // they send is the stills' (a lamp sampled where it was at the opening, or with the opening's
 // density, would light the wrong wall or lose light), by every way of picking lights.
 SceneDescription cornell_with_moving_lights(float time) {
-    SceneDescription d = cornell_box();
+    SceneDescription d = test::seen_whole(cornell_box());
     for (MeshDesc& m : d.meshes)
         if (m.material >= 0 && d.materials[size_t(m.material)].emits())
             for (glm::vec3& p : m.positions) p += time * glm::vec3(0.3f, 0.f, -0.2f);
@@ -235,7 +236,7 @@ TEST(Motion, MovingEmittersAndLightsBlurToTheMeanOfStills) {
 // changes within the shutter, so a sample's density must be the area at the path's time.
 TEST(Motion, AGrowingEmittingPlacementBlursToTheMeanOfStills) {
     auto at = [](float time) {
-        SceneDescription d = cornell_box();
+        SceneDescription d = test::seen_whole(cornell_box());
         for (size_t k = 0; k < d.meshes.size(); ++k)
             if (d.meshes[k].material >= 0 && d.materials[size_t(d.meshes[k].material)].emits()) {
                 MeshDesc lamp = d.meshes[k];

@@ -26,6 +26,7 @@ const std::string kExrMagic("\x76\x2f\x31\x01", 4);
 TEST_F(Server, PassesAndTheDenoisedImageAreServed) {
     start();
     json job = kSmallJob;
+    job["scene"] = "cornell_box";  // the glTF: the whole box at any size (the builtin's CS184 camera would crop to the back wall)
     job["spp"] = 8;
     job["max_depth"] = 3;
     job["passes"] = {"albedo", "depth", "diffuse_direct", "glossy_indirect", "crypto_object"};
