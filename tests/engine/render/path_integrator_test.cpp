@@ -147,7 +147,7 @@ TEST(PathIntegrator, StrategiesAgreeOnCBspheresLambertian) {
 
 // Russian roulette changes the variance, never the mean (a Cornell box, depth 4).
 TEST(PathIntegrator, RussianRouletteIsUnbiased) {
-    const RenderScene scene = build_render_scene(cornell_spheres(), {});
+    const RenderScene scene = build_render_scene(test::seen_whole(cornell_spheres()), {});
     double means[2], ses[2];
     int i = 0;
     for (float rr : {0.f, 0.5f}) {
@@ -266,7 +266,7 @@ void expect_equal_means(const test::MeanEstimate& a, const test::MeanEstimate& b
 // Sobol points and independent numbers estimate the same image: the Cornell box with spheres,
 // MIS, three bounces.
 TEST(PathIntegrator, SobolAndIndependentSamplingAgree) {
-    const RenderScene scene = build_render_scene(cornell_spheres(), {});
+    const RenderScene scene = build_render_scene(test::seen_whole(cornell_spheres()), {});
     RenderSettings s;
     s.width = 40;
     s.height = 30;
