@@ -6,10 +6,11 @@
 #   scripts/ab_denoise_cost.sh REPS BIN_A BIN_B
 #   e.g. scripts/ab_denoise_cost.sh 3 /tmp/before/tessera build/release/cli/tessera
 # SIZES (default "320x240 640x480 1280x960 1920x1440"); the scene comes from
-# TESSERA_SHARED_SCENES (default ../shared/scenes).
+# TESSERA_SHARED_SCENES (default ../shared/scenes); EXTRA adds render flags to both (e.g.
+# "-b 0.05 -d 2", a thin lens: the seen light's filter then runs over the lamp's halo).
 set -euo pipefail
 if [ $# -ne 3 ]; then
-  sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//' >&2
+  sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//' >&2
   exit 2
 fi
 reps=$1 a=$2 b=$3
@@ -26,7 +27,7 @@ for size in ${SIZES:-320x240 640x480 1280x960 1920x1440}; do
   times=$(for r in $(seq "$reps"); do
     for bin in A B; do
       exe=$a; [ $bin = B ] && exe=$b
-      "$exe" render "$scene" -r "$w" "$h" -s 4 -m 1 -t 2 --denoise true --guided-sampling false -f "$out/i.exr" \
+      "$exe" render "$scene" -r "$w" "$h" -s 4 -m 1 -t 2 --denoise true --guided-sampling false ${EXTRA:-} -f "$out/i.exr" \
         >"$out/log" 2>&1 || { echo "$exe failed at $size:" >&2; tail -5 "$out/log" >&2; exit 1; }
       t=$(grep -oE 'denoising took [0-9.]+' "$out/log" | grep -oE '[0-9.]+$' || true)
       [ -n "$t" ] || { echo "$exe printed no denoising time at $size" >&2; exit 1; }

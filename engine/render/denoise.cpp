@@ -26,7 +26,8 @@ constexpr int kY = 6;                                     // colour over albedo:
 constexpr int kChannels = 1 + kF + kPairs + kY * (1 + kF);  // box-summed per pixel
 constexpr int kBand = 32;                                 // rows per task: fixed, so the sums' order is too
 constexpr int kSmooth = 4;                                // radius over which error estimates are pooled
-constexpr int kBiasSmooth = 3;                            // ... bias estimates, before they are held at zero or more
+constexpr int kBiasSmooth = 3;
+constexpr int kSeenRadius = 4;                            // of the window the light seen directly is filtered over                            // ... bias estimates, before they are held at zero or more
 constexpr float kBiasClamp = 1.f;                           // the first filter's cross-validation per pixel, against the noise around
 constexpr int kBiasRounds = 8;                             // ... and the bias pooled so far, grown this many times
 constexpr double kContradiction = 8.0;                    // a pixel's own error estimate against its noise, to refuse a candidate
@@ -363,6 +364,137 @@ void filter_nlm(const Inputs& in, int r, int threads, std::vector<float>& out, s
     });
 }
 
+// The light seen directly (emitters, the sky), each half averaged by NL-means over a window of
+// radius r with weights from the other half's (cross-filtered, as the colour's candidates are).
+// Through a lens or over a shutter it is a smooth halo whose pixels saw it with a few of their
+// samples or none: a pixel whose samples all missed it has no light of its own to show, and its
+// neighbours have. In focus it is a sharp edge, and its neighbours' light is far from the pixel's
+// beyond both their noise, so they weigh nothing. Only where the seen light is noisy within r of
+// the pixel, and every map only over the box around those pixels (fresh pages cost more than the
+// sums on a megapixel).
+struct SeenFiltered {
+    int x0 = 0, y0 = 0, w = 0, h = 0;  // the box filtered (w = 0: none)
+    std::vector<float> fa, fb;         // 3 per pixel of the box, per half
+    bool in(int x, int y) const { return x >= x0 && y >= y0 && x < x0 + w && y < y0 + h; }
+    size_t at(int x, int y) const { return (size_t(y - y0) * size_t(w) + size_t(x - x0)) * 3; }
+};
+
+SeenFiltered filter_seen(int W, int H, int r, int threads, const std::vector<float>& ea, const std::vector<float>& eb) {
+    SeenFiltered out;
+    // Noisy: the halves differ by more than a thousandth of the light.
+    auto noisy = [&](size_t p) {
+        for (int k = 0; k < 3; ++k) {
+            const float a = ea[p * 3 + k], b = eb[p * 3 + k], d = a - b;
+            if (d * d > 1e-3f * 0.25f * (a + b) * (a + b) + 1e-8f) return true;
+        }
+        return false;
+    };
+    int nx0 = W, nx1 = -1, ny0 = H, ny1 = -1;
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x)
+            if (noisy(size_t(y) * W + x)) nx0 = std::min(nx0, x), nx1 = std::max(nx1, x), ny0 = std::min(ny0, y), ny1 = std::max(ny1, y);
+    if (nx1 < 0) return out;
+    // The guides' box: what the windows of the pixels within r of a noisy one read.
+    const int gx0 = std::max(0, nx0 - 2 * r), gy0 = std::max(0, ny0 - 2 * r);
+    const int gw = std::min(W - 1, nx1 + 2 * r) - gx0 + 1, gh = std::min(H - 1, ny1 + 2 * r) - gy0 + 1;
+    const size_t gn = size_t(gw) * gh;
+    auto global = [&](int gx, int gy) { return size_t(gy0 + gy) * W + size_t(gx0 + gx); };
+    std::vector<uint8_t> is_noisy(gn, 0);
+    for (int y = 0; y < gh; ++y)
+        for (int x = 0; x < gw; ++x) is_noisy[size_t(y) * gw + x] = noisy(global(x, y));
+    // Within d of a noisy pixel (rows, then columns), in the guides' box.
+    auto within = [&](int d) {
+        std::vector<uint8_t> rows(gn, 0), mark(gn, 0);
+        for (int y = 0; y < gh; ++y)
+            for (int x = 0; x < gw; ++x)
+                if (is_noisy[size_t(y) * gw + x])
+                    for (int xx = std::max(0, x - d); xx <= std::min(gw - 1, x + d); ++xx) rows[size_t(y) * gw + xx] = 1;
+        for (int y = 0; y < gh; ++y)
+            for (int x = 0; x < gw; ++x)
+                if (rows[size_t(y) * gw + x])
+                    for (int yy = std::max(0, y - d); yy <= std::min(gh - 1, y + d); ++yy) mark[size_t(yy) * gw + x] = 1;
+        return mark;
+    };
+    const std::vector<uint8_t> near = within(r), read = within(2 * r);  // filtered; their windows
+    // Guides (3×3 means of each half) and their variance, where a window reads them.
+    std::vector<float> gA(gn * 3), gB(gn * 3), var(gn);
+    for_bands(gh, threads, [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y)
+            for (int x = 0; x < gw; ++x) {
+                const size_t g = size_t(y) * gw + x;
+                if (!read[g]) continue;
+                double sa[3] = {}, sb[3] = {}, d = 0;
+                int cnt = 0;
+                for (int dy = -1; dy <= 1; ++dy)
+                    for (int dx = -1; dx <= 1; ++dx) {
+                        const int xx = gx0 + x + dx, yy = gy0 + y + dy;
+                        if (xx < 0 || yy < 0 || xx >= W || yy >= H) continue;
+                        const size_t q = size_t(yy) * W + xx;
+                        for (int k = 0; k < 3; ++k) {
+                            sa[k] += ea[q * 3 + k];
+                            sb[k] += eb[q * 3 + k];
+                            const double e = double(ea[q * 3 + k]) - eb[q * 3 + k];
+                            d += e * e;
+                        }
+                        ++cnt;
+                    }
+                for (int k = 0; k < 3; ++k) {
+                    gA[g * 3 + k] = float(sa[k] / cnt);
+                    gB[g * 3 + k] = float(sb[k] / cnt);
+                }
+                var[g] = float(d / 3.0 / 2.0 / cnt / cnt);
+            }
+    });
+    // The box filtered: the noisy pixels' grown by r.
+    out.x0 = std::max(0, nx0 - r);
+    out.y0 = std::max(0, ny0 - r);
+    out.w = std::min(W - 1, nx1 + r) - out.x0 + 1;
+    out.h = std::min(H - 1, ny1 + r) - out.y0 + 1;
+    out.fa.resize(size_t(out.w) * out.h * 3);
+    out.fb.resize(out.fa.size());
+    constexpr float kK2 = 0.45f * 0.45f;
+    for_bands(out.h, threads, [&](int y0, int y1) {
+        for (int by = y0; by < y1; ++by)
+            for (int bx = 0; bx < out.w; ++bx) {
+                const int x = out.x0 + bx, y = out.y0 + by;
+                const size_t p = size_t(y) * W + x, o = out.at(x, y), g = size_t(y - gy0) * gw + size_t(x - gx0);
+                for (int k = 0; k < 3; ++k) {
+                    out.fa[o + k] = ea[p * 3 + k];
+                    out.fb[o + k] = eb[p * 3 + k];
+                }
+                if (!near[g]) continue;
+                double s[2][3] = {}, w[2] = {};
+                for (int oy = -r; oy <= r; ++oy)
+                    for (int ox = -r; ox <= r; ++ox) {
+                        const int xx = x + ox, yy = y + oy;
+                        if (xx < 0 || yy < 0 || xx >= W || yy >= H) continue;
+                        const size_t q = size_t(yy) * W + xx, gq = size_t(yy - gy0) * gw + size_t(xx - gx0);
+                        const float vi = var[g], vq = var[gq];
+                        const float scale = 1.f / (3.f * (1e-8f + kK2 * (vi + vq)));
+                        const float floor = vi + std::min(vi, vq);
+                        for (int h = 0; h < 2; ++h) {
+                            const std::vector<float>& gd = h == 0 ? gB : gA;  // the other half's guide
+                            float d2 = 0.f;
+                            for (int k = 0; k < 3; ++k) {
+                                const float e = gd[g * 3 + k] - gd[gq * 3 + k];
+                                d2 += e * e - floor;
+                            }
+                            const float wt = exp_nonpositive(-std::max(d2 * scale, 0.f));
+                            if (!(wt > 0.f)) continue;
+                            const std::vector<float>& v = h == 0 ? ea : eb;
+                            for (int k = 0; k < 3; ++k) s[h][k] += double(wt) * v[q * 3 + k];
+                            w[h] += wt;
+                        }
+                    }
+                for (int k = 0; k < 3; ++k) {
+                    if (w[0] > 0) out.fa[o + k] = float(s[0][k] / w[0]);
+                    if (w[1] > 0) out.fb[o + k] = float(s[1][k] / w[1]);
+                }
+            }
+    });
+    return out;
+}
+
 // Box means over radius r, each pixel pooled with its own kind only (`kind` 1 or 0): an error
 // estimate of a pixel that saw a lamp or the sky beside it (an edge whose coverage noise no
 // filter removes) says nothing of the surface next to it. Every map of a denoising is pooled
@@ -696,6 +828,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     if (candidates) {
         candidates->taken.assign(n, 0);
         candidates->weight.assign(n * C, 0.f);
+        candidates->seen_shift.assign(n * 3, 0.f);
         for (size_t c = 0; c < C; ++c) {
             candidates->rgb[c].resize(n * 3);
             candidates->half_gap[c].resize(n * 3);
@@ -788,6 +921,77 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         d.image.sample_count[p] = float(film.count[p]);
         error_of[p] = e;
     });
+    // The light seen directly, blended with its own NL-means (filter_seen) by their estimated
+    // errors, pooled over every pixel around whatever it saw: the seen light's own (its halves'
+    // difference, which a pixel whose samples all missed a halo shows as none while its
+    // neighbours show it) and the filtered light's (its halves' difference, and its bias against
+    // the light as seen, which is unbiased: their squared difference less its variance).
+    const SeenFiltered sf = filter_seen(W, H, kSeenRadius, threads, ea, eb);
+    // Only where the filter moved the light (elsewhere it is the same signal), and only over the
+    // box around those pixels that their poolings read.
+    int bx0 = W, bx1 = -1, by0 = H, by1 = -1;
+    for (int y = sf.y0; y < sf.y0 + sf.h; ++y)
+        for (int x = sf.x0; x < sf.x0 + sf.w; ++x) {
+            const size_t p = size_t(y) * W + x, o = sf.at(x, y);
+            bool moved = false;
+            for (int k = 0; k < 3; ++k) moved = moved || sf.fa[o + k] != ea[p * 3 + k] || sf.fb[o + k] != eb[p * 3 + k];
+            if (moved) bx0 = std::min(bx0, x), bx1 = std::max(bx1, x), by0 = std::min(by0, y), by1 = std::max(by1, y);
+        }
+    if (bx1 >= 0) {
+        constexpr int reach = std::max(kSmooth, kBiasSmooth);
+        bx0 = std::max(0, bx0 - reach), by0 = std::max(0, by0 - reach), bx1 = std::min(W - 1, bx1 + reach), by1 = std::min(H - 1, by1 + reach);
+        const int bw = bx1 - bx0 + 1, bh = by1 - by0 + 1;
+        const size_t bn = size_t(bw) * bh;
+        auto xy = [&](size_t b) { return std::pair<int, int>(bx0 + int(b % size_t(bw)), by0 + int(b / size_t(bw))); };
+        // The filtered light at a pixel of the box (the light as seen outside what was filtered).
+        auto filtered = [&](int x, int y, int k, int half) {
+            const std::vector<float>& raw = half == 0 ? ea : eb;
+            if (!sf.in(x, y)) return raw[(size_t(y) * W + x) * 3 + k];
+            return (half == 0 ? sf.fa : sf.fb)[sf.at(x, y) + k];
+        };
+        std::vector<float> own(bn), fvar(bn), fbias(bn);
+        std::vector<uint8_t> moved(bn, 0);
+        for_pixels(bw, bh, threads, [&](size_t b) {
+            const auto [x, y] = xy(b);
+            const size_t p = size_t(y) * W + x;
+            double o = 0, v = 0, bias = 0;
+            for (int k = 0; k < 3; ++k) {
+                const size_t i = p * 3 + k;
+                const double fa = filtered(x, y, k, 0), fb = filtered(x, y, k, 1);
+                moved[b] = moved[b] || fa != ea[i] || fb != eb[i];
+                const double em = wa[p] * ea[i] + (1.0 - wa[p]) * eb[i], fm = wa[p] * fa + (1.0 - wa[p]) * fb;
+                const double dv = (fa - ea[i]) - (fb - eb[i]);
+                o += q[i] * 0.25 * (double(ea[i]) - eb[i]) * (double(ea[i]) - eb[i]);
+                v += q[i] * 0.25 * (fa - fb) * (fa - fb);
+                bias += q[i] * ((fm - em) * (fm - em) - 0.25 * dv * dv);
+            }
+            own[b] = float(o / 3.0);
+            fvar[b] = float(v / 3.0);
+            fbias[b] = float(bias / 3.0);
+        });
+        const std::vector<uint8_t> every(bn, 1);
+        const Pooling pool_all(every, bw, bh, kSmooth, threads, pooling_rows), pool_all_bias(every, bw, bh, kBiasSmooth, threads, pooling_rows);
+        const std::vector<float> raw_e = pool_all(own), f_e = pool_all(fvar), f_b = pool_all_bias(fbias);
+        for_pixels(bw, bh, threads, [&](size_t b) {
+            const auto [x, y] = xy(b);
+            const size_t p = size_t(y) * W + x;
+            // (Box means of running sums: a map of zeros can come back as ±1e-19.)
+            const double er = raw_e[b], ef = std::max(0.0, double(f_e[b])) + std::max(0.0, double(f_b[b]));
+            if (!moved[b] || !(er > 1e-12)) return;
+            const double w = er / (er + ef);
+            if (!std::isfinite(w)) return;
+            for (int k = 0; k < 3; ++k) {
+                const size_t i = p * 3 + k;
+                const double em = wa[p] * ea[i] + (1.0 - wa[p]) * eb[i];
+                const double fm = wa[p] * double(filtered(x, y, k, 0)) + (1.0 - wa[p]) * double(filtered(x, y, k, 1));
+                d.image.rgb[i] = float(double(d.image.rgb[i]) + w * (fm - em));
+                if (candidates) candidates->seen_shift[i] = float(w * (fm - em));
+            }
+            const double e = std::max(0.0, error_of[p] - double(own[b])) + w * w * ef + (1.0 - w) * (1.0 - w) * er;
+            d.error[p] = float(e);
+            error_of[p] = e;
+        });
+    }
     for (size_t p = 0; p < n; ++p) {
         est += error_of[p];
         noisy_est += kept[p];

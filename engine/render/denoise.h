@@ -58,9 +58,12 @@ struct Film;
 // around (20), the image (16), its per-pixel error (4) and that error in double with the blend's
 // leader, summed in pixel order after the threads (9): 406, with the poolings' (32: the kinds'
 // shares at three radii, the row sums they share, a pooled map). Before them, NL-means' planes
-// (68) and sums (a band's rows) have come and gone. A job's memory bound
-// (Film::bytes_per_pixel) counts it.
-inline constexpr size_t kDenoiseBytesPerPixel = 440;
+// (68) and sums (a band's rows) have come and gone. Then, all of that still held, the light seen
+// directly filtered per half (24; its guides, 28, come and go before) and its blend's maps (its
+// own, the filtered one's variance and bias, each pooled, whether it moved, one kind for every
+// pixel: 26) with two more poolings' shares (8), all at most the whole image: 496.
+// A job's memory bound (Film::bytes_per_pixel) counts it.
+inline constexpr size_t kDenoiseBytesPerPixel = 500;
 
 // The candidates each pixel chooses from. The noisy pixel is the first; the first filter is the
 // one whose bias the others' is measured beyond (denoise.cpp); NL-means is the last (the
@@ -103,6 +106,10 @@ struct DenoiseCandidates {
     // bias. A cross-filtered candidate's reads low by the covariance its weights give its halves
     // (docs/denoising.md, "Where the error is").
     std::array<std::vector<float>, kDenoiseCandidates.size()> half_gap;
+    // 3 per pixel, what the blend of the light seen directly with its own NL-means moved the
+    // pixel by, after the candidates' blend (denoise.cpp, filter_seen): the image is the
+    // candidates' blend plus it.
+    std::vector<float> seen_shift;
 };
 
 // Whether a film carries what the denoiser reads: its odd samples apart (kSplitHalves) and the
