@@ -8,6 +8,7 @@
 #include <thread>
 #include <vector>
 
+#include "engine/core/block_pool.h"
 #include "engine/core/exp_nonpositive.h"
 #include "engine/render/convergence.h"
 #include "engine/render/film.h"
@@ -44,10 +45,10 @@ constexpr double kTau = 0.01, kDelta = 1e-4;
 
 struct Inputs {
     int w = 0, h = 0;
-    std::vector<float> f;   // kF per pixel
-    std::vector<float> y;   // the halves over albedo, kY per pixel
-    std::vector<float> m;   // the albedo they were divided by (1 where there is none), 3 per pixel
-    std::vector<uint8_t> use;  // whether the pixel joins its neighbours' windows (it saw no light directly)
+    PoolVector<float> f;   // kF per pixel
+    PoolVector<float> y;   // the halves over albedo, kY per pixel
+    PoolVector<float> m;   // the albedo they were divided by (1 where there is none), 3 per pixel
+    PoolVector<uint8_t> use;  // whether the pixel joins its neighbours' windows (it saw no light directly)
 };
 
 inline void pixel_channels(const float* f, const float* y, double* v) {
@@ -133,7 +134,9 @@ template <class Fn>
 void for_bands(int height, int threads, Fn&& fn) {
     const int bands = (height + kBand - 1) / kBand;
     std::atomic<int> next{0};
+    BlockPool* const memory = BlockPool::current();
     auto work = [&] {
+        const BlockPool::Use use(memory);
         for (int b; (b = next.fetch_add(1)) < bands;) fn(b * kBand, std::min(height, (b + 1) * kBand));
     };
     std::vector<std::thread> pool;
@@ -147,8 +150,13 @@ void for_bands(int height, int threads, Fn&& fn) {
 template <class Fn>
 void for_strips(int count, int threads, Fn&& fn) {
     const int parts = std::max(1, std::min(threads, count));
+    BlockPool* const memory = BlockPool::current();
     std::vector<std::thread> pool;
-    for (int t = 1; t < parts; ++t) pool.emplace_back([&, t] { fn(count * t / parts, count * (t + 1) / parts); });
+    for (int t = 1; t < parts; ++t)
+        pool.emplace_back([&, t] {
+            const BlockPool::Use use(memory);
+            fn(count * t / parts, count * (t + 1) / parts);
+        });
     fn(0, count / parts);
     for (auto& t : pool) t.join();
 }
@@ -163,11 +171,11 @@ void for_pixels(int W, int H, int threads, Fn&& fn) {
 }
 
 // The candidate of window radius r at every pixel: both halves filtered (kY per pixel).
-void filter(const Inputs& in, int r, int threads, std::vector<float>& out) {
+void filter(const Inputs& in, int r, int threads, PoolVector<float>& out) {
     const int W = in.w, H = in.h;
     out.assign(size_t(W) * H * kY, 0.f);
     for_bands(H, threads, [&](int y0, int y1) {
-        std::vector<double> col(size_t(W) * kChannels, 0.0), v(kChannels), S(kChannels);
+        PoolVector<double> col(size_t(W) * kChannels, 0.0), v(kChannels), S(kChannels);
         auto add_row = [&](int y, double sign) {
             if (y < 0 || y >= H) return;
             for (int x = 0; x < W; ++x) {
@@ -215,7 +223,7 @@ static_assert(kDenoiseCandidates[kNlmRegression].filter == DenoiseFilter::nlm_re
 // What the NL-means loop reads of a pixel, one plane each, so that a row of them is contiguous.
 struct NlmPlanes {
     enum : int { nx, ny, nz, z, var, use, gA, gB = gA + 3, yA = gB + 3, yB = yA + 3, count = yB + 3 };
-    std::array<std::vector<float>, count> at;
+    std::array<PoolVector<float>, count> at;
 };
 
 // Per pixel of a row, what the window's weights sum: per half h, Σw, Σw·{dx, dy, dx², dx·dy,
@@ -224,7 +232,7 @@ struct NlmSums {
     enum : int { w, wx, wy, wxx, wxy, wyy, y = 6, per_half = y + 9, count = 2 * per_half };
 };
 
-void filter_nlm(const Inputs& in, int r, int threads, std::vector<float>& out, std::vector<float>& first) {
+void filter_nlm(const Inputs& in, int r, int threads, PoolVector<float>& out, PoolVector<float>& first) {
     const int W = in.w, H = in.h;
     const size_t n = size_t(W) * H;
     // Guides (3×3 means of each half) and their variance per pixel, per half.
@@ -267,7 +275,7 @@ void filter_nlm(const Inputs& in, int r, int threads, std::vector<float>& out, s
     // pixel's sums still take the offsets in one fixed order, so the image does not depend on
     // the threads.
     for_bands(H, threads, [&](int y0, int y1) {
-        std::vector<float> sums(size_t(NlmSums::count) * W);
+        PoolVector<float> sums(size_t(NlmSums::count) * W);
         auto sum = [&](int h, int k) { return &sums[size_t(h * NlmSums::per_half + k) * W]; };
         for (int y = y0; y < y1; ++y) {
             std::fill(sums.begin(), sums.end(), 0.f);
@@ -374,12 +382,12 @@ void filter_nlm(const Inputs& in, int r, int threads, std::vector<float>& out, s
 // sums on a megapixel).
 struct SeenFiltered {
     int x0 = 0, y0 = 0, w = 0, h = 0;  // the box filtered (w = 0: none)
-    std::vector<float> fa, fb;         // 3 per pixel of the box, per half
+    PoolVector<float> fa, fb;         // 3 per pixel of the box, per half
     bool in(int x, int y) const { return x >= x0 && y >= y0 && x < x0 + w && y < y0 + h; }
     size_t at(int x, int y) const { return (size_t(y - y0) * size_t(w) + size_t(x - x0)) * 3; }
 };
 
-SeenFiltered filter_seen(int W, int H, int r, int threads, const std::vector<float>& ea, const std::vector<float>& eb) {
+SeenFiltered filter_seen(int W, int H, int r, int threads, const PoolVector<float>& ea, const PoolVector<float>& eb) {
     SeenFiltered out;
     // Noisy: the halves differ by more than a thousandth of the light.
     auto noisy = [&](size_t p) {
@@ -399,12 +407,12 @@ SeenFiltered filter_seen(int W, int H, int r, int threads, const std::vector<flo
     const int gw = std::min(W - 1, nx1 + 2 * r) - gx0 + 1, gh = std::min(H - 1, ny1 + 2 * r) - gy0 + 1;
     const size_t gn = size_t(gw) * gh;
     auto global = [&](int gx, int gy) { return size_t(gy0 + gy) * W + size_t(gx0 + gx); };
-    std::vector<uint8_t> is_noisy(gn, 0);
+    PoolVector<uint8_t> is_noisy(gn, 0);
     for (int y = 0; y < gh; ++y)
         for (int x = 0; x < gw; ++x) is_noisy[size_t(y) * gw + x] = noisy(global(x, y));
     // Within d of a noisy pixel (rows, then columns), in the guides' box.
     auto within = [&](int d) {
-        std::vector<uint8_t> rows(gn, 0), mark(gn, 0);
+        PoolVector<uint8_t> rows(gn, 0), mark(gn, 0);
         for (int y = 0; y < gh; ++y)
             for (int x = 0; x < gw; ++x)
                 if (is_noisy[size_t(y) * gw + x])
@@ -415,9 +423,9 @@ SeenFiltered filter_seen(int W, int H, int r, int threads, const std::vector<flo
                     for (int yy = std::max(0, y - d); yy <= std::min(gh - 1, y + d); ++yy) mark[size_t(yy) * gw + x] = 1;
         return mark;
     };
-    const std::vector<uint8_t> near = within(r), read = within(2 * r);  // filtered; their windows
+    const PoolVector<uint8_t> near = within(r), read = within(2 * r);  // filtered; their windows
     // Guides (3×3 means of each half) and their variance, where a window reads them.
-    std::vector<float> gA(gn * 3), gB(gn * 3), var(gn);
+    PoolVector<float> gA(gn * 3), gB(gn * 3), var(gn);
     for_bands(gh, threads, [&](int y0, int y1) {
         for (int y = y0; y < y1; ++y)
             for (int x = 0; x < gw; ++x) {
@@ -473,7 +481,7 @@ SeenFiltered filter_seen(int W, int H, int r, int threads, const std::vector<flo
                         const float scale = 1.f / (3.f * (1e-8f + kK2 * (vi + vq)));
                         const float floor = vi + std::min(vi, vq);
                         for (int h = 0; h < 2; ++h) {
-                            const std::vector<float>& gd = h == 0 ? gB : gA;  // the other half's guide
+                            const PoolVector<float>& gd = h == 0 ? gB : gA;  // the other half's guide
                             float d2 = 0.f;
                             for (int k = 0; k < 3; ++k) {
                                 const float e = gd[g * 3 + k] - gd[gq * 3 + k];
@@ -481,7 +489,7 @@ SeenFiltered filter_seen(int W, int H, int r, int threads, const std::vector<flo
                             }
                             const float wt = exp_nonpositive(-std::max(d2 * scale, 0.f));
                             if (!(wt > 0.f)) continue;
-                            const std::vector<float>& v = h == 0 ? ea : eb;
+                            const PoolVector<float>& v = h == 0 ? ea : eb;
                             for (int k = 0; k < 3; ++k) s[h][k] += double(wt) * v[q * 3 + k];
                             w[h] += wt;
                         }
@@ -502,13 +510,13 @@ SeenFiltered filter_seen(int W, int H, int r, int threads, const std::vector<flo
 class Pooling {
 public:
     // `scratch`: the row sums, which poolings used one after another share.
-    Pooling(const std::vector<uint8_t>& kind, int W, int H, int r, int threads, std::vector<double>& scratch)
+    Pooling(const PoolVector<uint8_t>& kind, int W, int H, int r, int threads, PoolVector<double>& scratch)
         : kind_(kind), w_(W), h_(H), r_(r), threads_(threads), rows_(scratch) {
         share_.resize(kind.size());
-        means(std::vector<float>(kind.size(), 1.f), [&](size_t p, double, double m1) { share_[p] = float(m1); });
+        means(PoolVector<float>(kind.size(), 1.f), [&](size_t p, double, double m1) { share_[p] = float(m1); });
     }
-    std::vector<float> operator()(const std::vector<float>& a) const {
-        std::vector<float> out(a.size());
+    PoolVector<float> operator()(const PoolVector<float>& a) const {
+        PoolVector<float> out(a.size());
         means(a, [&](size_t p, double m0, double m1) {
             out[p] = kind_[p] ? float(m1) / std::max(share_[p], 1e-6f) : float(m0) / std::max(1.f - share_[p], 1e-6f);
         });
@@ -522,9 +530,9 @@ private:
     // own and every sum is taken in one order. Both kinds in one pass, into scratch kept between
     // calls (a denoising pools some twenty maps; fresh pages for each cost more than the sums).
     template <class Emit>
-    void means(const std::vector<float>& a, Emit&& emit) const {
+    void means(const PoolVector<float>& a, Emit&& emit) const {
         const int W = w_, H = h_, r = r_;
-        std::vector<double>& rows = rows_;
+        PoolVector<double>& rows = rows_;
         rows.resize(a.size() * 2);
         for_bands(H, threads_, [&](int y0, int y1) {
             for (int y = y0; y < y1; ++y) {
@@ -547,7 +555,7 @@ private:
         // wide strips read the rows in long runs.
         for_strips(W, threads_, [&](int x0, int x1) {
             const size_t span = size_t(x1 - x0) * 2;
-            std::vector<double> col(span, 0.0);
+            PoolVector<double> col(span, 0.0);
             auto add = [&](int y, double sign) {
                 const double* rw = &rows[(size_t(y) * W + x0) * 2];
                 for (size_t i = 0; i < span; ++i) col[i] += sign * rw[i];
@@ -563,10 +571,10 @@ private:
         });
     }
 
-    const std::vector<uint8_t>& kind_;
+    const PoolVector<uint8_t>& kind_;
     int w_, h_, r_, threads_;
-    std::vector<float> share_;
-    std::vector<double>& rows_;
+    PoolVector<float> share_;
+    PoolVector<double>& rows_;
 };
 
 }  // namespace
@@ -576,27 +584,24 @@ bool can_denoise(const Film& film) {
     return !film.sum_odd.empty() && l.has(Aov::albedo) && l.has(Aov::normal) && l.has(Aov::depth);
 }
 
-std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates* candidates) {
+namespace {
+
+std::optional<Denoised> denoise_in_use(const Film& film, int threads, DenoiseCandidates* candidates) {
     if (!can_denoise(film) || film.sum.empty()) return std::nullopt;
     if (*std::min_element(film.count.begin(), film.count.end()) < 2) return std::nullopt;
-    const auto t0 = std::chrono::steady_clock::now();
     if (threads <= 0) threads = int(std::max(1u, std::thread::hardware_concurrency()));
     const int W = film.width, H = film.height;
     const size_t n = size_t(W) * H;
-    const std::vector<AovPlane> planes = film.resolve_aovs(kDenoiseAovs);
-    auto plane = [&](Aov a) -> const std::vector<float>& {
-        for (const AovPlane& p : planes)
-            if (p.aov == a) return p.values;
-        return planes.front().values;  // can_denoise checked every one is there
+    auto plane = [&](Aov a) {  // can_denoise checked albedo, normal and depth are there
+        PoolVector<float> v(n * size_t(aov_info(a).components));
+        film.resolve_aov(a, v.data());
+        return v;
     };
+    const PoolVector<float> albedo = plane(Aov::albedo), normal = plane(Aov::normal), depth = plane(Aov::depth);
     // The variance of each pixel's mean from its samples' second moment, where the film keeps it
     // (films written before it did not): the rules below that judge a pixel by its own noise.
-    const std::vector<float>* spread = nullptr;
-    for (const AovPlane& p : planes)
-        if (p.aov == Aov::variance) spread = &p.values;
-    const auto& albedo = plane(Aov::albedo);
-    const auto& normal = plane(Aov::normal);
-    const auto& depth = plane(Aov::depth);
+    const PoolVector<float> spread_plane = film.aov_layout.has(Aov::variance) ? plane(Aov::variance) : PoolVector<float>();
+    const PoolVector<float>* spread = spread_plane.empty() ? nullptr : &spread_plane;
 
     Inputs in;
     in.w = W;
@@ -605,8 +610,8 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     in.y.resize(n * kY);
     in.m.resize(n * 3);
     in.use.resize(n);
-    std::vector<float> xa(n * 3), xb(n * 3), wa(n);  // the halves, and the even half's share of the samples
-    std::vector<float> ea(n * 3), eb(n * 3);          // the light each half saw directly
+    PoolVector<float> xa(n * 3), xb(n * 3), wa(n);  // the halves, and the even half's share of the samples
+    PoolVector<float> ea(n * 3), eb(n * 3);          // the light each half saw directly
     float zmax = 0.f;
     for (size_t p = 0; p < n; ++p)
         if (depth[p] < float(kNoDepth) * 0.5f) zmax = std::max(zmax, depth[p]);
@@ -638,11 +643,11 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         in.f[p * kF + 5] = float(p / size_t(W)) / 16.f;
     });
 
-    std::vector<double> pooling_rows;
+    PoolVector<double> pooling_rows;
     const Pooling pool_wide(in.use, W, H, kSmooth, threads, pooling_rows),
         pool_bias(in.use, W, H, kBiasSmooth, threads, pooling_rows), pool_near(in.use, W, H, 1, threads, pooling_rows);
     constexpr size_t C = kDenoiseCandidates.size();
-    std::array<std::vector<float>, C> halves;  // each candidate's two filtered halves
+    std::array<PoolVector<float>, C> halves;  // each candidate's two filtered halves
     for (size_t c = 1; c < C; ++c) {
         const DenoiseCandidate& cand = kDenoiseCandidates[c];
         if (cand.filter == DenoiseFilter::box_regression) filter(in, cand.radius, threads, halves[c]);
@@ -669,7 +674,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     // noise. (Not a box window's: beside a highlight it is wrong both ways; not the noisy pixel:
     // where it is bright by chance, its error would be weighed the least.)
     auto at = [&](size_t c, size_t p, int k, int half) { return double(halves[c][p * kY + 3 * half + k]); };
-    std::vector<float> q(n * 3);
+    PoolVector<float> q(n * 3);
     for_pixels(W, H, threads, [&](size_t p) {
         for (int k = 0; k < 3; ++k) {
             // The product of the two halves' outputs: unbiased for the square of the truth, where
@@ -687,7 +692,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     // 46% of the denoised image's error, every candidate refused by the rules below): both make
     // the halves agree far from their neighbours. The samples' spread tells them apart: a
     // highlight's samples agree with each other, a bright path's do not.
-    std::vector<double> spread_q(n, 0.0), spread0(n, 0.0);
+    PoolVector<double> spread_q(n, 0.0), spread0(n, 0.0);
     if (spread)
         for_pixels(W, H, threads, [&](size_t p) {
             for (int k = 0; k < 3; ++k) spread_q[p] += q[p * 3 + k] * double((*spread)[p * 3 + k]) / 3.0;
@@ -703,7 +708,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     //   its bias beyond the first filter's: (d_c − d_1)² less the variance of d_c − d_1,
     //     ((f_c(A) − f_1(A)) − (f_c(B) − f_1(B)))²/4
     // and for the noisy image, (A − B)²/4.
-    std::vector<float> cv1(n);
+    PoolVector<float> cv1(n);
     for_pixels(W, H, threads, [&](size_t p) {
         double e = 0, v = 0;
         for (int k = 0; k < 3; ++k) {
@@ -718,9 +723,9 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     // sampled makes it huge); pooled as it is, the tail was read as bias over whole
     // neighbourhoods (the Cornell box's estimate at 8 spp, 48×36: 3.6 times the truth, once the
     // rules below let such pixels be filtered).
-    std::vector<float> bias1(n, 0.f);  // the last round's pooled terms
+    PoolVector<float> bias1(n, 0.f);  // the last round's pooled terms
     {
-        std::vector<float> noise(n);
+        PoolVector<float> noise(n);
         for_pixels(W, H, threads, [&](size_t p) {
             double v = 0;
             for (int k = 0; k < 3; ++k) v += q[p * 3 + k] * 0.25 * (xa[p * 3 + k] - xb[p * 3 + k]) * (xa[p * 3 + k] - xb[p * 3 + k]);
@@ -735,8 +740,8 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         // times at 8 spp). A lone bright path barely moves its
         // neighbourhood's pooled bias, so its bound stays near the noise. Where the bias is far
         // above the noise the estimate errs low (docs/denoising.md).
-        std::vector<float>& bias = bias1;
-        std::vector<float> held(n);
+        PoolVector<float>& bias = bias1;
+        PoolVector<float> held(n);
         for (int round = 0; round < kBiasRounds; ++round) {
             for_pixels(W, H, threads, [&](size_t p) {
                 const float bound = kBiasClamp * (noise[p] + std::max(0.f, bias[p]));
@@ -748,11 +753,11 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     // Per candidate: its variance, and its bias beyond the first filter's, pooled over the
     // neighbourhood (filtered differences are smooth: a pixel's own value says little that its
     // neighbours do not) and held at zero or more.
-    std::array<std::vector<float>, C> rel, pooled, bias_of;
+    std::array<PoolVector<float>, C> rel, pooled, bias_of;
     for (size_t c = 0; c < C; ++c) {
         rel[c].resize(n);
         bias_of[c].assign(n, 0.f);
-        std::vector<float> bias(n, 0.f);
+        PoolVector<float> bias(n, 0.f);
         for_pixels(W, H, threads, [&](size_t p) {
             double v = 0, b = 0;
             for (int k = 0; k < 3; ++k) {
@@ -801,7 +806,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     // truth used elsewhere is the NL-means candidate's output, which is the one at fault here.
     // `kept`: the noisy pixel's own error estimate as the convergence curve takes it
     // (kHalvesProductFloor), for the pixels that keep their value.
-    std::vector<float> q0(n * 3), own0(n), kept(n);
+    PoolVector<float> q0(n * 3), own0(n), kept(n);
     for_pixels(W, H, threads, [&](size_t p) {
         double e = 0, ek = 0;
         for (int k = 0; k < 3; ++k) {
@@ -815,7 +820,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         if (spread)
             for (int k = 0; k < 3; ++k) spread0[p] += q0[p * 3 + k] * double((*spread)[p * 3 + k]) / 3.0;
     });
-    const std::vector<float> local0 = pool_near(own0);
+    const PoolVector<float> local0 = pool_near(own0);
     auto departs = [&](size_t c, size_t p) {
         double d = 0, v = 0;
         for (int k = 0; k < 3; ++k) {
@@ -844,7 +849,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     // eye. Every filter carries the bright side into it, and its own noise is large enough (a
     // highlight in part of it) that no estimate notices: measured, two such pixels made the
     // whole loss of the Duck at 16 spp (320×240), twice the noisy image's error.
-    std::vector<uint8_t> dark_detail(n, 0);
+    PoolVector<uint8_t> dark_detail(n, 0);
     for_bands(H, threads, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y)
         for (int x = 0; x < W; ++x) {
@@ -861,8 +866,8 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         }
     });
     // Each pixel's own; the sums over the image after, in one order whatever the threads.
-    std::vector<double> error_of(n);
-    std::vector<uint8_t> best_of(n);
+    PoolVector<double> error_of(n);
+    PoolVector<uint8_t> best_of(n);
     for_pixels(W, H, threads, [&](size_t p) {
         size_t best = 0;
         // A pixel that saw a lamp or the sky in part keeps its value: its colour less that light
@@ -945,12 +950,12 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
         auto xy = [&](size_t b) { return std::pair<int, int>(bx0 + int(b % size_t(bw)), by0 + int(b / size_t(bw))); };
         // The filtered light at a pixel of the box (the light as seen outside what was filtered).
         auto filtered = [&](int x, int y, int k, int half) {
-            const std::vector<float>& raw = half == 0 ? ea : eb;
+            const PoolVector<float>& raw = half == 0 ? ea : eb;
             if (!sf.in(x, y)) return raw[(size_t(y) * W + x) * 3 + k];
             return (half == 0 ? sf.fa : sf.fb)[sf.at(x, y) + k];
         };
-        std::vector<float> own(bn), fvar(bn), fbias(bn);
-        std::vector<uint8_t> moved(bn, 0);
+        PoolVector<float> own(bn), fvar(bn), fbias(bn);
+        PoolVector<uint8_t> moved(bn, 0);
         for_pixels(bw, bh, threads, [&](size_t b) {
             const auto [x, y] = xy(b);
             const size_t p = size_t(y) * W + x;
@@ -969,9 +974,9 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
             fvar[b] = float(v / 3.0);
             fbias[b] = float(bias / 3.0);
         });
-        const std::vector<uint8_t> every(bn, 1);
+        const PoolVector<uint8_t> every(bn, 1);
         const Pooling pool_all(every, bw, bh, kSmooth, threads, pooling_rows), pool_all_bias(every, bw, bh, kBiasSmooth, threads, pooling_rows);
-        const std::vector<float> raw_e = pool_all(own), f_e = pool_all(fvar), f_b = pool_all_bias(fbias);
+        const PoolVector<float> raw_e = pool_all(own), f_e = pool_all(fvar), f_b = pool_all_bias(fbias);
         for_pixels(bw, bh, threads, [&](size_t b) {
             const auto [x, y] = xy(b);
             const size_t p = size_t(y) * W + x;
@@ -1000,7 +1005,20 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     d.est_rel_mse = est / double(n);
     d.noisy_est_rel_mse = noisy_est / double(n);
     for (size_t c = 0; c < C; ++c) d.share[c] = double(taken[c]) / double(n);
-    d.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return d;
+}
+
+}  // namespace
+
+std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates* candidates, BlockPool* memory) {
+    const auto t0 = std::chrono::steady_clock::now();
+    std::optional<Denoised> d;
+    {
+        const BlockPool::Use use(memory);  // every map below, on every thread, takes from it
+        d = denoise_in_use(film, threads, candidates);
+    }
+    if (memory) memory->trim();
+    if (d) d->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return d;
 }
 

@@ -50,6 +50,7 @@
 namespace tessera {
 
 struct Film;
+class BlockPool;
 
 // The denoiser's working memory per pixel at its peak, counted from denoise.cpp's buffers: the
 // resolved features and the samples' spread (40 bytes), its inputs (61), the halves and the
@@ -62,8 +63,12 @@ struct Film;
 // directly filtered per half (24; its guides, 28, come and go before) and its blend's maps (its
 // own, the filtered one's variance and bias, each pooled, whether it moved, one kind for every
 // pixel: 26) with two more poolings' shares (8), all at most the whole image: 496.
-// A job's memory bound (Film::bytes_per_pixel) counts it.
-inline constexpr size_t kDenoiseBytesPerPixel = 500;
+// A render keeps them from one pass to the next (its BlockPool): while it renders, one call's
+// maps, as idle blocks; while it denoises, the blocks in use and those of the last call not yet
+// taken again, which are only the seen light's maps (86, over the box of its noisy pixels,
+// whose size changes from pass to pass): 582. A job's memory bound (Film::bytes_per_pixel)
+// counts it.
+inline constexpr size_t kDenoiseBytesPerPixel = 590;
 
 // The candidates each pixel chooses from. The noisy pixel is the first; the first filter is the
 // one whose bias the others' is measured beyond (denoise.cpp); NL-means is the last (the
@@ -116,7 +121,10 @@ struct DenoiseCandidates {
 // albedo, normal and depth AOVs.
 bool can_denoise(const Film& film);
 // Nothing when a pixel has fewer than two samples (no variance to go by) or the film lacks what
-// can_denoise asks. The result does not depend on `threads`.
-std::optional<Denoised> denoise(const Film& film, int threads = 0, DenoiseCandidates* candidates = nullptr);
+// can_denoise asks. The result does not depend on `threads`. `memory`, kept by a render between
+// its passes, lends the denoiser its maps again instead of fresh pages each pass (block_pool.h);
+// it holds at most one call's maps between calls, which kDenoiseBytesPerPixel counts.
+std::optional<Denoised> denoise(const Film& film, int threads = 0, DenoiseCandidates* candidates = nullptr,
+                                BlockPool* memory = nullptr);
 
 }  // namespace tessera

@@ -70,12 +70,12 @@ std::optional<StopReason> stop_after_pass(const RenderSettings& settings, const 
 }
 
 PassEnd end_pass(const RenderSettings& settings, const PassPlan& plan, const Film& film, const Image* reference, int pass,
-                 int target, uint64_t samples, double seconds, bool out_of_time, bool canceled) {
+                 int target, uint64_t samples, double seconds, bool out_of_time, bool canceled, BlockPool* memory) {
     PassEnd e;
     if (plan.measuring) e.point = measure_error(film, reference);
     else e.point.spp_mean = double(samples) / (double(settings.width) * settings.height);
     if (settings.denoise) {
-        if (auto d = denoise(film, settings.threads)) {
+        if (auto d = denoise(film, settings.threads, nullptr, memory)) {
             e.point.denoised_est_rel_mse = d->est_rel_mse;
             e.point.denoise_seconds = d->seconds;
             if (reference) e.point.denoised_rel_mse = relative_mse(d->image, *reference);

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/core/block_pool.h"
 #include "engine/render/convergence.h"
 #include "engine/render/denoise.h"
 #include "engine/render/film.h"
@@ -78,9 +79,10 @@ struct PassEnd {
 };
 // `film` covers the whole image after pass `pass` (0 first) at `target`; `samples` were taken
 // in all, `seconds` since the render started; `out_of_time` if a tile was cut short by the time
-// limit, `canceled` if the render was stopped.
+// limit, `canceled` if the render was stopped. `memory`: where the denoiser's maps are kept
+// from one pass to the next (denoise.h).
 PassEnd end_pass(const RenderSettings& settings, const PassPlan& plan, const Film& film, const Image* reference, int pass,
-                 int target, uint64_t samples, double seconds, bool out_of_time, bool canceled);
+                 int target, uint64_t samples, double seconds, bool out_of_time, bool canceled, BlockPool* memory = nullptr);
 
 // A tile's error sums at one pass target of a whole-tile task, and when it got there (seconds
 // since the render started, on the clock the caller gives).

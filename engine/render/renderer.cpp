@@ -8,6 +8,7 @@
 #include <mutex>
 #include <thread>
 
+#include "engine/core/block_pool.h"
 #include "engine/render/checkpoint.h"
 #include "engine/render/film.h"
 #include "engine/render/passes.h"
@@ -43,6 +44,7 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
     const auto t0 = Clock::now() - std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(resume ? resume->seconds : 0.0));
     auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
     Film film = resume ? resume->film : Film(settings.width, settings.height, plan.half_buffer, plan.adaptive, plan.aovs);
+    BlockPool denoise_memory;  // the denoiser's maps, from one pass to the next
     // A checkpoint's guided targets only where this render guides, and none beyond its cap (a
     // damaged or foreign file would otherwise ask a pixel for billions of samples).
     if (!film.goal.empty() &&
@@ -178,7 +180,8 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
             }
         }
 
-        PassEnd end = end_pass(settings, plan, film, reference, pass, target, samples_done.load(), elapsed(), stop_time, stop_cancel);
+        PassEnd end = end_pass(settings, plan, film, reference, pass, target, samples_done.load(), elapsed(), stop_time, stop_cancel,
+                               &denoise_memory);
         result.curve.points.push_back(end.point);
         if (end.denoised) result.denoised = end.denoised;
         if (callbacks.on_pass) callbacks.on_pass(PassView{pass, target, end.point, film, end.denoised});

@@ -18,6 +18,7 @@
 #include "api/job_runner.h"
 #include "api/report.h"
 #include "engine/camera/camera.h"
+#include "engine/core/block_pool.h"
 #include "engine/core/scene_error.h"
 #include "engine/io/image_io.h"
 #include "engine/io/scene_loader.h"
@@ -164,6 +165,8 @@ struct RenderNode::Impl {
         Clock::time_point read;
     };
     std::map<std::string, SeenRun> states;
+    // The denoiser's maps, kept from one assembly to the next of whichever job (block_pool.h).
+    BlockPool denoise_memory;
     // Jobs that blocklisted this node (it hands their tasks to others), and the farm's nodes as
     // last read (for a second each): who else could take a task.
     std::set<std::string> blocked_jobs;
@@ -858,7 +861,7 @@ struct RenderNode::Impl {
             return write_results(r, t, *info, std::move(image), film, run, seconds, std::move(result), last);
         }
         const PassEnd end = end_pass(s, plan, film, info->reference ? &*info->reference : nullptr, t.pass, int(run.target),
-                                     run.stats.samples, seconds, run.timed_out, false);
+                                     run.stats.samples, seconds, run.timed_out, false, &denoise_memory);
         if (!end.stop) {
             // Guided sampling's targets for the next pass, a field per tile beside the tiles'
             // films, stored with the pass's advance.

@@ -1,6 +1,7 @@
 // The denoiser against the truth on two small scenes: its image is better than the noisy one and
 // its error estimate lies within 0.5-2x of the error measured against a converged reference;
 // the same image whatever the thread count; nothing to denoise without two samples or the AOVs.
+#include "engine/core/block_pool.h"
 #include "engine/render/denoise.h"
 
 #include <gtest/gtest.h>
@@ -403,6 +404,17 @@ TEST(Denoise, SameImageWhateverTheThreadCount) {
         EXPECT_EQ(d->error, base->error) << threads << " threads";
         EXPECT_EQ(d->est_rel_mse, base->est_rel_mse) << threads << " threads";
     }
+    // With its maps kept between calls, as a render keeps them from pass to pass (their blocks
+    // come back holding the last call's values): the same again, and the blocks were reused.
+    BlockPool memory;
+    for (int call = 0; call < 3; ++call) {
+        const std::optional<Denoised> d = denoise(*last, 2, nullptr, &memory);
+        ASSERT_TRUE(d);
+        EXPECT_EQ(d->image.rgb, base->image.rgb) << "call " << call;
+        EXPECT_EQ(d->error, base->error) << "call " << call;
+        EXPECT_GT(memory.held_bytes(), 0u);
+    }
+    EXPECT_GT(memory.reused(), 0u);
 }
 
 TEST(Denoise, NothingToDenoiseWithoutTwoSamplesOrTheFeatures) {

@@ -1,0 +1,90 @@
+#include "engine/core/block_pool.h"
+
+#include <cstdlib>
+
+#include "engine/core/large_vector.h"
+
+namespace tessera {
+
+namespace {
+
+thread_local BlockPool* t_current = nullptr;
+
+}  // namespace
+
+void* BlockPool::allocate(size_t bytes) {
+    if (bytes < kHugePageBytes) return ::operator new(bytes);
+    const size_t rounded = (bytes + kHugePageBytes - 1) / kHugePageBytes * kHugePageBytes;
+    void* p = std::aligned_alloc(kHugePageBytes, rounded);
+    if (!p) throw std::bad_alloc();
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    ::madvise(p, rounded, MADV_HUGEPAGE);
+#endif
+    return p;
+}
+
+void BlockPool::release(void* p, size_t bytes) noexcept {
+    if (bytes < kHugePageBytes) ::operator delete(p);
+    else std::free(p);
+}
+
+BlockPool::~BlockPool() {
+    for (const Block& b : free_) release(b.p, b.bytes);
+}
+
+void* BlockPool::take(size_t bytes) {
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        for (size_t i = free_.size(); i-- > 0;)
+            if (free_[i].bytes == bytes) {
+                void* p = free_[i].p;
+                free_[i] = free_.back();
+                free_.pop_back();
+                ++reused_;
+                return p;
+            }
+    }
+    return allocate(bytes);
+}
+
+void BlockPool::give(void* block, size_t bytes) noexcept {
+    if (!block) return;
+    std::lock_guard<std::mutex> lock(mutex_);
+    try {
+        free_.push_back({block, bytes, true});
+    } catch (...) {
+        release(block, bytes);  // no room to keep it: give it to the system instead
+    }
+}
+
+void BlockPool::trim() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    size_t kept = 0;
+    for (Block& b : free_) {
+        if (!b.taken_since_trim) {
+            release(b.p, b.bytes);
+            continue;
+        }
+        b.taken_since_trim = false;
+        free_[kept++] = b;
+    }
+    free_.resize(kept);
+}
+
+size_t BlockPool::held_bytes() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    size_t sum = 0;
+    for (const Block& b : free_) sum += b.bytes;
+    return sum;
+}
+
+size_t BlockPool::reused() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return reused_;
+}
+
+BlockPool::Use::Use(BlockPool* pool) : before_(t_current) { t_current = pool; }
+BlockPool::Use::~Use() { t_current = before_; }
+BlockPool* BlockPool::current() noexcept { return t_current; }
+
+}  // namespace tessera
