@@ -220,6 +220,34 @@ constexpr double kSlopeRidge = 0.01;
 constexpr size_t kNlmRegression = 1;  // its place among the candidates
 static_assert(kDenoiseCandidates[kNlmRegression].filter == DenoiseFilter::nlm_regression);
 
+// An NL-means guide at (x, y): the 3×3 means of two halves (3 channels each, `stride` floats
+// apart from pixel to pixel) over the neighbours `joins` admits, into ga and gb; returns the
+// variance of those means, one half's being (A − B)²/2 per channel.
+template <class Joins>
+float guide_3x3(int W, int H, int x, int y, const float* a, const float* b, size_t stride, Joins&& joins, float* ga, float* gb) {
+    double sa[3] = {}, sb[3] = {}, d = 0;
+    int cnt = 0;
+    for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+            const int xx = x + dx, yy = y + dy;
+            if (xx < 0 || yy < 0 || xx >= W || yy >= H) continue;
+            const size_t q = size_t(yy) * W + xx;
+            if (!joins(q)) continue;
+            for (int k = 0; k < 3; ++k) {
+                const double va = a[q * stride + k], vb = b[q * stride + k];
+                sa[k] += va;
+                sb[k] += vb;
+                d += (va - vb) * (va - vb);
+            }
+            ++cnt;
+        }
+    for (int k = 0; k < 3; ++k) {
+        ga[k] = float(sa[k] / cnt);
+        gb[k] = float(sb[k] / cnt);
+    }
+    return float(d / 3.0 / 2.0 / cnt / cnt);
+}
+
 // What the NL-means loop reads of a pixel, one plane each, so that a row of them is contiguous.
 struct NlmPlanes {
     enum : int { nx, ny, nz, z, var, use, gA, gB = gA + 3, yA = gB + 3, yB = yA + 3, count = yB + 3 };
@@ -242,27 +270,13 @@ void filter_nlm(const Inputs& in, int r, int threads, PoolVector<float>& out, Po
     for (int y = y0; y < y1; ++y)
         for (int x = 0; x < W; ++x) {
             const size_t p = size_t(y) * W + x;
-            double s[kY] = {}, d = 0;
-            int cnt = 0;
-            for (int dy = -1; dy <= 1; ++dy)
-                for (int dx = -1; dx <= 1; ++dx) {
-                    const int xx = x + dx, yy = y + dy;
-                    if (xx < 0 || yy < 0 || xx >= W || yy >= H) continue;
-                    const size_t q = size_t(yy) * W + xx;
-                    if (!in.use[q] && q != p) continue;
-                    for (int k = 0; k < kY; ++k) s[k] += in.y[q * kY + k];
-                    for (int k = 0; k < 3; ++k) {
-                        const double e = in.y[q * kY + k] - in.y[q * kY + 3 + k];
-                        d += e * e;
-                    }
-                    ++cnt;
-                }
+            float g[kY];
+            P.at[NlmPlanes::var][p] =
+                guide_3x3(W, H, x, y, in.y.data(), in.y.data() + 3, kY, [&](size_t q) { return in.use[q] || q == p; }, g, g + 3);
             for (int k = 0; k < kY; ++k) {
-                P.at[NlmPlanes::gA + k][p] = float(s[k] / cnt);
+                P.at[NlmPlanes::gA + k][p] = g[k];
                 P.at[NlmPlanes::yA + k][p] = in.y[p * kY + k];
             }
-            // One half's variance is (A − B)²/2 per channel; the 3×3 mean's, that over cnt.
-            P.at[NlmPlanes::var][p] = float(d / 3.0 / 2.0 / cnt / cnt);
             for (int k = 0; k < 4; ++k) P.at[NlmPlanes::nx + k][p] = in.f[p * kF + k];
             P.at[NlmPlanes::use][p] = in.use[p] ? 1.f : 0.f;
         }
@@ -431,26 +445,7 @@ SeenFiltered filter_seen(int W, int H, int r, int threads, const PoolVector<floa
             for (int x = 0; x < gw; ++x) {
                 const size_t g = size_t(y) * gw + x;
                 if (!read[g]) continue;
-                double sa[3] = {}, sb[3] = {}, d = 0;
-                int cnt = 0;
-                for (int dy = -1; dy <= 1; ++dy)
-                    for (int dx = -1; dx <= 1; ++dx) {
-                        const int xx = gx0 + x + dx, yy = gy0 + y + dy;
-                        if (xx < 0 || yy < 0 || xx >= W || yy >= H) continue;
-                        const size_t q = size_t(yy) * W + xx;
-                        for (int k = 0; k < 3; ++k) {
-                            sa[k] += ea[q * 3 + k];
-                            sb[k] += eb[q * 3 + k];
-                            const double e = double(ea[q * 3 + k]) - eb[q * 3 + k];
-                            d += e * e;
-                        }
-                        ++cnt;
-                    }
-                for (int k = 0; k < 3; ++k) {
-                    gA[g * 3 + k] = float(sa[k] / cnt);
-                    gB[g * 3 + k] = float(sb[k] / cnt);
-                }
-                var[g] = float(d / 3.0 / 2.0 / cnt / cnt);
+                var[g] = guide_3x3(W, H, gx0 + x, gy0 + y, ea.data(), eb.data(), 3, [](size_t) { return true; }, &gA[g * 3], &gB[g * 3]);
             }
     });
     // The box filtered: the noisy pixels' grown by r.
@@ -989,8 +984,9 @@ std::optional<Denoised> denoise_in_use(const Film& film, int threads, DenoiseCan
                 const size_t i = p * 3 + k;
                 const double em = wa[p] * ea[i] + (1.0 - wa[p]) * eb[i];
                 const double fm = wa[p] * double(filtered(x, y, k, 0)) + (1.0 - wa[p]) * double(filtered(x, y, k, 1));
-                d.image.rgb[i] = float(double(d.image.rgb[i]) + w * (fm - em));
-                if (candidates) candidates->seen_shift[i] = float(w * (fm - em));
+                const double shift = w * (fm - em);
+                d.image.rgb[i] = float(double(d.image.rgb[i]) + shift);
+                if (candidates) candidates->seen_shift[i] = float(shift);
             }
             const double e = std::max(0.0, error_of[p] - double(own[b])) + w * w * ef + (1.0 - w) * (1.0 - w) * er;
             d.error[p] = float(e);
