@@ -219,6 +219,13 @@ void filter(const Inputs& in, int r, int threads, PoolVector<float>& out) {
 constexpr double kSlopeRidge = 0.01;
 constexpr size_t kNlmRegression = 1;  // its place among the candidates
 static_assert(kDenoiseCandidates[kNlmRegression].filter == DenoiseFilter::nlm_regression);
+// The box regression: NL-means' guides, so it is filtered first.
+constexpr size_t kBoxRegression = 2;
+static_assert(kDenoiseCandidates[kBoxRegression].filter == DenoiseFilter::box_regression &&
+              kBoxRegression < kDenoiseCandidates.size() - 1);
+// The variance of a prefiltered guide, at least this share of the 3×3 mean's (docs/denoising.md:
+// 0.25, 0.4, and the fit's halves alone measured within a few per cent of each other).
+constexpr float kPrefilteredVariance = 0.4f;
 
 // An NL-means guide at (x, y): the 3×3 means of two halves (3 channels each, `stride` floats
 // apart from pixel to pixel) over the neighbours `joins` admits, into ga and gb; returns the
@@ -260,10 +267,12 @@ struct NlmSums {
     enum : int { w, wx, wy, wxx, wxy, wyy, y = 6, per_half = y + 9, count = 2 * per_half };
 };
 
-void filter_nlm(const Inputs& in, int r, int threads, PoolVector<float>& out, PoolVector<float>& first) {
+// `prefiltered`: the box regression's halves, the guides where a pixel joins its neighbours.
+void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& prefiltered, PoolVector<float>& out,
+                PoolVector<float>& first) {
     const int W = in.w, H = in.h;
     const size_t n = size_t(W) * H;
-    // Guides (3×3 means of each half) and their variance per pixel, per half.
+    // Guides (3×3 means of each half, or its box regression: below) and their variance per pixel.
     NlmPlanes P;
     for (auto& a : P.at) a.resize(n);
     for_bands(H, threads, [&](int y0, int y1) {
@@ -276,6 +285,22 @@ void filter_nlm(const Inputs& in, int r, int threads, PoolVector<float>& out, Po
             for (int k = 0; k < kY; ++k) {
                 P.at[NlmPlanes::gA + k][p] = g[k];
                 P.at[NlmPlanes::yA + k][p] = in.y[p * kY + k];
+            }
+            // Where the pixel joins its neighbours' windows, the guide is the half as the box
+            // regression filtered it: its noise is what the weights lose most to ("Where the error
+            // is", docs/denoising.md), and the regression reads its own half and the features
+            // only, so the other half's weights stay independent of this half's noise. Its
+            // variance: a share of the 3×3 mean's (neighbouring fits share most of their window,
+            // so their difference carries less noise than either), or what the fit's two halves
+            // show where that is more (features a lens or a shutter made noisy).
+            if (in.use[p]) {
+                double d = 0;  // the fit's own halves' difference
+                for (int k = 0; k < 3; ++k) {
+                    const double e = double(prefiltered[p * kY + k]) - prefiltered[p * kY + 3 + k];
+                    d += e * e;
+                }
+                for (int k = 0; k < kY; ++k) P.at[NlmPlanes::gA + k][p] = prefiltered[p * kY + k];
+                P.at[NlmPlanes::var][p] = std::max(P.at[NlmPlanes::var][p] * kPrefilteredVariance, float(d / 3.0 / 2.0));
             }
             for (int k = 0; k < 4; ++k) P.at[NlmPlanes::nx + k][p] = in.f[p * kF + k];
             P.at[NlmPlanes::use][p] = in.use[p] ? 1.f : 0.f;
@@ -646,7 +671,7 @@ std::optional<Denoised> denoise_in_use(const Film& film, int threads, DenoiseCan
     for (size_t c = 1; c < C; ++c) {
         const DenoiseCandidate& cand = kDenoiseCandidates[c];
         if (cand.filter == DenoiseFilter::box_regression) filter(in, cand.radius, threads, halves[c]);
-        else if (cand.filter == DenoiseFilter::nlm) filter_nlm(in, cand.radius, threads, halves[c], halves[kNlmRegression]);
+        else if (cand.filter == DenoiseFilter::nlm) filter_nlm(in, cand.radius, threads, halves[kBoxRegression], halves[c], halves[kNlmRegression]);
         else continue;  // the NL-means regression: made with NL-means, from its weights
     }
     halves[0].resize(n * kY);  // the noisy halves themselves
