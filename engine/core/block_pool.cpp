@@ -2,7 +2,11 @@
 
 #include <cstdlib>
 
-#include "engine/core/large_vector.h"
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
+#include "engine/core/large_vector.h"  // kHugePageBytes
 
 namespace tessera {
 
@@ -61,14 +65,20 @@ void BlockPool::trim() {
     std::lock_guard<std::mutex> lock(mutex_);
     size_t kept = 0;
     for (Block& b : free_) {
-        if (!b.taken_since_trim) {
+        if (!b.used_since_trim) {
             release(b.p, b.bytes);
             continue;
         }
-        b.taken_since_trim = false;
+        b.used_since_trim = false;
         free_[kept++] = b;
     }
     free_.resize(kept);
+}
+
+void BlockPool::clear() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const Block& b : free_) release(b.p, b.bytes);
+    free_.clear();
 }
 
 size_t BlockPool::held_bytes() const {

@@ -9,8 +9,9 @@
 // `PoolVector<T>` is a std::vector whose blocks come from the pool in use on the thread that
 // made it (`BlockPool::Use`), or from the system where none is; each vector remembers the
 // pool it took from, so it gives its block back there from whichever thread frees it.
-// `trim()` frees what the pool holds but nothing has taken since the last trim: a pool
-// trimmed after every call holds at most one call's blocks between calls.
+// `trim()` frees the blocks that sat in the pool since the last trim, none of them taken and
+// given back: a pool trimmed after every call holds at most one call's blocks between calls.
+// `clear()` frees every block it holds (a farm node's, when a job's render is done).
 #include <cstddef>
 #include <type_traits>
 #include <mutex>
@@ -31,6 +32,7 @@ public:
     void* take(size_t bytes);
     void give(void* block, size_t bytes) noexcept;
     void trim();
+    void clear();
     size_t held_bytes() const;   // free in the pool now
     size_t reused() const;       // takes served from the pool, since it was made
 
@@ -57,7 +59,7 @@ private:
     struct Block {
         void* p;
         size_t bytes;
-        bool taken_since_trim;
+        bool used_since_trim;  // given back (so taken) since the last trim
     };
     mutable std::mutex mutex_;
     std::vector<Block> free_;
@@ -75,6 +77,8 @@ struct PoolAllocator {
     PoolAllocator() noexcept = default;
     template <class U>
     PoolAllocator(const PoolAllocator<U>& o) noexcept : pool(o.pool) {}
+
+    static_assert(alignof(T) <= __STDCPP_DEFAULT_NEW_ALIGNMENT__, "blocks are aligned as operator new's");
 
     T* allocate(size_t n) {
         if (n > size_t(-1) / sizeof(T)) throw std::bad_array_new_length();

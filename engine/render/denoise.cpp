@@ -292,7 +292,11 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
             // only, so the other half's weights stay independent of this half's noise. Its
             // variance: a share of the 3×3 mean's (neighbouring fits share most of their window,
             // so their difference carries less noise than either), or what the fit's two halves
-            // show where that is more (features a lens or a shutter made noisy).
+            // show where that is more (features a lens or a shutter made noisy). The fit is in
+            // the colour's units, the 3×3 mean's variance over the albedo: against the guide's
+            // differences that is larger by 1/albedo², the weights more lenient on dark surfaces.
+            // Measured so on purpose: the guide over the albedo too was up to 24 % worse in the
+            // lamp room and 7-16 % on the boxes at 16-32 spp (docs/denoising.md).
             if (in.use[p]) {
                 double d = 0;  // the fit's own halves' difference
                 for (int k = 0; k < 3; ++k) {

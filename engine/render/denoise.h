@@ -66,8 +66,8 @@ class BlockPool;
 // A render keeps them from one pass to the next (its BlockPool): while it renders, one call's
 // maps, as idle blocks; while it denoises, the blocks in use and those of the last call not yet
 // taken again, which are only the seen light's maps (86, over the box of its noisy pixels,
-// whose size changes from pass to pass): 582. A job's memory bound (Film::bytes_per_pixel)
-// counts it.
+// whose size changes from pass to pass): 582, each map's block rounded up to a huge page (2 MiB)
+// beside it. A job's memory bound (Film::bytes_per_pixel) counts it.
 inline constexpr size_t kDenoiseBytesPerPixel = 590;
 
 // The candidates each pixel chooses from. The noisy pixel is the first; the first filter is the

@@ -1,10 +1,13 @@
 #include "engine/render/film.h"
 
 #include <algorithm>
+#include <stdexcept>
+#include <string>
 
 namespace tessera {
 
 void Film::resolve_aov(Aov a, float* out) const {
+    if (!aov_layout.has(a)) throw std::logic_error("the film keeps no " + std::string(aov_info(a).name) + " pass");
     const AovInfo& info = aov_info(a);
     const size_t n = size_t(width) * size_t(height), stride = size_t(aov_layout.stride);
     const size_t o = size_t(aov_layout.offset[size_t(a)]);

@@ -113,7 +113,8 @@ struct Film {
     }
     // The AOVs of `which` (kept ones only) as planes of floats, resolved from their sums.
     std::vector<AovPlane> resolve_aovs(AovSet which) const;
-    // One AOV the film keeps, resolved into out (its components per pixel, row by row).
+    // One AOV the film keeps (std::logic_error for one it does not), resolved into out (its
+    // components per pixel, row by row).
     void resolve_aov(Aov a, float* out) const;
     Image resolve() const {
         Image img(width, height);

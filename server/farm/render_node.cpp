@@ -165,7 +165,8 @@ struct RenderNode::Impl {
         Clock::time_point read;
     };
     std::map<std::string, SeenRun> states;
-    // The denoiser's maps, kept from one assembly to the next of whichever job (block_pool.h).
+    // The denoiser's maps, kept from one assembly to the next (block_pool.h): trimmed after
+    // each to what it used, cleared after a job's last pass.
     BlockPool denoise_memory;
     // Jobs that blocklisted this node (it hands their tasks to others), and the farm's nodes as
     // last read (for a second each): who else could take a task.
@@ -862,6 +863,8 @@ struct RenderNode::Impl {
         }
         const PassEnd end = end_pass(s, plan, film, info->reference ? &*info->reference : nullptr, t.pass, int(run.target),
                                      run.stats.samples, seconds, run.timed_out, false, &denoise_memory);
+        // The job's last pass: its maps wait for no next one (another job's would not fit them).
+        if (end.stop) denoise_memory.clear();
         if (!end.stop) {
             // Guided sampling's targets for the next pass, a field per tile beside the tiles'
             // films, stored with the pass's advance.

@@ -38,6 +38,13 @@ TEST(BlockPool, GivesBackTheBlockOfTheSizeAskedAndTrimsWhatSatIdle) {
     pool.trim();
     pool.trim();
     EXPECT_EQ(pool.held_bytes(), 0u) << "nothing taken for a whole call is given to the system";
+    {
+        const BlockPool::Use use(&pool);
+        PoolVector<float> a(5000), b(6000);
+    }
+    EXPECT_EQ(pool.held_bytes(), 11000 * sizeof(float));
+    pool.clear();
+    EXPECT_EQ(pool.held_bytes(), 0u) << "cleared, it holds nothing, used or not";
 }
 
 // A vector remembers its pool: freed on another thread, or after the pool stopped being the
