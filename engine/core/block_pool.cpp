@@ -2,11 +2,7 @@
 
 #include <cstdlib>
 
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
-
-#include "engine/core/large_vector.h"  // kHugePageBytes
+#include "engine/core/large_vector.h"  // kHugePageBytes, allocate_huge_pages
 
 namespace tessera {
 
@@ -17,14 +13,7 @@ thread_local BlockPool* t_current = nullptr;
 }  // namespace
 
 void* BlockPool::allocate(size_t bytes) {
-    if (bytes < kHugePageBytes) return ::operator new(bytes);
-    const size_t rounded = (bytes + kHugePageBytes - 1) / kHugePageBytes * kHugePageBytes;
-    void* p = std::aligned_alloc(kHugePageBytes, rounded);
-    if (!p) throw std::bad_alloc();
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-    ::madvise(p, rounded, MADV_HUGEPAGE);
-#endif
-    return p;
+    return bytes < kHugePageBytes ? ::operator new(bytes) : allocate_huge_pages(bytes);
 }
 
 void BlockPool::release(void* p, size_t bytes) noexcept {

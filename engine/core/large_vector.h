@@ -25,6 +25,18 @@ namespace tessera {
 // come from operator new as usual.
 inline constexpr size_t kHugePageBytes = size_t(2) << 20;
 
+// A block of `bytes` (at least kHugePageBytes) 2 MiB-aligned and advised MADV_HUGEPAGE, for
+// std::free: LargeAllocator's large arrays and BlockPool's large blocks.
+inline void* allocate_huge_pages(size_t bytes) {
+    const size_t rounded = (bytes + kHugePageBytes - 1) / kHugePageBytes * kHugePageBytes;
+    void* p = std::aligned_alloc(kHugePageBytes, rounded);
+    if (!p) throw std::bad_alloc();
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    ::madvise(p, rounded, MADV_HUGEPAGE);  // advice only: without THP it is refused, harmlessly
+#endif
+    return p;
+}
+
 template <class T>
 struct LargeAllocator {
     using value_type = T;
@@ -36,13 +48,7 @@ struct LargeAllocator {
         if (n > size_t(-1) / sizeof(T)) throw std::bad_array_new_length();
         const size_t bytes = n * sizeof(T);
         if (bytes < kHugePageBytes) return static_cast<T*>(::operator new(bytes, std::align_val_t(alignof(T))));
-        const size_t rounded = (bytes + kHugePageBytes - 1) / kHugePageBytes * kHugePageBytes;
-        void* p = std::aligned_alloc(kHugePageBytes, rounded);
-        if (!p) throw std::bad_alloc();
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-        ::madvise(p, rounded, MADV_HUGEPAGE);  // advice only: without THP it is refused, harmlessly
-#endif
-        return static_cast<T*>(p);
+        return static_cast<T*>(allocate_huge_pages(bytes));
     }
     void deallocate(T* p, size_t n) noexcept {
         if (n * sizeof(T) < kHugePageBytes) ::operator delete(p, std::align_val_t(alignof(T)));
