@@ -257,19 +257,32 @@ float guide_3x3(int W, int H, int x, int y, const float* a, const float* b, size
 
 // What the NL-means loop reads of a pixel, one plane each, so that a row of them is contiguous.
 struct NlmPlanes {
-    enum : int { nx, ny, nz, z, var, use, gA, gB = gA + 3, yA = gB + 3, yB = yA + 3, count = yB + 3 };
+    enum : int { nx, ny, nz, z, var, use, s2, gA = s2 + 3, gB = gA + 3, yA = gB + 3, yB = yA + 3, count = yB + 3 };
     std::array<PoolVector<float>, count> at;
 };
 
 // Per pixel of a row, what the window's weights sum: per half h, Σw, Σw·{dx, dy, dx², dx·dy,
-// dy²}, and per channel Σw·y·{1, dx, dy}.
+// dy²}; per channel Σw²·s²·{1, dx, dy, dx², dx·dy, dy²}, s² the neighbour's noise (its
+// variance sandwiched between the fit's); and per channel Σw·y·{1, dx, dy}.
 struct NlmSums {
-    enum : int { w, wx, wy, wxx, wxy, wyy, y = 6, per_half = y + 9, count = 2 * per_half };
+    enum : int { w, wx, wy, wxx, wxy, wyy, v = 6, y = v + 18, per_half = y + 9, count = 2 * per_half };
 };
 
 // `prefiltered`: the box regression's halves, the guides where a pixel joins its neighbours.
-void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& prefiltered, PoolVector<float>& out,
-                PoolVector<float>& first) {
+// `variance`: per pixel, the variance of the two outputs' mix (`wa` the even half's share) as
+// the weights make it, per channel in the colour's units: the regression's (3), NL-means' (3).
+//
+// Why not only the halves' difference, (f(A) − f(B))²/4: f(A)'s weights read B, f(B)'s read A,
+// so the two outputs covary and their difference reads the variance low (20 % for the
+// regression on the diffuse box at 16-64 spp, measured against two seeds' images). Each output
+// is linear in its half for given weights: f = e₀ᵀ M⁻¹ Σ w_q m_q y_q, M = Σ w_q m_q m_qᵀ, m_q
+// = (1, dx, dy), so its variance is e₀ᵀ M⁻¹ (Σ w_q² s_q² m_q m_qᵀ) M⁻¹ e₀ (the sandwich
+// estimator of weighted least squares), s_q² the neighbour's own noise from its halves,
+// (y_A − y_B)²/2, per channel (one for all three read a dark channel's noise, divided by its
+// albedo, into the bright ones: 10-15 times too much on the Duck). It leaves out what the
+// weights' own noise adds, which the halves' difference keeps: the estimate takes the larger.
+void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& prefiltered, const PoolVector<float>& wa,
+                PoolVector<float>& out, PoolVector<float>& first, PoolVector<float>& variance) {
     const int W = in.w, H = in.h;
     const size_t n = size_t(W) * H;
     // Guides (3×3 means of each half, or its box regression: below) and their variance per pixel.
@@ -307,11 +320,16 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
                 P.at[NlmPlanes::var][p] = std::max(P.at[NlmPlanes::var][p] * kPrefilteredVariance, float(d / 3.0 / 2.0));
             }
             for (int k = 0; k < 4; ++k) P.at[NlmPlanes::nx + k][p] = in.f[p * kF + k];
+            for (int k = 0; k < 3; ++k) {
+                const float e = in.y[p * kY + k] - in.y[p * kY + 3 + k];
+                P.at[NlmPlanes::s2 + k][p] = 0.5f * e * e;
+            }
             P.at[NlmPlanes::use][p] = in.use[p] ? 1.f : 0.f;
         }
     });
     out.assign(n * kY, 0.f);
     first.assign(n * kY, 0.f);
+    variance.assign(n * 6, 0.f);
     constexpr float kK2 = 0.45f * 0.45f, kVarFloor = 1e-4f;
     // Offset by offset over a whole row (not neighbour by neighbour per pixel): the inner loop
     // runs along the row with no branch and no sum across its steps, so it vectorizes; each
@@ -370,9 +388,17 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
                             // NaN (an infinite guide) passes on to the exponential, which weighs it nothing.
                             wh[h] = keep * exp_nonpositive(-gf - std::max(d2 * scale, 0.f));
                         }
+                        const float w0 = wh[0] * wh[0], w1 = wh[1] * wh[1];
                         for (int k = 0; k < 6; ++k) {
                             s0[k][x] += wh[0] * m[k];
                             s1[k][x] += wh[1] * m[k];
+                        }
+                        for (int ch = 0; ch < 3; ++ch) {
+                            const float s2 = Q(NlmPlanes::s2 + ch), c0 = w0 * s2, c1 = w1 * s2;
+                            for (int k = 0; k < 6; ++k) {
+                                s0[NlmSums::v + 6 * ch + k][x] += c0 * m[k];
+                                s1[NlmSums::v + 6 * ch + k][x] += c1 * m[k];
+                            }
                         }
                         for (int k = 0; k < 3; ++k) {
                             // A neighbour of no weight adds nothing, whatever its colour (an infinite one included).
@@ -394,6 +420,7 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
                     for (int k = 0; k < kY; ++k) out[p * kY + k] = first[p * kY + k] = in.y[p * kY + k] * in.m[p * 3 + k % 3];
                     continue;
                 }
+                const double share[2] = {wa[p], 1.0 - double(wa[p])};
                 for (int h = 0; h < 2; ++h) {
                     auto S = [&](int k) { return double(sum(h, k)[x]); };
                     const double w = S(NlmSums::w);
@@ -401,6 +428,19 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
                                    S(NlmSums::wx), S(NlmSums::wxx) + kSlopeRidge * w, S(NlmSums::wxy),
                                    S(NlmSums::wy), S(NlmSums::wxy), S(NlmSums::wyy) + kSlopeRidge * w};
                     const bool solved = cholesky(A, 3);
+                    double u[3] = {1.0, 0.0, 0.0};  // M⁻¹ e₀
+                    if (solved) cholesky_solve(A, 3, u);
+                    else u[0] = 1.0 / w, u[1] = u[2] = 0.0;
+                    for (int k = 0; k < 3; ++k) {
+                        const int o = NlmSums::v + 6 * k;
+                        const double B[9] = {S(o), S(o + 1), S(o + 2), S(o + 1), S(o + 3), S(o + 4), S(o + 2), S(o + 4), S(o + 5)};
+                        double vr = 0;
+                        for (int i = 0; i < 3; ++i)
+                            for (int j = 0; j < 3; ++j) vr += u[i] * B[i * 3 + j] * u[j];
+                        const double mk = in.m[p * 3 + k], s2 = share[h] * share[h] * mk * mk;
+                        variance[p * 6 + k] += float(s2 * vr);
+                        variance[p * 6 + 3 + k] += float(s2 * S(o) / (w * w));
+                    }
                     for (int k = 0; k < 3; ++k) {
                         const double mk = in.m[p * 3 + k];
                         out[p * kY + 3 * h + k] = float(S(NlmSums::y + 3 * k) / w * mk);
@@ -672,10 +712,12 @@ std::optional<Denoised> denoise_in_use(const Film& film, int threads, DenoiseCan
         pool_bias(in.use, W, H, kBiasSmooth, threads, pooling_rows), pool_near(in.use, W, H, 1, threads, pooling_rows);
     constexpr size_t C = kDenoiseCandidates.size();
     std::array<PoolVector<float>, C> halves;  // each candidate's two filtered halves
+    PoolVector<float> nlm_variance;            // the NL-means pair's variance as their weights make it (filter_nlm)
     for (size_t c = 1; c < C; ++c) {
         const DenoiseCandidate& cand = kDenoiseCandidates[c];
         if (cand.filter == DenoiseFilter::box_regression) filter(in, cand.radius, threads, halves[c]);
-        else if (cand.filter == DenoiseFilter::nlm) filter_nlm(in, cand.radius, threads, halves[kBoxRegression], halves[c], halves[kNlmRegression]);
+        else if (cand.filter == DenoiseFilter::nlm)
+            filter_nlm(in, cand.radius, threads, halves[kBoxRegression], wa, halves[c], halves[kNlmRegression], nlm_variance);
         else continue;  // the NL-means regression: made with NL-means, from its weights
     }
     halves[0].resize(n * kY);  // the noisy halves themselves
@@ -777,6 +819,13 @@ std::optional<Denoised> denoise_in_use(const Film& film, int threads, DenoiseCan
     // Per candidate: its variance, and its bias beyond the first filter's, pooled over the
     // neighbourhood (filtered differences are smooth: a pixel's own value says little that its
     // neighbours do not) and held at zero or more.
+    // A candidate's variance per channel: its halves' difference, and for the NL-means pair, whose
+    // halves read it low (filter_nlm), the larger of that and the variance their weights give.
+    auto variance_of = [&](size_t c, size_t p, int k) {
+        const double fa = at(c, p, k, 0), fb = at(c, p, k, 1), v = 0.25 * (fa - fb) * (fa - fb);
+        if (!in.use[p] || (c != kNlmRegression && c != C - 1)) return v;
+        return std::max(v, double(nlm_variance[p * 6 + (c == kNlmRegression ? 0 : 3) + k]));
+    };
     std::array<PoolVector<float>, C> rel, pooled, bias_of;
     for (size_t c = 0; c < C; ++c) {
         rel[c].resize(n);
@@ -786,7 +835,7 @@ std::optional<Denoised> denoise_in_use(const Film& film, int threads, DenoiseCan
             double v = 0, b = 0;
             for (int k = 0; k < 3; ++k) {
                 const double fa = at(c, p, k, 0), fb = at(c, p, k, 1);
-                v += q[p * 3 + k] * 0.25 * (fa - fb) * (fa - fb);
+                v += q[p * 3 + k] * variance_of(c, p, k);
                 if (c > 1) {
                     const double dc = combined(c, p, k) - combined(1, p, k);
                     const double vd = (fa - at(1, p, k, 0)) - (fb - at(1, p, k, 1));
@@ -861,8 +910,12 @@ std::optional<Denoised> denoise_in_use(const Film& film, int threads, DenoiseCan
         for (size_t c = 0; c < C; ++c) {
             candidates->rgb[c].resize(n * 3);
             candidates->half_gap[c].resize(n * 3);
+            candidates->variance[c].resize(n * 3);
             for (size_t p = 0; p < n; ++p)
-                for (int k = 0; k < 3; ++k) candidates->half_gap[c][p * 3 + k] = float(0.5 * (at(c, p, k, 0) - at(c, p, k, 1)));
+                for (int k = 0; k < 3; ++k) {
+                    candidates->half_gap[c][p * 3 + k] = float(0.5 * (at(c, p, k, 0) - at(c, p, k, 1)));
+                    candidates->variance[c][p * 3 + k] = float(variance_of(c, p, k));
+                }
             for (size_t p = 0; p < n; ++p)
                 for (int k = 0; k < 3; ++k)
                     candidates->rgb[c][p * 3 + k] = c == 0 ? float(film.sum[p][k] / double(film.count[p])) : combined(c, p, k);
@@ -936,7 +989,13 @@ std::optional<Denoised> denoise_in_use(const Film& film, int threads, DenoiseCan
                     bb += w[c] / wsum * at(c, p, k, 1);
                 }
             d.image.rgb[p * 3 + k] = float(v);
-            e += q[p * 3 + k] * 0.25 * (ba - bb) * (ba - bb) / 3.0;
+            // Its variance: its halves' difference, or where more, what its candidates' give it
+            // if their noise were one (they filter the same samples): (Σ w_c σ_c)².
+            double sd = 0;
+            if (best != 0)
+                for (size_t c = 0; c < C; ++c)
+                    if (w[c] > 0) sd += w[c] / wsum * std::sqrt(variance_of(c, p, k));
+            e += q[p * 3 + k] * std::max(0.25 * (ba - bb) * (ba - bb), sd * sd) / 3.0;
         }
         for (size_t c = 0; c < C; ++c) {
             e += w[c] / wsum * bias_of[c][p];

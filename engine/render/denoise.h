@@ -31,13 +31,15 @@
 // to calibrate, MSE = [(f(A) − B)² + (f(B) − A)²]/2 − (A − B)²/2 − (f(A) − f(B))²/4, but per
 // pixel that is about (A − μ)(B − μ), whose heavy tail (a firefly in one half) swamps a strong
 // filter's small error. So it gives only the first filter's bias, pooled over a wide
-// neighbourhood; the variance of a candidate is (f(A) − f(B))²/4, and its bias beyond the
+// neighbourhood; the variance of a candidate is (f(A) − f(B))²/4, or for the NL-means pair,
+// whose halves covary through their weights and read it low, the variance those weights give
+// where that is more (weighted least squares' sandwich estimator), and its bias beyond the
 // first filter's comes from the difference of their outputs less that difference's variance
 // (both filtered, so little noise). Bias estimates are pooled and then held at zero or more.
 // Each pixel is led by the candidate of least estimated error pooled over its neighbourhood and
 // blends in the noisy pixel and the others not refused there, each weighed by the inverse square
-// of its estimate; the blend's error estimate is its own halves' variance plus the weighted mean
-// of their bias, relative as the convergence curve's relMSE is. docs/denoising.md has the figures.
+// of its estimate; the blend's error estimate is its own halves' variance (or (Σ w_c σ_c)² from
+// its candidates' where more) plus the weighted mean of their bias, relative as the convergence curve's relMSE is. docs/denoising.md has the figures.
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -54,21 +56,22 @@ class BlockPool;
 
 // The denoiser's working memory per pixel at its peak, counted from denoise.cpp's buffers: the
 // resolved features and the samples' spread (40 bytes), its inputs (61), the halves and the
-// light they saw (52), four candidates' halves (96), the error maps (108, the candidates' bias
+// light they saw (52), four candidates' halves (96), the NL-means pair's variance as their
+// weights give it (24), the error maps (108, the candidates' bias
 // among them, which the blend's estimate reads), the spread relative two ways and the noise
 // around (20), the image (16), its per-pixel error (4) and that error in double with the blend's
-// leader, summed in pixel order after the threads (9): 406, with the poolings' (32: the kinds'
+// leader, summed in pixel order after the threads (9): 430, with the poolings' (32: the kinds'
 // shares at three radii, the row sums they share, a pooled map). Before them, NL-means' planes
-// (68) and sums (a band's rows) have come and gone. Then, all of that still held, the light seen
+// (80) and sums (a band's rows) have come and gone. Then, all of that still held, the light seen
 // directly filtered per half (24; its guides, 28, come and go before) and its blend's maps (its
 // own, the filtered one's variance and bias, each pooled, whether it moved, one kind for every
-// pixel: 26) with two more poolings' shares (8), all at most the whole image: 496.
+// pixel: 26) with two more poolings' shares (8), all at most the whole image: 520.
 // A render keeps them from one pass to the next (its BlockPool): while it renders, one call's
 // maps, as idle blocks; while it denoises, the blocks in use and those of the last call not yet
 // taken again, which are only the seen light's maps (86, over the box of its noisy pixels,
-// whose size changes from pass to pass): 582, each map's block rounded up to a huge page (2 MiB)
+// whose size changes from pass to pass): 606, each map's block rounded up to a huge page (2 MiB)
 // beside it. A job's memory bound (Film::bytes_per_pixel) counts it.
-inline constexpr size_t kDenoiseBytesPerPixel = 590;
+inline constexpr size_t kDenoiseBytesPerPixel = 614;
 
 // The candidates each pixel chooses from. The noisy pixel is the first; the first filter is the
 // one whose bias the others' is measured beyond (denoise.cpp); NL-means is the last (the
@@ -111,6 +114,10 @@ struct DenoiseCandidates {
     // bias. A cross-filtered candidate's reads low by the covariance its weights give its halves
     // (docs/denoising.md, "Where the error is").
     std::array<std::vector<float>, kDenoiseCandidates.size()> half_gap;
+    // 3 per pixel, the variance the choice and the estimate take for the candidate: the square of
+    // half_gap, or for the NL-means pair where it is more, the variance their weights give
+    // (denoise.cpp, filter_nlm). Pixels no candidate may touch: half_gap's square.
+    std::array<std::vector<float>, kDenoiseCandidates.size()> variance;
     // 3 per pixel, what the blend of the light seen directly with its own NL-means moved the
     // pixel by, after the candidates' blend (denoise.cpp, filter_seen): the image is the
     // candidates' blend plus it.
