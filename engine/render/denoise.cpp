@@ -264,6 +264,7 @@ struct NlmPlanes {
 // Per pixel of a row, what the window's weights sum: per half h, Σw, Σw·{dx, dy, dx², dx·dy,
 // dy²}; per channel Σw²·s²·{1, dx, dy, dx², dx·dy, dy²}, s² the neighbour's noise (its
 // variance sandwiched between the fit's); and per channel Σw·y·{1, dx, dy}.
+constexpr float kNoiseCeiling = 1e20f;  // a neighbour's noise s² at most (NlmSums)
 struct NlmSums {
     enum : int { w, wx, wy, wxx, wxy, wyy, v = 6, y = v + 18, per_half = y + 9, count = 2 * per_half };
 };
@@ -320,9 +321,11 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
                 P.at[NlmPlanes::var][p] = std::max(P.at[NlmPlanes::var][p] * kPrefilteredVariance, float(d / 3.0 / 2.0));
             }
             for (int k = 0; k < 4; ++k) P.at[NlmPlanes::nx + k][p] = in.f[p * kF + k];
+            // Held finite (an infinite or NaN half, whose guide weighs it nothing, is the largest),
+            // so that no sum below turns NaN or infinite and spreads through the poolings.
             for (int k = 0; k < 3; ++k) {
                 const float e = in.y[p * kY + k] - in.y[p * kY + 3 + k];
-                P.at[NlmPlanes::s2 + k][p] = 0.5f * e * e;
+                P.at[NlmPlanes::s2 + k][p] = std::fmin(0.5f * e * e, kNoiseCeiling);
             }
             P.at[NlmPlanes::use][p] = in.use[p] ? 1.f : 0.f;
         }
@@ -394,7 +397,8 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
                             s1[k][x] += wh[1] * m[k];
                         }
                         for (int ch = 0; ch < 3; ++ch) {
-                            const float s2 = Q(NlmPlanes::s2 + ch), c0 = w0 * s2, c1 = w1 * s2;
+                            const float s2 = Q(NlmPlanes::s2 + ch);
+                            const float c0 = wh[0] > 0.f ? w0 * s2 : 0.f, c1 = wh[1] > 0.f ? w1 * s2 : 0.f;
                             for (int k = 0; k < 6; ++k) {
                                 s0[NlmSums::v + 6 * ch + k][x] += c0 * m[k];
                                 s1[NlmSums::v + 6 * ch + k][x] += c1 * m[k];

@@ -63,12 +63,13 @@ void expect_denoised_finite_keeping_the_mean(const RenderResult& r) {
     EXPECT_TRUE(std::isfinite(r.denoised->est_rel_mse));
 }
 
-// The denoiser at the same twelve orders of light (its NL-means distances and exponentials run
-// in float): the Cornell box's lamps at 1e-6 and 1e6 of their radiance, denoised after every
-// pass: every denoised pixel finite, the image's mean that of the noisy one within 5%, and the
-// estimate a finite number.
-TEST(Stability, DenoisingSpanningTwelveOrders) {
-    for (float scale : {1e-6f, 1e6f}) {
+// The denoiser at the same twelve orders of light and far beyond (its NL-means distances,
+// exponentials and the neighbours' noise its variances sum run in float; at 1e18 a half's
+// squared difference is near float's end): the Cornell box's lamps at 1e-6, 1e6 and 1e18 of
+// their radiance, denoised after every pass: every denoised pixel finite, the image's mean that
+// of the noisy one within 5%, and the estimate a finite number.
+TEST(Stability, DenoisingSpanningTwentyFourOrders) {
+    for (float scale : {1e-6f, 1e6f, 1e18f}) {
         SceneDescription d = test::seen_whole(builtin_scene("builtin:cornell_box"));
         for (MaterialDesc& m : d.materials) m.emission *= scale;
         for (LightDesc& l : d.lights) l.radiance *= scale;
