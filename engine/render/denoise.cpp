@@ -774,10 +774,14 @@ std::optional<Denoised> denoise_in_use(const Film& film, int threads, DenoiseCan
     // (a firefly in one half) swamps a strong filter's small error. So only the first filter's
     // bias is taken from it, pooled over a wide neighbourhood; the rest from filtered
     // differences, which carry little noise:
-    //   variance of candidate c: (f_c(A) − f_c(B))²/4
+    //   variance of candidate c: (f_c(A) − f_c(B))²/4, or for the NL-means pair the variance
+    //     their weights give where more (variance_of, below)
     //   its bias beyond the first filter's: (d_c − d_1)² less the variance of d_c − d_1,
     //     ((f_c(A) − f_1(A)) − (f_c(B) − f_1(B)))²/4
-    // and for the noisy image, (A − B)²/4.
+    // and for the noisy image, (A − B)²/4. The first filter's bias subtracts its halves' variance,
+    // not the larger one from its weights: its cross-validation is itself read low by the same
+    // cross-filtering (docs/denoising.md, "Why it leans low"), so what the halves miss is not in
+    // it (subtracting the larger one instead is not measured yet).
     PoolVector<float> cv1(n);
     for_pixels(W, H, threads, [&](size_t p) {
         double e = 0, v = 0;
@@ -969,8 +973,8 @@ std::optional<Denoised> denoise_in_use(const Film& film, int threads, DenoiseCan
         // A filtered pixel is the blend of the noisy pixel and every candidate not refused there,
         // each weighed by the inverse square of its pooled estimate (so the best leads): their
         // errors differ in kind (a regression's bias at a gradient, NL-means' at a shadow). Its
-        // error estimate: its variance from its own halves, as a candidate's, and its bias² no
-        // more than the weighted mean of theirs (the square is convex). The noisy candidate is
+        // error estimate: its variance from its own halves, or from its candidates' where more
+        // (below), and its bias² no more than the weighted mean of theirs (the square is convex). The noisy candidate is
         // the film's own mean, not the halves' mix (the same up to rounding).
         std::array<double, C> w{};
         double wsum = 0;
