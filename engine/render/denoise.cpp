@@ -781,7 +781,8 @@ std::optional<Denoised> denoise_in_use(const Film& film, int threads, DenoiseCan
     // and for the noisy image, (A − B)²/4. The first filter's bias subtracts its halves' variance,
     // not the larger one from its weights: its cross-validation is itself read low by the same
     // cross-filtering (docs/denoising.md, "Why it leans low"), so what the halves miss is not in
-    // it (subtracting the larger one instead is not measured yet).
+    // it. Subtracting the larger one instead: estimates 3-10 % lower, errors within ±6 % either
+    // way on the four bench scenes at 320×240 (docs/denoising.md).
     PoolVector<float> cv1(n);
     for_pixels(W, H, threads, [&](size_t p) {
         double e = 0, v = 0;
