@@ -261,10 +261,11 @@ struct NlmPlanes {
     std::array<PoolVector<float>, count> at;
 };
 
+constexpr float kNoiseCeiling = 1e20f;  // a neighbour's noise s² at most (NlmSums)
+
 // Per pixel of a row, what the window's weights sum: per half h, Σw, Σw·{dx, dy, dx², dx·dy,
 // dy²}; per channel Σw²·s²·{1, dx, dy, dx², dx·dy, dy²}, s² the neighbour's noise (its
 // variance sandwiched between the fit's); and per channel Σw·y·{1, dx, dy}.
-constexpr float kNoiseCeiling = 1e20f;  // a neighbour's noise s² at most (NlmSums)
 struct NlmSums {
     enum : int { w, wx, wy, wxx, wxy, wyy, v = 6, y = v + 18, per_half = y + 9, count = 2 * per_half };
 };
@@ -975,8 +976,9 @@ std::optional<Denoised> denoise_in_use(const Film& film, int threads, DenoiseCan
         // each weighed by the inverse square of its pooled estimate (so the best leads): their
         // errors differ in kind (a regression's bias at a gradient, NL-means' at a shadow). Its
         // error estimate: its variance from its own halves, or from its candidates' where more
-        // (below), and its bias² no more than the weighted mean of theirs (the square is convex). The noisy candidate is
-        // the film's own mean, not the halves' mix (the same up to rounding).
+        // (below), and its bias² no more than the weighted mean of theirs (the square is
+        // convex). The noisy candidate is the film's own mean, not the halves' mix (the same up
+        // to rounding).
         std::array<double, C> w{};
         double wsum = 0;
         if (best != 0)

@@ -39,7 +39,8 @@
 // Each pixel is led by the candidate of least estimated error pooled over its neighbourhood and
 // blends in the noisy pixel and the others not refused there, each weighed by the inverse square
 // of its estimate; the blend's error estimate is its own halves' variance (or (Σ w_c σ_c)² from
-// its candidates' where more) plus the weighted mean of their bias, relative as the convergence curve's relMSE is. docs/denoising.md has the figures.
+// its candidates' where more) plus the weighted mean of their bias, relative as the convergence
+// curve's relMSE is. docs/denoising.md has the figures.
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -57,8 +58,8 @@ class BlockPool;
 // The denoiser's working memory per pixel at its peak, counted from denoise.cpp's buffers: the
 // resolved features and the samples' spread (40 bytes), its inputs (61), the halves and the
 // light they saw (52), four candidates' halves (96), the NL-means pair's variance as their
-// weights give it (24), the error maps (108, the candidates' bias
-// among them, which the blend's estimate reads), the spread relative two ways and the noise
+// weights give it (24), the error maps (108, the candidates' bias among them, which the blend's
+// estimate reads), the spread relative two ways and the noise
 // around (20), the image (16), its per-pixel error (4) and that error in double with the blend's
 // leader, summed in pixel order after the threads (9): 430, with the poolings' (32: the kinds'
 // shares at three radii, the row sums they share, a pooled map). Before them, NL-means' planes

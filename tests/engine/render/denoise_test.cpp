@@ -92,8 +92,9 @@ void expect_tracks_the_truth(const std::string& name, const std::vector<double>&
 // Seen whole at 128×96 (edges, spheres' shading and the lamp in view). Measured: 8.4 and 13.0 times
 // better than the noisy image at 8 and 32 spp, estimates 0.98 and 1.03 of the truth; the lamp
 // room 1.6 and 4.4 times, 1.81 and 0.96 (the NL-means pair's variance from their weights where
-// their halves read it lower; 0.80 and 0.62, 1.78 and 0.80 before). (Until 2026-11-30 these ran at 48×36 through the
-// scenes' CS184 focal length, which saw a flat patch of the back wall and nothing else.)
+// their halves read it lower; 0.80 and 0.62, 1.78 and 0.80 before). (Until 2026-11-30 these ran
+// at 48×36 through the scenes' CS184 focal length, which saw a flat patch of the back wall and
+// nothing else.)
 TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthOnTheCornellBox) { expect_tracks_the_truth("builtin:cornell_box", {4.0, 6.0}); }
 TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthInTheLampRoom) { expect_tracks_the_truth("builtin:lamp_room", {1.3, 3.0}); }
 
@@ -102,8 +103,9 @@ TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthInTheLampRoom) { expect
 // first; and the lamp is a blurred halo, most of whose pixels saw it with a few samples or none.
 // Measured: 1.66 and 3.95 times better than the noisy image at 8 and 32 spp (1.19 and 2.97
 // before the light seen directly was filtered, filter_seen), estimates 1.35 and 0.43 of the
-// truth (0.32 at 32 spp before the NL-means pair's variance came from their weights). At 32 spp the estimate misses most of the filtered pixels' error (docs/denoising.md,
-// "Still to come"), so it is held to 0.25-2 here.
+// truth (0.32 at 32 spp before the NL-means pair's variance came from their weights). At 32 spp
+// the estimate misses most of the filtered pixels' error (docs/denoising.md, "Still to come"),
+// so it is held to 0.25-2 here.
 TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthThroughADefocusedLens) {
     RenderSettings base = settings(1);
     base.lens_radius = 0.4f;
