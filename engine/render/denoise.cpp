@@ -338,7 +338,8 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
     // the weights keep when the halves agree by chance. At 1e-4 it held the weights at about 1 %
     // of the colour from 64 spp on, so the regression's bias stopped falling with the samples
     // (on the diffuse box at 160×120 its error was 90 % bias at 256 spp); at 1e-5 the denoised
-    // error is 13-32 % lower there from 128 spp, within a few per cent below (docs/denoising.md).
+    // error is 13-32 % lower there from 128 spp, and within a few per cent either way at fewer
+    // samples (docs/denoising.md).
     constexpr float kK2 = 0.45f * 0.45f, kVarFloor = 1e-5f;
     // Offset by offset over a whole row (not neighbour by neighbour per pixel): the inner loop
     // runs along the row with no branch and no sum across its steps, so it vectorizes; each
