@@ -89,8 +89,8 @@ void expect_tracks_the_truth(const std::string& name, const std::vector<double>&
     expect_tracks_the_truth(whole(name), settings(1), Tracking{2048, {8, 32}, min_gain});
 }
 
-// Seen whole at 128×96 (edges, spheres' shading and the lamp in view). Measured: 8.4 and 13.0 times
-// better than the noisy image at 8 and 32 spp, estimates 0.98 and 1.03 of the truth; the lamp
+// Seen whole at 128×96 (edges, spheres' shading and the lamp in view). Measured: 8.2 and 12.9 times
+// better than the noisy image at 8 and 32 spp, estimates 0.97 and 1.08 of the truth; the lamp
 // room 1.6 and 4.4 times, 1.81 and 0.96 (the NL-means pair's variance from their weights where
 // their halves read it lower; 0.80 and 0.62, 1.78 and 0.80 before). (Until 2026-11-30 these ran
 // at 48×36 through the scenes' CS184 focal length, which saw a flat patch of the back wall and
@@ -101,8 +101,8 @@ TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthInTheLampRoom) { expect
 // Through a thin lens the features are noisy too: a defocused pixel's normal and depth are the
 // mean of the surfaces its samples saw, which differ sample by sample, and nothing filters them
 // first; and the lamp is a blurred halo, most of whose pixels saw it with a few samples or none.
-// Measured: 1.66 and 3.95 times better than the noisy image at 8 and 32 spp (1.19 and 2.97
-// before the light seen directly was filtered, filter_seen), estimates 1.35 and 0.43 of the
+// Measured: 1.66 and 3.94 times better than the noisy image at 8 and 32 spp (1.19 and 2.97
+// before the light seen directly was filtered, filter_seen), estimates 1.35 and 0.44 of the
 // truth (0.32 at 32 spp before the NL-means pair's variance came from their weights). At 32 spp
 // the estimate misses most of the filtered pixels' error (docs/denoising.md, "Still to come"),
 // so it is held to 0.25-2 here.
@@ -126,10 +126,10 @@ TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthThroughADefocusedLens) 
 
 // Motion blur makes the features noisy as a lens does: a pixel's normal and depth are a mix of
 // what it saw over the shutter. The camera pans within it (its aim moves 0.8 sideways at the
-// back wall, about 10 pixels): every edge and the lamp are smears. Measured: 2.33 and 3.88 times
+// back wall, about 10 pixels): every edge and the lamp are smears. Measured: 2.32 and 3.81 times
 // better than the noisy image at 8 and 32 spp (2.10 and 4.22 before filter_seen, against a
 // noisier image at 32 spp: the denoised error fell from 1.83 to 1.68·10⁻³; with NL-means' guides
-// prefiltered it is 1.84·10⁻³), estimates 0.92 and 0.44 of the truth (0.86 and 0.32 before the
+// prefiltered it is 1.84·10⁻³), estimates 0.92 and 0.47 of the truth (0.86 and 0.32 before the
 // NL-means pair's variance came from their weights): held to 0.25-2, as through a lens.
 TEST(Denoise, BetterThanNoisyAndItsEstimateTracksTheTruthUnderMotionBlur) {
     auto at = [](float time) {
