@@ -107,6 +107,7 @@ kill_render_node)
   wait_state_on api "$id" 30 running
   while [ "$(tiles_done_on api "$id")" = 0 ] || [ -z "$(tiles_done_on api "$id")" ]; do sleep 0.05; done
   sleep 0.5
+  stop_while_holding w1
   kill_node w1 9
   echo "killed render node w1 (kill -9) while job $id was running"
   wait_state_on api "$id" 120 succeeded
@@ -176,16 +177,7 @@ poison_task)
   id=$(submit api "$job")
   wait_state_on api "$id" 30 running
   while [ "$(tiles_done_on api "$id")" = 0 ] || [ -z "$(tiles_done_on api "$id")" ]; do sleep 0.05; done
-  # Killed while it holds a task (stopped first, then its pending tasks counted in Redis): a
-  # node killed between two tasks leaves nothing to take over.
-  for _ in $(seq 1 200); do
-    kill_node w1 STOP
-    pending=$(redis-cli -p "$redis_port" XPENDING tessera:tasks:0 nodes | head -n 1)
-    [ "${pending:-0}" -gt 0 ] && break
-    kill_node w1 CONT
-    sleep 0.02
-  done
-  [ "${pending:-0}" -gt 0 ] || fail "w1 never held a task"
+  stop_while_holding w1
   kill_node w1 9
   start_worker w2 --max-deliveries 1
   wait_state_on api "$id" 60 failed
@@ -202,16 +194,7 @@ sigstop_node)
   id=$(submit api "$job")
   wait_state_on api "$id" 30 running
   while [ "$(tiles_done_on api "$id")" = 0 ] || [ -z "$(tiles_done_on api "$id")" ]; do sleep 0.05; done
-  # Stopped while it holds a task (stopped first, then its own pending tasks counted in Redis):
-  # a node stopped between two batches leaves nothing to take over.
-  for _ in $(seq 1 200); do
-    kill_node w1 STOP
-    pending=$(redis-cli -p "$redis_port" XPENDING tessera:tasks:0 nodes - + 10 w1/0 | grep -c . || true)
-    [ "${pending:-0}" -gt 0 ] && break
-    kill_node w1 CONT
-    sleep 0.02
-  done
-  [ "${pending:-0}" -gt 0 ] || fail "w1 never held a task"
+  stop_while_holding w1
   echo "stopped w1 (SIGSTOP) for twice the visibility timeout"
   sleep $(( (visibility_ms * 2 + 999) / 1000 ))
   kill_node w1 CONT

@@ -68,6 +68,20 @@ kill_node() {  # name [signal]
   [ "${2:-9}" = 9 ] && wait "${node_pid[$1]}" 2> /dev/null
   return 0
 }
+# Stops a render node (SIGSTOP) at a moment it holds a task: stopped first, then its own
+# pending tasks counted in Redis, resumed and tried again if it held none. A node stopped or
+# killed between two batches (waiting for the next pass, say) leaves nothing to take over.
+stop_while_holding() {  # name
+  local pending=0
+  for _ in $(seq 1 400); do
+    kill_node "$1" STOP
+    pending=$(redis-cli -p "$redis_port" XPENDING tessera:tasks:0 nodes - + 10 "$1/0" | grep -c . || true)
+    [ "${pending:-0}" -gt 0 ] && return 0
+    kill_node "$1" CONT
+    sleep 0.02
+  done
+  fail "$1 never held a task"
+}
 farm_cleanup() {
   for p in "${node_pid[@]}"; do kill -CONT "$p" 2> /dev/null; kill -9 "$p" 2> /dev/null; done
   [ -f "$work/single.pid" ] && kill -9 "$(cat "$work/single.pid")" 2> /dev/null
