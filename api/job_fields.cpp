@@ -546,7 +546,7 @@ const Field<RenderJob> kRenderFields[] = {
     [] {
         Field<RenderJob> f = field<RenderJob>(
             "denoise", FieldKind::boolean,
-            "Denoise after every pass (denoised.exr and denoised.png beside the image) and report the denoised image's "
+            "Denoise after every pass from 4 spp on and the last (denoised.exr and denoised.png beside the image) and report the denoised image's "
             "estimated error; target_error then applies to the denoised image.",
             "false");
         f.cli = "--denoise";

@@ -74,7 +74,11 @@ PassEnd end_pass(const RenderSettings& settings, const PassPlan& plan, const Fil
     PassEnd e;
     if (plan.measuring) e.point = measure_error(film, reference);
     else e.point.spp_mean = double(samples) / (double(settings.width) * settings.height);
-    if (settings.denoise) {
+    // A pass below kDenoiseFrom is denoised only where it is the last (it stops on its spp, the
+    // clock, a cancel or the pass cap; not on target_error, which reads the denoised image).
+    const bool denoise_now = settings.denoise && (plan.adaptive || target >= kDenoiseFrom || pass + 1 >= plan.max_passes ||
+                                                  stop_after_pass(settings, plan, film, target, e.point, out_of_time, canceled));
+    if (denoise_now) {
         if (auto d = denoise(film, settings.threads, nullptr, memory)) {
             e.point.denoised_est_rel_mse = d->est_rel_mse;
             e.point.denoise_seconds = d->seconds;

@@ -19,6 +19,7 @@
 #include "engine/camera/camera.h"
 #include "engine/io/image_io.h"
 #include "engine/render/film.h"
+#include "engine/render/passes.h"
 #include "engine/render/renderer.h"
 #include "engine/scene/environment.h"
 #include "engine/scene/instancing.h"
@@ -384,10 +385,19 @@ TEST(Denoise, SameImageWhateverTheThreadCount) {
     EXPECT_EQ(one.image.rgb, two.image.rgb);
     EXPECT_EQ(one.denoised->image.rgb, two.denoised->image.rgb);
     EXPECT_EQ(one.denoised->est_rel_mse, two.denoised->est_rel_mse);
-    // Every pass from the second on has its denoised error; the first (one sample) has none.
-    ASSERT_GE(one.curve.points.size(), 2u);
-    EXPECT_LT(one.curve.points.front().denoised_est_rel_mse, 0.0);
-    for (size_t i = 1; i < one.curve.points.size(); ++i) EXPECT_GE(one.curve.points[i].denoised_est_rel_mse, 0.0);
+    // Passes of 1, 2, 4 and 8 spp: those from kDenoiseFrom on have their denoised error, the
+    // ones before it none (the first, of one sample, could not have one).
+    ASSERT_EQ(one.curve.points.size(), 4u);
+    for (size_t i = 0; i < one.curve.points.size(); ++i)
+        EXPECT_EQ(one.curve.points[i].denoised_est_rel_mse >= 0.0, (1 << i) >= kDenoiseFrom) << "pass " << i;
+    // The last pass is denoised wherever it falls: a render of 2 spp has its denoised image.
+    RenderSettings two_spp = settings(2);
+    two_spp.denoise = true;
+    const RenderResult short_one = render(scene, two_spp);
+    ASSERT_TRUE(short_one.denoised);
+    ASSERT_EQ(short_one.curve.points.size(), 2u);
+    EXPECT_LT(short_one.curve.points[0].denoised_est_rel_mse, 0.0);
+    EXPECT_GE(short_one.curve.points[1].denoised_est_rel_mse, 0.0);
 
     // The denoiser alone on the last pass's film, at thread counts that share its bands of rows
     // (32 each: four of a 100-row film) out differently and cut its strips of columns elsewhere

@@ -168,7 +168,7 @@ TEST_F(RenderNodeFarm, EveryPassScheduleGivesOneProcessImageBitForBit) {
         {"passes", {{"scene", "cornell_spheres"}, {"width", 40}, {"height", 30}, {"spp", 8}, {"max_depth", 3}, {"tile_size", 16},
                     {"passes", {"albedo", "depth", "object_id", "emission", "diffuse_direct", "glossy_indirect", "variance", "crypto_object", "crypto_material"}}},
          "cornell_spheres.gltf"},
-        // Denoised after every pass, from the assembled film; past 8 spp the passes are guided
+        // Denoised after every pass from 4 spp on, from the assembled film; past 8 spp the passes are guided
         // (their per-pixel targets travel beside the tiles' films).
         {"denoise", {{"scene", "cornell_box"}, {"width", 40}, {"height", 30}, {"spp", 32}, {"max_depth", 3}, {"tile_size", 16},
                      {"denoise", true}, {"passes", {"normal"}}},
