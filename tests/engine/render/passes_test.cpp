@@ -166,6 +166,43 @@ TEST(Passes, EndPassStopsOnSppAtTheLastPlannedPass) {
     EXPECT_EQ(first.next_target, 2);
 }
 
+// Denoising starts at the kDenoiseFrom pass; a pass before it is denoised only where the render
+// ends there (its spp reached, the clock run out, a cancel), never to test target_error, so a
+// loose target stops at the same pass whatever the machine's speed.
+TEST(Passes, DenoisesFromTheFourSppPassAndWhereTheRenderEnds) {
+    const RenderScene scene = build_render_scene(cornell_spheres(), {});
+    RenderSettings s = settings();
+    s.estimate_error = false;
+    s.denoise = true;
+    s.target_error = 1.0;  // met by any denoised image
+    const PassPlan plan = plan_passes(s, false, false);
+    const Camera camera = make_camera(scene.camera, s.width, s.height);
+    Film film(s.width, s.height, plan.half_buffer, plan.adaptive, plan.aovs);
+    for (int pass = 0, target = 1; target < kDenoiseFrom; ++pass, target *= 2) {
+        for (const TileRect& t : plan.tiles) {
+            TileContext ctx(scene, s, camera);
+            ASSERT_TRUE(render_tile(ctx, t, film, target));
+        }
+        const PassEnd going_on = end_pass(s, plan, film, nullptr, pass, target, 0, 0.0, false, false);
+        EXPECT_FALSE(going_on.denoised) << target << " spp";
+        EXPECT_FALSE(going_on.stop) << "target_error cannot stop a pass it did not denoise";
+        if (target < 2) continue;  // one sample has no halves to denoise from
+        EXPECT_TRUE(end_pass(s, plan, film, nullptr, pass, target, 0, 0.0, true, false).denoised) << "out of time";
+        EXPECT_TRUE(end_pass(s, plan, film, nullptr, pass, target, 0, 0.0, false, true).denoised) << "canceled";
+        RenderSettings last = s;
+        last.spp = target;
+        EXPECT_TRUE(end_pass(last, plan_passes(last, false, false), film, nullptr, pass, target, 0, 0.0, false, false).denoised)
+            << "the render's last pass";
+    }
+    for (const TileRect& t : plan.tiles) {
+        TileContext ctx(scene, s, camera);
+        ASSERT_TRUE(render_tile(ctx, t, film, kDenoiseFrom));
+    }
+    const PassEnd at_four = end_pass(s, plan, film, nullptr, 2, kDenoiseFrom, 0, 0.0, false, false);
+    EXPECT_TRUE(at_four.denoised);
+    EXPECT_EQ(at_four.stop, StopReason::target_error);
+}
+
 TEST(Passes, TilesCoverTheImageOnce) {
     const std::vector<TileRect> tiles = make_tiles(70, 33, 16);
     std::vector<int> covered(70 * 33, 0);
