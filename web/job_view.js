@@ -59,7 +59,7 @@ function renderBody(container, first) {
       image.clear();
       image.img.dataset.pass = '';
       if (e.status === 409) showPlaceholder(job.state === 'queued' ? 'The image appears once the job runs.'
-        : showDenoised ? 'The denoised image appears after the second pass.' : 'The image appears after the first pass.');
+        : showDenoised ? 'The denoised image appears after the 4-spp pass.' : 'The image appears after the first pass.');
       else if (e.status === 410) showPlaceholder(job.state === 'succeeded' ? 'The results of this job were removed.' : 'This job ended without an image.');
       else showPlaceholder(`The image could not be loaded: ${e.message}`);
     },
@@ -73,7 +73,7 @@ function renderBody(container, first) {
   }
 
   const controls = viewControls();
-  // A denoising job shows its denoised image or the noisy one (from the second pass on while it runs).
+  // A denoising job shows its denoised image or the noisy one (from the 4-spp pass on while it runs).
   const denoises = first.settings.denoise === true;
   let showDenoised = false;
   const denoisedButton = h('button', { type: 'button', id: 'show-denoised', class: 'secondary toggle', 'aria-pressed': 'false', hidden: !denoises }, 'Denoised');

@@ -75,7 +75,8 @@ PassEnd end_pass(const RenderSettings& settings, const PassPlan& plan, const Fil
     if (plan.measuring) e.point = measure_error(film, reference);
     else e.point.spp_mean = double(samples) / (double(settings.width) * settings.height);
     // A pass below kDenoiseFrom is denoised only where it is the last (it stops on its spp, the
-    // clock, a cancel or the pass cap; not on target_error, which reads the denoised image).
+    // clock, a cancel or the pass cap; not on target_error, which reads the denoised image):
+    // so target_error is not tested before 4 spp unless the render ends sooner.
     const bool denoise_now = settings.denoise && (plan.adaptive || target >= kDenoiseFrom || pass + 1 >= plan.max_passes ||
                                                   stop_after_pass(settings, plan, film, target, e.point, out_of_time, canceled));
     if (denoise_now) {
@@ -135,7 +136,7 @@ ConvergenceCurve whole_tile_curve(const PassPlan& plan, const std::vector<std::v
 void describe_render(const RenderScene& scene, const RenderSettings& settings, const Film& film,
                      std::vector<std::string>& built, std::vector<std::string>& left_out) {
     film.describe(built, left_out);
-    if (settings.denoise) built.push_back("denoiser: feature regression over 2 window sizes and cross-filtered NL-means, chosen per pixel by the error its two independent halves give (after every pass)");
+    if (settings.denoise) built.push_back("denoiser: feature regression over 2 window sizes and cross-filtered NL-means, chosen per pixel by the error its two independent halves give (after every pass from " + std::to_string(kDenoiseFrom) + " spp on, and the last)");
     else left_out.push_back("denoiser (not asked for)");
     if (guides_samples(settings))
         built.push_back("guided sampling: past " + std::to_string(kGuidedFrom) +

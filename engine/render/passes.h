@@ -42,11 +42,12 @@ std::vector<TileRect> make_tiles(int width, int height, int size);
 inline constexpr int kGuidedFrom = 8;
 inline constexpr int kGuidedCap = 16;
 // The first uniform pass target that is denoised (the last pass always is): denoising an image
-// costs about what 4 samples per pixel of a plain scene do (0.16 s against 0.2 s at 320×240 on
-// the Cornell box, 2 threads), so denoising the 1- and 2-spp passes would double their time for
-// a preview a few tenths of a second old. Fixed by the target, not by a clock, so that the
+// costs about what 2-4 samples per pixel of the Cornell box do (0.08 s at 320×240 on 2
+// threads), so denoising the 2-spp pass (one sample has no halves) would about double its time
+// for a preview a few tenths of a second old. Fixed by the target, not by a clock, so that the
 // render stops (target_error on the denoised image) at the same pass in every run.
 inline constexpr int kDenoiseFrom = 4;
+static_assert(kDenoiseFrom <= kGuidedFrom, "guided sampling reads the denoised error of the pass before it");
 
 struct PassPlan {
     bool adaptive = false;

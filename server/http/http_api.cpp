@@ -685,7 +685,7 @@ void HttpApi::routes() {
         const float exposure = exposure_param(req, file);
         const char* type = content_type(file);
         // A running job's images are its latest finished pass, said so in the headers (the
-        // denoised image from the second pass on: one sample has no variance to go by).
+        // denoised image from the kDenoiseFrom pass on, engine/render/passes.h).
         const bool denoised = file == "denoised.png" || file == "denoised.exr";
         if (file == "image.png" || file == "image.exr" || file == "rate.png" || denoised) {
             const auto live = queue_.live_pass(id);

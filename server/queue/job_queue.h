@@ -70,7 +70,7 @@ nlohmann::json to_json(const JobList& list);
 struct LivePass {
     api::PassSummary pass;
     std::shared_ptr<const Image> image;
-    std::shared_ptr<const Image> denoised;  // a denoising job's, from the second pass on
+    std::shared_ptr<const Image> denoised;  // a denoising job's, from the 4-spp pass on
     int max_spp = 0;  // the job's spp: the rate map's scale
 };
 

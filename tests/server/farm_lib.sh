@@ -71,11 +71,13 @@ kill_node() {  # name [signal]
 # Stops a render node (SIGSTOP) at a moment it holds a task: stopped first, then its own
 # pending tasks counted in Redis, resumed and tried again if it held none. A node stopped or
 # killed between two batches (waiting for the next pass, say) leaves nothing to take over.
+# The node renders on one thread (start_worker's default), so its one consumer is NAME/0; each
+# pending entry names it on a line of its own.
 stop_while_holding() {  # name
   local pending=0
   for _ in $(seq 1 400); do
     kill_node "$1" STOP
-    pending=$(redis-cli -p "$redis_port" XPENDING tessera:tasks:0 nodes - + 10 "$1/0" | grep -c . || true)
+    pending=$(redis-cli -p "$redis_port" XPENDING tessera:tasks:0 nodes - + 10 "$1/0" | grep -cx "$1/0" || true)
     [ "${pending:-0}" -gt 0 ] && return 0
     kill_node "$1" CONT
     sleep 0.02

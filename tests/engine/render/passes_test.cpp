@@ -174,7 +174,7 @@ TEST(Passes, DenoisesFromTheFourSppPassAndWhereTheRenderEnds) {
     RenderSettings s = settings();
     s.estimate_error = false;
     s.denoise = true;
-    s.target_error = 1.0;  // met by any denoised image
+    s.target_error = 1e30;  // met by any denoised image
     const PassPlan plan = plan_passes(s, false, false);
     const Camera camera = make_camera(scene.camera, s.width, s.height);
     Film film(s.width, s.height, plan.half_buffer, plan.adaptive, plan.aovs);
@@ -193,6 +193,9 @@ TEST(Passes, DenoisesFromTheFourSppPassAndWhereTheRenderEnds) {
         last.spp = target;
         EXPECT_TRUE(end_pass(last, plan_passes(last, false, false), film, nullptr, pass, target, 0, 0.0, false, false).denoised)
             << "the render's last pass";
+        PassPlan capped = plan;
+        capped.max_passes = pass + 1;
+        EXPECT_TRUE(end_pass(s, capped, film, nullptr, pass, target, 0, 0.0, false, false).denoised) << "the pass cap's last pass";
     }
     for (const TileRect& t : plan.tiles) {
         TileContext ctx(scene, s, camera);

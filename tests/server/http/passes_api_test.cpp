@@ -95,7 +95,7 @@ TEST_F(Server, TheDenoisedImageIsShownWhileTheJobRuns) {
             EXPECT_EQ(r->get_header_value("Cache-Control"), "no-store");
             seen = true;
         } else {
-            EXPECT_EQ(r->status, 409) << r->body;  // before the second pass
+            EXPECT_EQ(r->status, 409) << r->body;  // before the 4-spp pass
             std::this_thread::sleep_for(std::chrono::milliseconds(20));
         }
     }
