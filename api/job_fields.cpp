@@ -546,8 +546,8 @@ const Field<RenderJob> kRenderFields[] = {
     [] {
         Field<RenderJob> f = field<RenderJob>(
             "denoise", FieldKind::boolean,
-            "Denoise after every pass from 4 spp on and the last (denoised.exr and denoised.png beside the image) and report the denoised image's "
-            "estimated error; target_error then applies to the denoised image.",
+            "Denoise after every pass from 4 spp on and the last (denoised.exr and denoised.png beside the image) and "
+            "report the denoised image's estimated error; target_error then applies to the denoised image.",
             "false");
         f.cli = "--denoise";
         f.set = &set_bool<RenderJob, &RenderJob::render, &RenderSettings::denoise>;

@@ -104,7 +104,8 @@ struct PassSnapshot {
     int spp = 0;          // the pass's per-pixel sample target
     ConvergencePoint point;
     std::shared_ptr<const Image> image;  // linear RGB with per-pixel sample counts
-    std::shared_ptr<const Image> denoised;  // the pass's denoised image (a job that denoises; none before the 4-spp pass but the last)
+    // The pass's denoised image (a job that denoises; none before the 4-spp pass but the last).
+    std::shared_ptr<const Image> denoised;
 };
 
 // A shot's frame, finished and written.

@@ -64,8 +64,9 @@ struct RenderSettings {
     bool estimate_error = false;  // keep the half-sample buffer and report the estimated error
     // AOVs for compositing (engine/render/aov.h), accumulated with the image.
     AovSet aovs = 0;
-    // Denoise after every pass from kDenoiseFrom spp on and the last (engine/render/denoise.h) and report the denoised image's error;
-    // target_error then applies to the denoised image.
+    // Denoise after every pass from kDenoiseFrom spp on and the last (engine/render/denoise.h,
+    // passes.h) and report the denoised image's error; target_error then applies to the
+    // denoised image.
     bool denoise = false;
     // With denoise: after the first passes, each pass spends its samples where the denoised
     // image's estimated error is (engine/render/sampling_guide.h); spp is then the mean.

@@ -195,7 +195,8 @@ TEST(Passes, DenoisesFromTheFourSppPassAndWhereTheRenderEnds) {
             << "the render's last pass";
         PassPlan capped = plan;
         capped.max_passes = pass + 1;
-        EXPECT_TRUE(end_pass(s, capped, film, nullptr, pass, target, 0, 0.0, false, false).denoised) << "the pass cap's last pass";
+        EXPECT_TRUE(end_pass(s, capped, film, nullptr, pass, target, 0, 0.0, false, false).denoised)
+            << "the pass cap's last pass";
     }
     for (const TileRect& t : plan.tiles) {
         TileContext ctx(scene, s, camera);
