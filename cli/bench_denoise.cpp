@@ -19,6 +19,7 @@
 #include "api/job_runner.h"
 #include "cli/bench_common.h"
 #include "cli/command_line.h"
+#include "cli/detail_mask.h"
 #include "engine/io/image_io.h"
 #include "engine/io/scene_loader.h"
 #include "engine/render/film.h"
@@ -40,35 +41,13 @@ const AovPlane* plane_of(const std::vector<AovPlane>& planes, Aov a) {
     return nullptr;
 }
 
-// Pixels next to a jump in the reference's normal, depth or albedo: the edges and texture
-// detail a denoiser must keep.
-std::vector<uint8_t> detail_mask(const RenderResult& ref, int w, int h) {
-    std::vector<uint8_t> mask(size_t(w) * h, 0);
+// The edges and texture detail of the reference (detail_mask.h).
+std::vector<uint8_t> reference_detail_mask(const RenderResult& ref, int w, int h) {
     const AovPlane* n = plane_of(ref.aovs, Aov::normal);
     const AovPlane* z = plane_of(ref.aovs, Aov::depth);
     const AovPlane* a = plane_of(ref.aovs, Aov::albedo);
-    if (!n || !z || !a) return mask;
-    auto differs = [&](size_t p, size_t q) {
-        double dn = 0, da = 0;
-        for (int k = 0; k < 3; ++k) {
-            dn += std::abs(n->values[p * 3 + k] - n->values[q * 3 + k]);
-            da = std::max(da, double(std::abs(a->values[p * 3 + k] - a->values[q * 3 + k])));
-        }
-        const double zp = z->values[p], zq = z->values[q];
-        const bool dz = std::abs(zp - zq) > 0.03 * std::min(zp, zq);
-        return dn > 0.15 || da > 0.04 || dz;
-    };
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            const size_t p = size_t(y) * w + x;
-            for (int dy = -1; dy <= 1; ++dy)
-                for (int dx = -1; dx <= 1; ++dx) {
-                    const int xx = x + dx, yy = y + dy;
-                    if (xx < 0 || yy < 0 || xx >= w || yy >= h) continue;
-                    if (differs(p, size_t(yy) * w + xx)) mask[p] = 1;
-                }
-        }
-    return mask;
+    if (!n || !z || !a) return std::vector<uint8_t>(size_t(w) * h, 0);
+    return detail_mask(n->values.data(), z->values.data(), a->values.data(), w, h);
 }
 
 double masked_rel_mse(const Image& img, const Image& ref, const std::vector<uint8_t>& mask) {
@@ -222,7 +201,7 @@ int bench_denoise(int argc, char** argv) {
         rs.estimate_error = true;  // its own error, which adds to every error measured against it
         rs.aovs = aov_bit(Aov::albedo) | aov_bit(Aov::normal) | aov_bit(Aov::depth) | aov_bit(Aov::emission) | aov_bit(Aov::environment);
         const RenderResult ref = render(scene, rs);
-        const std::vector<uint8_t> mask = detail_mask(ref, W, H);
+        const std::vector<uint8_t> mask = reference_detail_mask(ref, W, H);
         // Elsewhere: the other pixels that saw a surface (the sky and a black void have nothing to denoise).
         std::vector<uint8_t> rest(mask.size(), 0);
         if (const AovPlane* z = plane_of(ref.aovs, Aov::depth))
