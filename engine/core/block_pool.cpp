@@ -3,12 +3,27 @@
 #include <cstdlib>
 
 #include "engine/core/large_vector.h"  // kHugePageBytes, allocate_huge_pages
+#include "engine/core/parallel.h"
 
 namespace tessera {
 
 namespace {
 
 thread_local BlockPool* t_current = nullptr;
+
+constexpr size_t kPageBytes = 4096;
+constexpr size_t kParallelFaultBytes = size_t(1) << 20;
+
+// One byte written per page, the pages split between `threads`: each thread's first writes
+// fault in (and the kernel zeroes) its share. The block's contents are undefined to its taker
+// either way.
+void fault_in(void* block, size_t bytes, int threads) {
+    auto* bytes_of = static_cast<volatile unsigned char*>(block);
+    const size_t pages = (bytes + kPageBytes - 1) / kPageBytes;
+    parallel_ranges(pages, threads, [&](size_t begin, size_t end, int) {
+        for (size_t i = begin; i < end; ++i) bytes_of[i * kPageBytes] = 0;
+    });
+}
 
 }  // namespace
 
@@ -37,7 +52,10 @@ void* BlockPool::take(size_t bytes) {
                 return p;
             }
     }
-    return allocate(bytes);
+    void* fresh = allocate(bytes);
+    const int threads = fault_threads_.load();
+    if (threads > 1 && bytes >= kParallelFaultBytes) fault_in(fresh, bytes, threads);
+    return fresh;
 }
 
 void BlockPool::give(void* block, size_t bytes) noexcept {

@@ -1116,6 +1116,7 @@ std::optional<Denoised> denoise(const Film& film, int threads, DenoiseCandidates
     std::optional<Denoised> d;
     {
         const BlockPool::Use use(memory);  // every map below, on every thread, takes from it
+        if (memory) memory->set_fault_threads(threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency())));
         d = denoise_in_use(film, threads, candidates);
     }
     if (memory) memory->trim();
