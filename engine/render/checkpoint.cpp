@@ -2,6 +2,7 @@
 
 #include <cstring>
 #include <stdexcept>
+#include <string_view>
 #include <type_traits>
 
 #include "engine/render/film_codec.h"
@@ -14,20 +15,20 @@ constexpr char kMagic[4] = {'T', 'C', 'K', '1'};
 static_assert(std::is_trivially_copyable_v<ConvergencePoint>);
 
 // FNV-1a over the bytes: a damaged file is refused rather than resumed into a wrong image.
-uint64_t checksum(const char* p, size_t n) {
-    uint64_t h = 1469598103934665603ull;
+constexpr uint64_t kChecksumSeed = 1469598103934665603ull;
+uint64_t checksum(const char* p, size_t n, uint64_t h = kChecksumSeed) {
     for (size_t i = 0; i < n; ++i) h = (h ^ uint8_t(p[i])) * 1099511628211ull;
     return h;
 }
 
 template <class T>
-void put(std::string& out, const T& v) {
+void put(const ByteSink& out, const T& v) {
     static_assert(std::is_trivially_copyable_v<T>);
-    out.append(reinterpret_cast<const char*>(&v), sizeof v);
+    out(reinterpret_cast<const char*>(&v), sizeof v);
 }
 
 struct Reader {
-    const std::string& in;
+    std::string_view in;
     size_t at = 0;
     template <class T>
     T get() {
@@ -53,33 +54,43 @@ uint64_t RenderCheckpoint::film_samples() const {
     return n;
 }
 
-std::string encode_checkpoint(const RenderCheckpoint& c) {
-    std::string out(kMagic, 4);
+void encode_checkpoint(const RenderCheckpoint& c, const ByteSink& sink) {
+    // Everything before the checksum passes through it on its way out.
+    uint64_t sum = kChecksumSeed;
+    const ByteSink out = [&](const char* p, size_t n) {
+        sum = checksum(p, n, sum);
+        sink(p, n);
+    };
+    out(kMagic, 4);
     put(out, int32_t(c.pass));
     put(out, int32_t(c.target));
     put(out, c.samples);
     put(out, c.seconds);
     put(out, uint64_t(c.tiles_done.size()));
-    out.append(reinterpret_cast<const char*>(c.tiles_done.data()), c.tiles_done.size());
+    if (!c.tiles_done.empty()) out(reinterpret_cast<const char*>(c.tiles_done.data()), c.tiles_done.size());
     put(out, uint64_t(c.points.size()));
     for (const ConvergencePoint& p : c.points) put(out, p);
     RenderStats stats = c.stats;
     for_each_counter([&](const char*, uint64_t& v) { put(out, v); }, stats);
     put(out, c.stats.max_sample);
-    const std::string film = encode_film(c.film);
-    put(out, uint64_t(film.size()));
-    out += film;
-    put(out, checksum(out.data(), out.size()));
+    put(out, uint64_t(encoded_film_size(c.film)));
+    encode_film(c.film, out);
+    put(sink, sum);
+}
+
+std::string encode_checkpoint(const RenderCheckpoint& c) {
+    std::string out;
+    encode_checkpoint(c, [&](const char* p, size_t n) { out.append(p, n); });
     return out;
 }
 
-RenderCheckpoint decode_checkpoint(const std::string& bytes) {
+RenderCheckpoint decode_checkpoint(std::string_view bytes) {
     if (bytes.size() < 4 + sizeof(uint64_t) || std::memcmp(bytes.data(), kMagic, 4) != 0)
         throw std::runtime_error("checkpoint: not a checkpoint");
     uint64_t sum;
     std::memcpy(&sum, bytes.data() + bytes.size() - sizeof sum, sizeof sum);
     if (sum != checksum(bytes.data(), bytes.size() - sizeof sum)) throw std::runtime_error("checkpoint: damaged (checksum)");
-    const std::string body = bytes.substr(0, bytes.size() - sizeof sum);
+    const std::string_view body = bytes.substr(0, bytes.size() - sizeof sum);  // a view: no copy of the film's bytes
     Reader r{body, 4};
     RenderCheckpoint c;
     c.pass = r.get<int32_t>();

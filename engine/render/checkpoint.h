@@ -7,10 +7,12 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "engine/render/convergence.h"
 #include "engine/render/film.h"
+#include "engine/render/film_codec.h"  // ByteSink
 #include "engine/render/renderer.h"
 
 namespace tessera {
@@ -30,9 +32,11 @@ struct RenderCheckpoint {
 };
 
 // As bytes, with a checksum: decode_checkpoint throws std::runtime_error for bytes this build did
-// not write whole (a torn or damaged file): the render then starts afresh.
+// not write whole (a torn or damaged file): the render then starts afresh. The sink's form
+// streams them (to a file: no copy of the film in memory beside the checkpoint's own).
+void encode_checkpoint(const RenderCheckpoint& c, const ByteSink& out);
 std::string encode_checkpoint(const RenderCheckpoint& c);
-RenderCheckpoint decode_checkpoint(const std::string& bytes);
+RenderCheckpoint decode_checkpoint(std::string_view bytes);
 
 // Whether a checkpoint continues a render of these settings and plan: the film's size and
 // buffers, the pass's tiles and target; a checkpoint that does not is ignored.

@@ -24,13 +24,15 @@ static_assert(std::is_trivially_copyable_v<glm::dvec3> && sizeof(glm::dvec3) == 
 static_assert(std::is_trivially_copyable_v<RunningStats>);
 
 template <class T>
-void put(std::string& out, const std::vector<T>& v) { put_raw(out, v); }
+void put(const ByteSink& out, const std::vector<T>& v) {
+    if (!v.empty()) out(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+}
 template <class T>
-void get(const std::string& in, size_t& at, std::vector<T>& v) { get_raw(in, at, v, "tile film"); }
+void get(std::string_view in, size_t& at, std::vector<T>& v) { get_raw(in, at, v, "tile film"); }
 
 }  // namespace
 
-std::string encode_film(const Film& f) {
+void encode_film(const Film& f, const ByteSink& out) {
     Header h{};
     std::memcpy(h.magic, kMagic, 4);
     h.width = f.width;
@@ -42,7 +44,7 @@ std::string encode_film(const Film& f) {
     h.guided = !f.goal.empty();
     h.rays = !f.rays.empty();
     h.aovs = f.aov_layout.set | (f.sum_odd.empty() ? 0 : kSplitHalves);
-    std::string out(reinterpret_cast<const char*>(&h), sizeof h);
+    out(reinterpret_cast<const char*>(&h), sizeof h);
     put(out, f.sum);
     put(out, f.count);
     put(out, f.goal);
@@ -60,10 +62,22 @@ std::string encode_film(const Film& f) {
     put(out, f.seen_odd);
     put(out, f.rays);
     put(out, f.aov);
+}
+
+size_t encoded_film_size(const Film& f) {
+    size_t n = 0;
+    encode_film(f, [&](const char*, size_t k) { n += k; });
+    return n;
+}
+
+std::string encode_film(const Film& f) {
+    std::string out;
+    out.reserve(encoded_film_size(f));
+    encode_film(f, [&](const char* p, size_t k) { out.append(p, k); });
     return out;
 }
 
-Film decode_film(const std::string& bytes) {
+Film decode_film(std::string_view bytes) {
     Header h;
     if (bytes.size() < sizeof h) throw std::runtime_error("tile film: truncated header");
     std::memcpy(&h, bytes.data(), sizeof h);

@@ -5,8 +5,10 @@
 // image, or a resumed render's, equals one uninterrupted process's. Little-endian x86-64 layout;
 // a header names the tile and the buffers present.
 #include <cstring>
+#include <functional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "engine/render/film.h"
@@ -20,7 +22,7 @@ void put_raw(std::string& out, const std::vector<T>& v) {
 }
 // Fills `v` (sized already) from in[at...], moving `at`; throws std::runtime_error("<what>: truncated").
 template <class T>
-void get_raw(const std::string& in, size_t& at, std::vector<T>& v, const char* what) {
+void get_raw(std::string_view in, size_t& at, std::vector<T>& v, const char* what) {
     const size_t bytes = v.size() * sizeof(T);
     if (bytes == 0) return;
     if (in.size() - at < bytes) throw std::runtime_error(std::string(what) + ": truncated");
@@ -28,8 +30,14 @@ void get_raw(const std::string& in, size_t& at, std::vector<T>& v, const char* w
     at += bytes;
 }
 
+// Where encoded bytes go, piece by piece: a string, a file, a count. A checkpoint of a large
+// film streams to its file, so that writing it costs no copy of the film's bytes in memory.
+using ByteSink = std::function<void(const char* bytes, size_t n)>;
+
+void encode_film(const Film& film, const ByteSink& out);
 std::string encode_film(const Film& film);
+size_t encoded_film_size(const Film& film);
 // Throws std::runtime_error for bytes that are not a film this build wrote.
-Film decode_film(const std::string& bytes);
+Film decode_film(std::string_view bytes);
 
 }  // namespace tessera
