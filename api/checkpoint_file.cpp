@@ -14,10 +14,10 @@ namespace tessera::api {
 namespace {
 
 // Streams the checkpoint into a new file and fsyncs it: a rename after a crash must never expose
-// a file the disk has not got. Small pieces gather in a buffer, a film's
-// arrays (megabytes) go straight from the checkpoint's film: no copy of its bytes is made (a
-// 4096×4096 denoising render's is 3 GB, which the encoded string and its copy once doubled and
-// tripled while the render kept its own).
+// a file the disk has not got. Small pieces gather in a buffer; the film's arrays (megabytes) go
+// straight from the checkpoint's film, so no copy of its bytes is made (a 4096×4096 denoising
+// render's film is 3 GB, and encoded into a string first a checkpoint held it three times over
+// beside the render's own).
 bool write_synced(const std::string& path, const RenderCheckpoint& c) {
     const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
     if (fd < 0) return false;
