@@ -37,6 +37,7 @@ bool write_synced(const std::string& path, const RenderCheckpoint& c) {
     std::string buffer;
     buffer.reserve(kBuffer);
     encode_checkpoint(c, [&](const char* p, size_t n) {
+        if (!ok) return;  // the disk refused: the rest is not buffered for nothing
         if (buffer.size() + n > kBuffer) {
             write_all(buffer.data(), buffer.size());
             buffer.clear();
