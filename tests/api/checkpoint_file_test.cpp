@@ -65,9 +65,13 @@ TEST(CheckpointFile, StreamsTheEncodingsBytesAndReadsBack) {
     later.pass = 4;
     ASSERT_TRUE(write_checkpoint(path, later));
     EXPECT_EQ(file_bytes(path), encode_checkpoint(later));
-    // A path no file can have (its folder is a device): false, nothing thrown. A disk that fills
-    // while the film streams is tests/server/store_faults.sh's.
+    // A path no file can have (its folder is a device): false, nothing thrown.
     EXPECT_FALSE(write_checkpoint("/dev/null/render.ckpt", c));
+    // A disk that fills while the film streams: the file beside it is /dev/full, whose writes
+    // fail with ENOSPC. False, the part removed, the checkpoint before left as it was.
+    std::filesystem::create_symlink("/dev/full", path + ".part");
+    EXPECT_FALSE(write_checkpoint(path, c));
+    EXPECT_FALSE(std::filesystem::is_symlink(path + ".part"));
     EXPECT_EQ(file_bytes(path), encode_checkpoint(later)) << "the checkpoint before is left as it was";
     std::filesystem::remove_all(dir);
 }
