@@ -10,6 +10,7 @@
 
 #include "engine/core/block_pool.h"
 #include "engine/core/exp_nonpositive.h"
+#include "engine/core/float_lanes.h"
 #include "engine/render/convergence.h"
 #include "engine/render/film.h"
 
@@ -289,17 +290,20 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
     const size_t n = size_t(W) * H;
     // Guides (3×3 means of each half, or its box regression: below) and their variance per pixel.
     NlmPlanes P;
-    for (auto& a : P.at) a.resize(n);
+    const int pad = r + kLanes;
+    const size_t Wp = size_t(W) + 2 * size_t(pad);
+    auto padded = [&](int x, int y) { return size_t(y) * Wp + size_t(x + pad); };
+    for (auto& a : P.at) a.assign(Wp * size_t(H), 0.f);  // the padding: no use, no weight
     for_bands(H, threads, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y)
         for (int x = 0; x < W; ++x) {
-            const size_t p = size_t(y) * W + x;
+            const size_t p = size_t(y) * W + x, pp = padded(x, y);
             float g[kY];
-            P.at[NlmPlanes::var][p] =
+            P.at[NlmPlanes::var][pp] =
                 guide_3x3(W, H, x, y, in.y.data(), in.y.data() + 3, kY, [&](size_t q) { return in.use[q] || q == p; }, g, g + 3);
             for (int k = 0; k < kY; ++k) {
-                P.at[NlmPlanes::gA + k][p] = g[k];
-                P.at[NlmPlanes::yA + k][p] = in.y[p * kY + k];
+                P.at[NlmPlanes::gA + k][pp] = g[k];
+                P.at[NlmPlanes::yA + k][pp] = in.y[p * kY + k];
             }
             // Where the pixel joins its neighbours' windows, the guide is the half as the box
             // regression filtered it: its noise is what the weights lose most to ("Where the error
@@ -318,17 +322,17 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
                     const double e = double(prefiltered[p * kY + k]) - prefiltered[p * kY + 3 + k];
                     d += e * e;
                 }
-                for (int k = 0; k < kY; ++k) P.at[NlmPlanes::gA + k][p] = prefiltered[p * kY + k];
-                P.at[NlmPlanes::var][p] = std::max(P.at[NlmPlanes::var][p] * kPrefilteredVariance, float(d / 3.0 / 2.0));
+                for (int k = 0; k < kY; ++k) P.at[NlmPlanes::gA + k][pp] = prefiltered[p * kY + k];
+                P.at[NlmPlanes::var][pp] = std::max(P.at[NlmPlanes::var][pp] * kPrefilteredVariance, float(d / 3.0 / 2.0));
             }
-            for (int k = 0; k < 4; ++k) P.at[NlmPlanes::nx + k][p] = in.f[p * kF + k];
+            for (int k = 0; k < 4; ++k) P.at[NlmPlanes::nx + k][pp] = in.f[p * kF + k];
             // Held finite (an infinite or NaN half, whose guide weighs it nothing, is the largest),
             // so that no sum below turns NaN or infinite and spreads through the poolings.
             for (int k = 0; k < 3; ++k) {
                 const float e = in.y[p * kY + k] - in.y[p * kY + 3 + k];
-                P.at[NlmPlanes::s2 + k][p] = std::fmin(0.5f * e * e, kNoiseCeiling);
+                P.at[NlmPlanes::s2 + k][pp] = std::fmin(0.5f * e * e, kNoiseCeiling);
             }
-            P.at[NlmPlanes::use][p] = in.use[p] ? 1.f : 0.f;
+            P.at[NlmPlanes::use][pp] = in.use[p] ? 1.f : 0.f;
         }
     });
     out.assign(n * kY, 0.f);
@@ -341,13 +345,24 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
     // error is 13-32 % lower there from 128 spp, and within a few per cent either way at fewer
     // samples (docs/denoising.md).
     constexpr float kK2 = 0.45f * 0.45f, kVarFloor = 1e-5f;
-    // Offset by offset over a whole row (not neighbour by neighbour per pixel): the inner loop
-    // runs along the row with no branch and no sum across its steps, so it vectorizes; each
-    // pixel's sums still take the offsets in one fixed order, so the image does not depend on
-    // the threads.
+    // Sixteen pixels of a row at a time, offset by offset, their sums in registers (Lanes): first
+    // the weights, with the sums that read nothing else, kept for the window; then per channel the
+    // sums of the noise and the colour. Each pixel's sums still take the offsets in one fixed
+    // order, so the image does not depend on the threads. The planes' rows are padded by r + 16
+    // pixels of no use on either side, so a window over the edge weighs nothing there.
+    const int D = 2 * r + 1;
     for_bands(H, threads, [&](int y0, int y1) {
-        PoolVector<float> sums(size_t(NlmSums::count) * W);
-        auto sum = [&](int h, int k) { return &sums[size_t(h * NlmSums::per_half + k) * W]; };
+        const size_t Ws = size_t(W) + kLanes;  // a row of sums, and room for the last pixels' lanes
+        PoolVector<float> sums(size_t(NlmSums::count) * Ws);
+        auto sum = [&](int h, int k) { return &sums[size_t(h * NlmSums::per_half + k) * Ws]; };
+        std::vector<Lanes> weights(size_t(D) * D * 2);
+        // Per offset, its moments {1, dx, dy, dx², dx·dy, dy²} (dx, dy in window radii).
+        std::vector<std::array<float, 6>> moments(size_t(D) * D);
+        for (int oy = -r; oy <= r; ++oy)
+            for (int ox = -r; ox <= r; ++ox) {
+                const float dx = float(ox) / float(r), dy = float(oy) / float(r);
+                moments[size_t((oy + r) * D + ox + r)] = {1.f, dx, dy, dx * dx, dx * dy, dy * dy};
+            }
         for (int y = y0; y < y1; ++y) {
             std::fill(sums.begin(), sums.end(), 0.f);
             const size_t row = size_t(y) * W;
@@ -356,72 +371,77 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
             int first_x = W, end_x = 0;
             for (int x = 0; x < W; ++x)
                 if (in.f[(row + size_t(x)) * kF + 3] <= 1.5f) { first_x = std::min(first_x, x); end_x = x + 1; }
-            for (int oy = -r; oy <= r; ++oy) {
-                const int yy = y + oy;
-                if (yy < 0 || yy >= H) continue;
-                const float dy = float(oy) / float(r);
-                for (int ox = -r; ox <= r; ++ox) {
-                    const int x0 = std::max(first_x, -ox), x1 = std::min(end_x, W - ox);
-                    const float dx = float(ox) / float(r);
-                    const bool centre = ox == 0 && oy == 0;  // the pixel itself joins its window whatever it saw
-                    const ptrdiff_t off = ptrdiff_t(yy - y) * W + ox;
-                    const float* pl[NlmPlanes::count];
-                    for (int c = 0; c < NlmPlanes::count; ++c) pl[c] = P.at[size_t(c)].data() + row;
-                    float* s0[NlmSums::per_half];
-                    float* s1[NlmSums::per_half];
-                    for (int k = 0; k < NlmSums::per_half; ++k) { s0[k] = sum(0, k); s1[k] = sum(1, k); }
-                    const float m[6] = {1.f, dx, dy, dx * dx, dx * dy, dy * dy};
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC ivdep
-#endif
-                    for (int x = x0; x < x1; ++x) {
-                        auto P0 = [&](int c) { return pl[c][x]; };
-                        auto Q = [&](int c) { return pl[c][x + off]; };
-                        // Geometry: a neighbour on another surface is not one of this pixel's kind.
-                        const float e0 = P0(NlmPlanes::nx) - Q(NlmPlanes::nx), e1 = P0(NlmPlanes::ny) - Q(NlmPlanes::ny),
-                                    e2 = P0(NlmPlanes::nz) - Q(NlmPlanes::nz);
-                        const float dz = (P0(NlmPlanes::z) - Q(NlmPlanes::z)) / (0.02f + P0(NlmPlanes::z));
-                        const float gf = (e0 * e0 + e1 * e1 + e2 * e2) / 0.05f + dz * dz / 0.0025f;
-                        // A weight below 1e-4 counts as none; so does a neighbour that saw light directly.
-                        const float keep = (gf <= 9.2f ? 1.f : 0.f) * (centre ? 1.f : Q(NlmPlanes::use));
-                        const float vi = P0(NlmPlanes::var), vq = Q(NlmPlanes::var);
-                        const float scale = 1.f / (3.f * (kVarFloor + kK2 * (vi + vq)));
-                        const float floor = vi + std::min(vi, vq);
-                        float wh[2];
-                        for (int h = 0; h < 2; ++h) {
-                            const int g = h == 0 ? NlmPlanes::gB : NlmPlanes::gA;  // the other half's guide
-                            float d2 = 0.f;
-                            for (int k = 0; k < 3; ++k) {
-                                const float e = P0(g + k) - Q(g + k);
-                                d2 += e * e - floor;
-                            }
-                            // NaN (an infinite guide) passes on to the exponential, which weighs it nothing.
-                            wh[h] = keep * exp_nonpositive(-gf - std::max(d2 * scale, 0.f));
-                        }
-                        const float w0 = wh[0] * wh[0], w1 = wh[1] * wh[1];
-                        for (int k = 0; k < 6; ++k) {
-                            s0[k][x] += wh[0] * m[k];
-                            s1[k][x] += wh[1] * m[k];
-                        }
-                        for (int ch = 0; ch < 3; ++ch) {
-                            const float s2 = Q(NlmPlanes::s2 + ch);
-                            const float c0 = wh[0] > 0.f ? w0 * s2 : 0.f, c1 = wh[1] > 0.f ? w1 * s2 : 0.f;
-                            for (int k = 0; k < 6; ++k) {
-                                s0[NlmSums::v + 6 * ch + k][x] += c0 * m[k];
-                                s1[NlmSums::v + 6 * ch + k][x] += c1 * m[k];
+            const int oy0 = std::max(-r, -y), oy1 = std::min(r, H - 1 - y);
+            for (int xb = first_x; xb < end_x; xb += kLanes) {
+                auto at = [&](int c, int oy, int ox) { return load_lanes(&P.at[size_t(c)][padded(xb + ox, y + oy)]); };
+                // The weights, and Σw·{1, dx, dy, dx², dx·dy, dy²} per half.
+                {
+                    const Lanes pnx = at(NlmPlanes::nx, 0, 0), pny = at(NlmPlanes::ny, 0, 0), pnz = at(NlmPlanes::nz, 0, 0);
+                    const Lanes pz = at(NlmPlanes::z, 0, 0), vi = at(NlmPlanes::var, 0, 0);
+                    const Lanes zscale = 1.f / (0.02f + pz);
+                    Lanes acc[2][6] = {};
+                    for (int oy = oy0; oy <= oy1; ++oy) {
+                        for (int ox = -r; ox <= r; ++ox) {
+                            const float* m = moments[size_t((oy + r) * D + ox + r)].data();
+                            // Geometry: a neighbour on another surface is not one of this pixel's kind.
+                            const Lanes e0 = pnx - at(NlmPlanes::nx, oy, ox), e1 = pny - at(NlmPlanes::ny, oy, ox),
+                                        e2 = pnz - at(NlmPlanes::nz, oy, ox);
+                            const Lanes dz = (pz - at(NlmPlanes::z, oy, ox)) * zscale;
+                            const Lanes gf = (e0 * e0 + e1 * e1 + e2 * e2) / 0.05f + dz * dz / 0.0025f;
+                            // A weight below 1e-4 counts as none; so does a neighbour that saw light
+                            // directly (the pixel itself joins its window whatever it saw).
+                            const Lanes use = ox == 0 && oy == 0 ? splat(1.f) : at(NlmPlanes::use, oy, ox);
+                            const Lanes keep = select(gf <= 9.2f, use, splat(0.f));
+                            const Lanes vq = at(NlmPlanes::var, oy, ox);
+                            const Lanes scale = 1.f / (3.f * (kVarFloor + kK2 * (vi + vq)));
+                            const Lanes floor = vi + min_lanes(vi, vq);
+                            Lanes* w = &weights[size_t((oy + r) * D + ox + r) * 2];
+                            for (int h = 0; h < 2; ++h) {
+                                const int g = h == 0 ? NlmPlanes::gB : NlmPlanes::gA;  // the other half's guide
+                                Lanes d2 = splat(0.f);
+                                for (int k = 0; k < 3; ++k) {
+                                    const Lanes e = at(g + k, 0, 0) - at(g + k, oy, ox);
+                                    d2 += e * e - floor;
+                                }
+                                // NaN (an infinite guide) passes on to the exponential, which weighs it
+                                // nothing. A weight below e⁻²⁰ (2·10⁻⁹ of the pixel's own) is none: its
+                                // square and products would be denormal, which cost the processor a
+                                // hundred times a normal float's arithmetic (this loop took 3 times as
+                                // long with them).
+                                const Lanes e = -gf - max_lanes(d2 * scale, splat(0.f));
+                                w[h] = select(e > -20.f, keep * exp_nonpositive(e), splat(0.f));
+                                for (int k = 0; k < 6; ++k) acc[h][k] += w[h] * m[k];
                             }
                         }
-                        for (int k = 0; k < 3; ++k) {
-                            // A neighbour of no weight adds nothing, whatever its colour (an infinite one included).
-                            const float ya = wh[0] > 0.f ? wh[0] * Q(NlmPlanes::yA + k) : 0.f;
-                            const float yb = wh[1] > 0.f ? wh[1] * Q(NlmPlanes::yB + k) : 0.f;
-                            s0[NlmSums::y + 3 * k][x] += ya;
-                            s0[NlmSums::y + 3 * k + 1][x] += ya * dx;
-                            s0[NlmSums::y + 3 * k + 2][x] += ya * dy;
-                            s1[NlmSums::y + 3 * k][x] += yb;
-                            s1[NlmSums::y + 3 * k + 1][x] += yb * dx;
-                            s1[NlmSums::y + 3 * k + 2][x] += yb * dy;
+                    }
+                    for (int h = 0; h < 2; ++h)
+                        for (int k = 0; k < 6; ++k) store_lanes(sum(h, NlmSums::w + k) + xb, acc[h][k]);
+                }
+                // Per channel: Σw²·s²·{1, dx, dy, dx², dx·dy, dy²} and Σw·y·{1, dx, dy}, per half.
+                for (int ch = 0; ch < 3; ++ch) {
+                    Lanes v[2][6] = {}, c[2][3] = {};
+                    for (int oy = oy0; oy <= oy1; ++oy) {
+                        for (int ox = -r; ox <= r; ++ox) {
+                            const float* m = moments[size_t((oy + r) * D + ox + r)].data();
+                            const Lanes* w = &weights[size_t((oy + r) * D + ox + r) * 2];
+                            const Lanes s2 = at(NlmPlanes::s2 + ch, oy, ox);
+                            const Lanes y2[2] = {at(NlmPlanes::yA + ch, oy, ox), at(NlmPlanes::yB + ch, oy, ox)};
+                            for (int h = 0; h < 2; ++h) {
+                                // s² is finite, so a neighbour of no weight adds nothing; its colour
+                                // may not be (an infinite one), so that is masked.
+                                const LaneMask weighs = w[h] > 0.f;
+                                const Lanes cv = w[h] * w[h] * s2;
+                                const Lanes ya = select(weighs, w[h] * y2[h], splat(0.f));
+                                for (int k = 0; k < 6; ++k) v[h][k] += cv * m[k];
+                                c[h][0] += ya;
+                                c[h][1] += ya * m[1];
+                                c[h][2] += ya * m[2];
+                            }
                         }
+                    }
+                    for (int h = 0; h < 2; ++h) {
+                        for (int k = 0; k < 6; ++k) store_lanes(sum(h, NlmSums::v + 6 * ch + k) + xb, v[h][k]);
+                        for (int k = 0; k < 3; ++k) store_lanes(sum(h, NlmSums::y + 3 * ch + k) + xb, c[h][k]);
                     }
                 }
             }
