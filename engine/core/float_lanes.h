@@ -30,7 +30,8 @@ inline Lanes max_lanes(Lanes a, Lanes b) { return select(a < b, b, a); }
 
 // exp_nonpositive (engine/core/exp_nonpositive.h) lane by lane, the same reduction and series;
 // the rounding to the nearest integer by adding and taking off 1.5·2²³ (round to nearest even,
-// as nearbyint in the default rounding mode, exact for |x·log2 e| < 2²²).
+// as nearbyint in the default rounding mode, exact for |x·log2 e| < 2²²): the scalar's bits,
+// where multiply-adds are not fused (with them, the same to a few ulps).
 inline Lanes exp_nonpositive(Lanes x) {
     x = select(x > -86.6f, min_lanes(x, splat(0.f)), splat(-86.6f));  // NaN weighs nothing
     const Lanes i = (x * 1.44269504f + 12582912.f) - 12582912.f;

@@ -345,7 +345,8 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
     // error is 13-32 % lower there from 128 spp, and within a few per cent either way at fewer
     // samples (docs/denoising.md).
     constexpr float kK2 = 0.45f * 0.45f, kVarFloor = 1e-5f;
-    // Sixteen pixels of a row at a time, offset by offset, their sums in registers (Lanes): first
+    // Sixteen pixels of a row at a time, offset by offset, their sums in registers (Lanes, one
+    // AVX-512 register each; with fewer or narrower registers some spill to the stack): first
     // the weights, with the sums that read nothing else, kept for the window; then per channel the
     // sums of the noise and the colour. Each pixel's sums still take the offsets in one fixed
     // order, so the image does not depend on the threads. The planes' rows are padded by r + 16
@@ -403,13 +404,18 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
                                     const Lanes e = at(g + k, 0, 0) - at(g + k, oy, ox);
                                     d2 += e * e - floor;
                                 }
-                                // NaN (an infinite guide) passes on to the exponential, which weighs it
-                                // nothing. A weight below e⁻²⁰ (2·10⁻⁹ of the pixel's own) is none: its
-                                // square and products would be denormal, which cost the processor a
-                                // hundred times a normal float's arithmetic (this loop took 3 times as
-                                // long with them).
+                                // A weight below e⁻²⁰ (2·10⁻⁹ of the pixel's own) is none: below about
+                                // e⁻⁴⁴ a weight's square is a denormal float, and so are its products
+                                // with small colours and noise well above that; a denormal costs the
+                                // processor's microcode a hundred times a normal operation (this loop
+                                // took 3 times as long with them). A NaN distance (a guide or its
+                                // variance overflowed, beside a firefly of 10²⁰ and more) weighs the
+                                // exponential's floor, 2.5·10⁻³⁸: where the pixel's own is NaN, all
+                                // its neighbours' are, and its window is their plain mean (which
+                                // keeps a firefly's own pixel from standing alone at a value whose
+                                // square overflows the error maps downstream).
                                 const Lanes e = -gf - max_lanes(d2 * scale, splat(0.f));
-                                w[h] = select(e > -20.f, keep * exp_nonpositive(e), splat(0.f));
+                                w[h] = select((e > -20.f) | (e != e), keep * exp_nonpositive(e), splat(0.f));
                                 for (int k = 0; k < 6; ++k) acc[h][k] += w[h] * m[k];
                             }
                         }

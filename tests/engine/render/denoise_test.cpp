@@ -627,3 +627,101 @@ TEST(Denoise, ABrightPathBothHalvesSampledIsFilteredAndAHighlightIsKept) {
 
 }  // namespace
 }  // namespace tessera
+
+namespace tessera {
+namespace {
+
+// A synthetic denoising film of W × H: void columns [0, void_cols) (no surface: nothing to
+// filter), the rest one lit surface whose shading leans across the row, each half with its own
+// noise.
+Film synthetic_film(int W, int H, int void_cols, uint32_t seed) {
+    const int N = 16;
+    Film f(W, H, false, false, kDenoiseAovs);
+    const AovLayout& l = f.aov_layout;
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> noise(0.0, 0.03);
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            const size_t p = size_t(y) * W + x;
+            f.count[p] = N;
+            if (x < void_cols) continue;  // sums, albedo, normal and depth zero: it saw nothing
+            double* e = &f.aov[p * size_t(l.stride)];
+            for (int c = 0; c < 3; ++c) {
+                const double truth = 0.2 + 0.01 * x + 0.05 * c;
+                const double even = truth + noise(rng), odd = truth + noise(rng);
+                f.sum_odd[p][c] = odd * (N / 2);
+                f.sum[p][c] = f.sum_odd[p][c] + even * (N / 2);
+                e[l.offset[size_t(Aov::albedo)] + c] = 0.6 * N;
+                e[l.offset[size_t(Aov::variance)] + c] = N / 2 * (even * even + odd * odd) + N * 0.03 * 0.03;
+            }
+            e[l.offset[size_t(Aov::normal)] + 2] = N;
+            e[l.offset[size_t(Aov::depth)]] = 2.0 * N;
+        }
+    return f;
+}
+
+// NL-means takes sixteen pixels of a row at a time, its planes padded past the image's edges:
+// rows of any width, whose surface starts anywhere, and windows over either edge must give what
+// the same film mirrored gives mirrored (every filter here is symmetric in x, up to rounding).
+TEST(Denoise, RowsOfAnyWidthAndStartGiveTheMirroredFilmsImageMirrored) {
+    for (const int W : {1, 5, 16, 17, 37}) {
+        const int H = 9;
+        for (const int void_cols : {0, 3}) {
+            if (void_cols >= W) continue;
+            const Film f = synthetic_film(W, H, void_cols, 11);
+            Film m = f;  // mirrored in x
+            for (int y = 0; y < H; ++y)
+                for (int x = 0; x < W; ++x) {
+                    const size_t p = size_t(y) * W + x, q = size_t(y) * W + size_t(W - 1 - x);
+                    m.count[q] = f.count[p];
+                    m.sum[q] = f.sum[p];
+                    m.sum_odd[q] = f.sum_odd[p];
+                    for (int k = 0; k < f.aov_layout.stride; ++k)
+                        m.aov[q * size_t(f.aov_layout.stride) + size_t(k)] = f.aov[p * size_t(f.aov_layout.stride) + size_t(k)];
+                }
+            const std::optional<Denoised> a = denoise(f, 2), b = denoise(m, 3);
+            ASSERT_TRUE(a && b) << W;
+            double worst = 0;
+            for (int y = 0; y < H; ++y)
+                for (int x = 0; x < W; ++x)
+                    for (int c = 0; c < 3; ++c) {
+                        const float va = a->image.rgb[(size_t(y) * W + x) * 3 + c];
+                        const float vb = b->image.rgb[(size_t(y) * W + size_t(W - 1 - x)) * 3 + c];
+                        ASSERT_TRUE(std::isfinite(va)) << W << " " << x << "," << y;
+                        worst = std::max(worst, double(std::abs(va - vb)) / std::max(1e-3, double(std::abs(va))));
+                    }
+            EXPECT_LT(worst, 1e-4) << "width " << W << ", void columns " << void_cols;
+            if (W >= 16) {  // the filter did something: the denoised surface is smoother than the noisy one
+                double noisy = 0, denoised = 0;
+                for (int y = 0; y < H; ++y)
+                    for (int x = void_cols + 1; x < W; ++x) {
+                        const size_t p = size_t(y) * W + x, o = p - 1;
+                        const double d0 = f.sum[p][1] / 16 - f.sum[o][1] / 16 - 0.01;
+                        const double d1 = double(a->image.rgb[p * 3 + 1]) - a->image.rgb[o * 3 + 1] - 0.01;
+                        noisy += d0 * d0;
+                        denoised += d1 * d1;
+                    }
+                EXPECT_LT(denoised, 0.5 * noisy) << "width " << W;
+            }
+        }
+    }
+}
+
+// A firefly whose halves are 10²⁰ to 10³⁷ apart (a guide variance that overflows a float; a
+// scene's emission is any finite number): every pixel of the denoised image and its error
+// estimate is still a number.
+TEST(Denoise, AFireflyWhoseNoiseOverflowsLeavesEveryPixelFinite) {
+    for (const double size : {1e20, 1e25, 1e30, 1e34, 1e37}) {
+        const Film f = synthetic_film(37, 20, 3, 12);
+        Film g = f;
+        const size_t p = size_t(10) * 37 + 20;
+        for (int c = 0; c < 3; ++c) g.sum[p][c] += size * 8;  // the even half's mean up by `size`
+        const std::optional<Denoised> d = denoise(g, 2);
+        ASSERT_TRUE(d);
+        for (size_t i = 0; i < d->image.rgb.size(); ++i) ASSERT_TRUE(std::isfinite(d->image.rgb[i])) << size << " at " << i / 3;
+        EXPECT_TRUE(std::isfinite(d->est_rel_mse)) << size;
+    }
+}
+
+}  // namespace
+}  // namespace tessera
