@@ -63,7 +63,7 @@ class BlockPool;
 // around (20), the image (16), its per-pixel error (4) and that error in double with the blend's
 // leader, summed in pixel order after the threads (9): 430, with the poolings' (32: the kinds'
 // shares at three radii, the row sums they share, a pooled map). Before them, NL-means' planes
-// (84, their rows padded by 2·(4 + 16) pixels) and sums (a row per band) have come and gone. Then, all of that still held, the light seen
+// (84) and sums (a row per band) have come and gone. Then, all of that still held, the light seen
 // directly filtered per half (24; its guides, 28, come and go before) and its blend's maps (its
 // own, the filtered one's variance and bias, each pooled, whether it moved, one kind for every
 // pixel: 26) with two more poolings' shares (8), all at most the whole image: 520.
