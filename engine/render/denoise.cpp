@@ -363,8 +363,9 @@ void filter_nlm(const Inputs& in, int r, int threads, const PoolVector<float>& p
                 const float dx = float(ox) / float(r), dy = float(oy) / float(r);
                 moments[size_t((oy + r) * D + ox + r)] = {1.f, dx, dy, dx * dx, dx * dy, dy * dy};
             }
+        // No clearing per row: every sum the solve reads (the row's surface pixels, all within
+        // the span below) is stored first; clearing was 66 floats a pixel of dead writes.
         for (int y = y0; y < y1; ++y) {
-            std::fill(sums.begin(), sums.end(), 0.f);
             const size_t row = size_t(y) * W;
             // Only the row's span of pixels that saw a surface: the void around a model has
             // nothing to filter.
