@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -150,8 +151,11 @@ int bench_denoise(int argc, char** argv) {
     app.add_option("--max-spp", max_spp, "the largest spp rendered (a power of two)")->check(CLI::Range(4, 1 << 16));
     app.add_option("--depth", depth, "maximum bounce depth")->check(CLI::Range(1, 100));
     app.add_option("--figures", figures, "write each scene's noisy, denoised and reference images here")->type_name("DIR");
-    bool show_candidates = false, uniform = false;
+    bool show_candidates = false, uniform = false, until_reached = false;
     app.add_flag("--uniform", uniform, "renders that denoise sample every pixel alike (guided_sampling false)");
+    app.add_flag("--until-reached", until_reached,
+                 "render the undenoised --max-spp baseline first and stop the denoising renders at the first whose error is "
+                 "at or below it (the time ratio alone, for about half the run's time; the larger counts are not rendered)");
     app.add_flag("--candidates", show_candidates,
                  "after each row, each candidate's true relMSE (whole image, edges and textures, elsewhere) and its variance by its "
                  "two halves, the blended image's relMSE, and that of a per-pixel choice by the true error (an oracle: what a "
@@ -226,6 +230,16 @@ int bench_denoise(int argc, char** argv) {
                     "seeing a light: pixels, share of the error |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
         struct Row { int spp; double render_s, denoise_s, denoise_all_s, noisy, denoised; };
         std::vector<Row> rows;
+        // The baseline: uniform sampling, no denoiser, at the largest count.
+        auto render_baseline = [&] {
+            RenderSettings s = base;
+            s.spp = max_spp;
+            s.seed = seed;
+            const RenderResult r = render(scene, s);
+            return Row{max_spp, r.stats.render_seconds, 0.0, 0.0, true_error(r.image), 0.0};
+        };
+        std::optional<Row> baseline;
+        if (until_reached) baseline = render_baseline();
         for (int spp = 4; spp <= max_spp; spp *= 2) {
             RenderSettings s = base;
             s.spp = spp;
@@ -278,16 +292,15 @@ int bench_denoise(int argc, char** argv) {
                 write_png(figures + "/denoise_" + stem + "_" + std::to_string(spp) + "spp_denoised.png", d->image);
                 if (spp == max_spp) write_png(figures + "/denoise_" + stem + "_reference.png", ref.image);
             }
+            if (baseline && dn <= baseline->noisy) {
+                if (spp < max_spp) std::printf("| (%d-%d: not rendered, --until-reached) |\n", spp * 2, max_spp);
+                break;
+            }
         }
         if (!rows.empty()) {
             Row top = rows.back();
-            if (!uniform) {  // the baseline: uniform sampling, no denoiser
-                RenderSettings s = base;
-                s.spp = max_spp;
-                s.seed = seed;
-                const RenderResult r = render(scene, s);
-                top = {max_spp, r.stats.render_seconds, 0.0, 0.0, true_error(r.image), 0.0};
-            }
+            if (baseline) top = *baseline;
+            else if (!uniform) top = render_baseline();
             // The first denoised row at or below that error, and the time to it interpolated in
             // log-log from the row before (error falls about as a power of the time). The time is
             // the render's and every pass's denoising: a job denoises after each, and guided
