@@ -31,6 +31,7 @@ if [ -n "$reached" ]; then
     echo "--until-reached: the counts not rendered should be said: $out"; exit 1
   fi
 elif [ "$last" != 256 ]; then echo "--until-reached: nothing reached, yet the renders stopped at $last: $out"; exit 1; fi
+if ! printf '%s\n' "$out" | grep -q 'over the rows rendered'; then echo "--until-reached: the verdict should say it covers the rows rendered: $out"; exit 1; fi
 refused=$("$tessera" bench denoise --seed 7 2>&1)
 status=$?
 if [ "$status" -ne 2 ]; then echo "--seed 7 should exit 2, got $status: $refused"; exit 1; fi
