@@ -4,7 +4,10 @@
 // textures alone (found from the reference's albedo, normal and depth), the denoiser's time, and
 // the time the denoised render needs to reach the error of the largest undenoised spp (a uniform
 // render without the denoiser; the denoising renders are guided, as a job's are by default, or
-// uniform with --uniform). Errors against the reference have the reference's own taken off.
+// uniform with --uniform). Errors against the reference have the reference's own taken off, known per
+// pixel from its two independent halves. --regions splits the error by what decides it (lamps and
+// sky seen directly, their neighbours, edges and textures, other surfaces); --exr writes every
+// image measured, so that anyone can cut it otherwise.
 // --until-reached renders that baseline first and stops at the first denoised render reaching it.
 #include <algorithm>
 #include <array>
@@ -64,6 +67,78 @@ double masked_rel_mse(const Image& img, const Image& ref, const std::vector<uint
         n += 3;
     }
     return n ? s / double(n) : 0.0;
+}
+
+// The reference's own squared error, per pixel and relative as every error here: it is rendered
+// as a denoising render is, its even and odd samples from two scrambles of their own, so the two
+// halves' means A and B are independent and (A − B)²/4 is an unbiased estimate of the squared
+// error of their mean, the image (whatever the samples' stratification, which an estimate from
+// one net's sample variance would miss).
+std::vector<double> half_gap_error(const Film& film) {
+    const size_t n = size_t(film.width) * film.height;
+    std::vector<double> e(n, 0.0);
+    if (film.sum_odd.size() != n) return e;
+    for (size_t p = 0; p < n; ++p) {
+        const uint32_t c = film.count[p], odd = c / 2, even = c - odd;
+        if (odd == 0) continue;
+        const glm::dvec3 a = film.sum_odd[p] / double(odd), b = (film.sum[p] - film.sum_odd[p]) / double(even),
+                         m = film.sum[p] / double(c);
+        for (int k = 0; k < 3; ++k) e[p] += (a[k] - b[k]) * (a[k] - b[k]) / 4.0 / (m[k] * m[k] + 0.01) / 3.0;
+    }
+    return e;
+}
+
+// Regions that partition the pixels by what decides their error (--regions): those whose
+// reference saw a lamp or the sky directly (coverage), their neighbours in 3×3, the edges and
+// textures (detail_mask.h) and the other surfaces; the pixels that saw nothing at all (a black
+// void) are in none.
+struct Region {
+    const char* name;
+    std::vector<uint8_t> in;
+    size_t pixels = 0;
+    double ref_error = 0;  // the reference's own relMSE over the region (half_gap_error)
+};
+
+std::vector<Region> partition(const std::vector<uint8_t>& lit, const std::vector<uint8_t>& edges, const std::vector<uint8_t>& rest,
+                              const std::vector<double>& ref_sq, int w, int h) {
+    std::vector<Region> r = {{"seeing a light", {}}, {"beside one", {}}, {"edges+textures", {}}, {"other surfaces", {}}};
+    for (Region& g : r) g.in.assign(lit.size(), 0);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const size_t p = size_t(y) * w + x;
+            bool near = false;
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const int xx = x + dx, yy = y + dy;
+                    if (xx >= 0 && yy >= 0 && xx < w && yy < h && lit[size_t(yy) * w + xx]) near = true;
+                }
+            const int k = lit[p] ? 0 : near ? 1 : edges[p] ? 2 : rest[p] ? 3 : -1;
+            if (k >= 0) r[size_t(k)].in[p] = 1;
+        }
+    for (Region& g : r) {
+        double s = 0;
+        for (size_t p = 0; p < g.in.size(); ++p)
+            if (g.in[p]) { ++g.pixels; s += ref_sq[p]; }
+        g.ref_error = g.pixels ? s / double(g.pixels) : 0.0;
+    }
+    return r;
+}
+
+// One row of the regions' table: per region its mean spp, and the image's relMSE there with the
+// reference's own taken off (0 where that is the larger).
+void print_region_row(const std::string& label, const Image& img, const Image* denoised, const Image& ref,
+                      const std::vector<Region>& regions) {
+    std::printf("| %s |", label.c_str());
+    for (const Region& g : regions) {
+        double spp = 0;
+        for (size_t p = 0; p < g.in.size(); ++p)
+            if (g.in[p]) spp += img.sample_count[p];
+        auto err = [&](const Image& i) { return std::max(0.0, masked_rel_mse(i, ref, g.in) - g.ref_error); };
+        if (!g.pixels) std::printf(" | | |");
+        else if (denoised) std::printf(" %.0f | %.4g | %.4g |", spp / double(g.pixels), err(img), err(*denoised));
+        else std::printf(" %.0f | %.4g | |", spp / double(g.pixels), err(img));
+    }
+    std::printf("\n");
 }
 
 // Each candidate's true relMSE over the image, the edges and elsewhere, and its variance from its
@@ -139,7 +214,7 @@ void print_candidates(const DenoiseCandidates& c, const Image& ref, const Image&
 }  // namespace
 
 int bench_denoise(int argc, char** argv) {
-    std::string cs184 = default_cs184_dir(), gltf = default_gltf_pbr_dir(), figures, only;
+    std::string cs184 = default_cs184_dir(), gltf = default_gltf_pbr_dir(), figures, exr_dir, only;
     std::string sky = std::string(TESSERA_DEFAULT_SCENES_DIR) + "/sky.exr";
     std::pair<int, int> size{160, 120};
     int ref_spp = 16384, max_spp = 1024, depth = 5;
@@ -152,7 +227,15 @@ int bench_denoise(int argc, char** argv) {
     app.add_option("--max-spp", max_spp, "the largest spp rendered (a power of two)")->check(CLI::Range(4, 1 << 16));
     app.add_option("--depth", depth, "maximum bounce depth")->check(CLI::Range(1, 100));
     app.add_option("--figures", figures, "write each scene's noisy, denoised and reference images here")->type_name("DIR");
-    bool show_candidates = false, uniform = false, until_reached = false;
+    app.add_option("--exr", exr_dir,
+                   "write every image the run measures as OpenEXR here: the reference with its passes (albedo, normal, depth, "
+                   "emission, environment) and its own error per pixel, each count's noisy and denoised image, and the baseline")
+        ->type_name("DIR");
+    bool show_candidates = false, uniform = false, until_reached = false, regions_table = false;
+    app.add_flag("--regions", regions_table,
+                 "after each scene's table, the error by region: the pixels that saw a lamp or the sky, those beside them, the "
+                 "edges and textures, the other surfaces; per region each render's mean spp and its noisy and denoised relMSE "
+                 "with the reference's own there taken off (and the baseline's)");
     app.add_flag("--uniform", uniform, "renders that denoise sample every pixel alike (guided_sampling false)");
     app.add_flag("--until-reached", until_reached,
                  "render the undenoised --max-spp baseline first and stop the denoising renders at the first whose error is "
@@ -203,9 +286,18 @@ int bench_denoise(int argc, char** argv) {
         RenderSettings rs = base;
         rs.spp = ref_spp;
         rs.seed = 7;
-        rs.estimate_error = true;  // its own error, which adds to every error measured against it
+        // Its own error adds to every error measured against it: rendered in two independent halves
+        // (a denoising render, every pixel alike) so that it is known per pixel (half_gap_error).
+        rs.denoise = true;
+        rs.guided = false;
         rs.aovs = aov_bit(Aov::albedo) | aov_bit(Aov::normal) | aov_bit(Aov::depth) | aov_bit(Aov::emission) | aov_bit(Aov::environment);
-        const RenderResult ref = render(scene, rs);
+        std::vector<double> ref_sq;
+        RenderCallbacks ref_calls;
+        ref_calls.on_pass = [&](const PassView& v) {
+            if (v.spp >= ref_spp) ref_sq = half_gap_error(v.film);
+        };
+        const RenderResult ref = render(scene, rs, ref_calls);
+        if (ref_sq.size() != ref.image.rgb.size() / 3) ref_sq.assign(ref.image.rgb.size() / 3, 0.0);
         const std::vector<uint8_t> mask = reference_detail_mask(ref, W, H);
         // Elsewhere: the other pixels that saw a surface (the sky and a black void have nothing to denoise).
         std::vector<uint8_t> rest(mask.size(), 0);
@@ -220,10 +312,31 @@ int bench_denoise(int argc, char** argv) {
                 for (size_t p = 0; p < lit.size(); ++p) lit[p] |= e->values[p * 3] + e->values[p * 3 + 1] + e->values[p * 3 + 2] > 0.f;
         const double lit_share = double(std::count(lit.begin(), lit.end(), 1)) / double(lit.size());
         const double mask_share = double(std::count(mask.begin(), mask.end(), 1)) / double(mask.size());
-        const double ref_err = ref.curve.points.empty() ? 0.0 : std::max(0.0, ref.curve.points.back().est_rel_mse);
+        double ref_err = 0;
+        for (double e : ref_sq) ref_err += e;
+        ref_err /= double(std::max<size_t>(1, ref_sq.size()));
+        const std::vector<Region> regions = partition(lit, mask, rest, ref_sq, W, H);
+        std::string stem = bs.source.substr(bs.source.find_last_of("/:") + 1);
+        stem = stem.substr(0, stem.find('.'));
+        if (!exr_dir.empty()) {
+            std::filesystem::create_directories(exr_dir);
+            // The reference's own error per pixel as one more layer, as a compositor reads it.
+            std::vector<AovPlane> planes = ref.aovs;
+            AovPlane own;
+            own.aov = Aov::variance;
+            own.values.resize(ref_sq.size() * 3);
+            for (size_t p = 0; p < ref_sq.size(); ++p)
+                for (int k = 0; k < 3; ++k) {
+                    const double m = ref.image.rgb[p * 3 + k];
+                    own.values[p * 3 + k] = float(ref_sq[p] * (m * m + 0.01));  // back to absolute: the pixel's squared error
+                }
+            planes.push_back(std::move(own));
+            write_layers_exr(exr_dir + "/" + stem + "_reference.exr", ref.image, planes,
+                             {{"tessera:variance", "the reference's own squared error per pixel, (A - B)^2/4 of its two halves"}});
+        }
         // relMSE against the reference less the reference's own (independent of the render's).
         auto true_error = [&](const Image& img) { return std::max(1e-12, relative_mse(img, ref.image) - ref_err); };
-        std::printf("## %s\nreference: %d spp in %.1f s, its own estimated relMSE %.3g (taken off every whole-image error "
+        std::printf("## %s\nreference: %d spp in %.1f s, its own relMSE %.3g by its two halves (taken off every whole-image error "
                     "below); edges and textures: %.1f%% of the pixels\n\n",
                     bs.label.c_str(), ref_spp, ref.stats.render_seconds, ref_err, 100 * mask_share);
         std::printf("| spp | render (s) | denoise (s) | relMSE noisy | estimate | relMSE denoised | its estimate | estimate/true | "
@@ -231,12 +344,21 @@ int bench_denoise(int argc, char** argv) {
                     "seeing a light: pixels, share of the error |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
         struct Row { int spp; double render_s, denoise_s, denoise_all_s, noisy, denoised; };
         std::vector<Row> rows;
+        struct Kept { std::string label; Image noisy; std::optional<Image> denoised; };
+        std::vector<Kept> kept_images;  // for the regions' table
+        auto keep = [&](const std::string& label, const std::string& file, const Image& noisy, const Image* dn) {
+            if (regions_table) kept_images.push_back({label, noisy, dn ? std::optional<Image>(*dn) : std::nullopt});
+            if (exr_dir.empty()) return;
+            write_exr(exr_dir + "/" + stem + "_" + file + ".exr", noisy);
+            if (dn) write_exr(exr_dir + "/" + stem + "_" + file + "_denoised.exr", *dn);
+        };
         // The baseline: uniform sampling, no denoiser, at the largest count.
         auto render_baseline = [&] {
             RenderSettings s = base;
             s.spp = max_spp;
             s.seed = seed;
             const RenderResult r = render(scene, s);
+            keep("plain " + std::to_string(max_spp), "plain_" + std::to_string(max_spp) + "spp", r.image, nullptr);
             return Row{max_spp, r.stats.render_seconds, 0.0, 0.0, true_error(r.image), 0.0};
         };
         std::optional<Row> baseline;
@@ -285,10 +407,9 @@ int bench_denoise(int argc, char** argv) {
             all_better = all_better && dn < noisy && edge_dn < edge_noisy;
             all_tracked = all_tracked && ratio >= 0.5 && ratio <= 2.0;
             rows.push_back({spp, render_s, d->seconds, denoising, noisy, dn});
+            keep(std::to_string(spp), std::to_string(spp) + "spp", r.image, &d->image);
             if (!figures.empty() && (spp == 16 || spp == max_spp)) {
                 std::filesystem::create_directories(figures);
-                std::string stem = bs.source.substr(bs.source.find_last_of("/:") + 1);
-                stem = stem.substr(0, stem.find('.'));
                 write_png(figures + "/denoise_" + stem + "_" + std::to_string(spp) + "spp_noisy.png", r.image);
                 write_png(figures + "/denoise_" + stem + "_" + std::to_string(spp) + "spp_denoised.png", d->image);
                 if (spp == max_spp) write_png(figures + "/denoise_" + stem + "_reference.png", ref.image);
@@ -326,6 +447,22 @@ int bench_denoise(int argc, char** argv) {
             } else {
                 std::printf("\nno denoised render reached the error of %d undenoised spp\n\n", top.spp);
             }
+        }
+        if (regions_table && !kept_images.empty()) {
+            std::printf("by region (relMSE over the region's pixels, the reference's own there taken off):");
+            for (const Region& g : regions)
+                std::printf(" %s %.1f%% of the pixels (the reference's own %.3g);", g.name, 100.0 * double(g.pixels) / double(g.in.size()),
+                            g.ref_error);
+            size_t none = regions.front().in.size();
+            for (const Region& g : regions) none -= g.pixels;
+            std::printf(" nothing seen %.1f%% of the pixels;", 100.0 * double(none) / double(regions.front().in.size()));
+            std::printf("\n\n| spp |");
+            for (const Region& g : regions) std::printf(" %s: spp | noisy | denoised |", g.name);
+            std::printf("\n|---:|");
+            for (size_t k = 0; k < regions.size(); ++k) std::printf("---:|---:|---:|");
+            std::printf("\n");
+            for (const Kept& k : kept_images) print_region_row(k.label, k.noisy, k.denoised ? &*k.denoised : nullptr, ref.image, regions);
+            std::printf("\n");
         }
     }
     std::printf("denoised below noisy everywhere (image, edges and textures): %s; denoised estimate within 0.5-2x of the truth everywhere: %s%s\n",

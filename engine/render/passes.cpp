@@ -162,6 +162,7 @@ void describe_render(const RenderScene& scene, const RenderSettings& settings, c
                                  ? std::string(", chosen automatically: the tree above ") + std::to_string(kTreeAboveLights) + ")"
                                  : std::string(")")));
         }
+        describe_seen_emitters(scene, settings, built, left_out);
         if (settings.russian_roulette <= 0.f || settings.max_depth <= 1) left_out.push_back("Russian roulette");
         if (settings.lens_radius > 0.f)
             built.push_back("thin lens: radius " + std::to_string(settings.lens_radius) + ", focused " +

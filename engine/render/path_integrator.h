@@ -218,11 +218,7 @@ public:
     }
 
 private:
-    bool include(int bounce) const {
-        if (st_.output == LightingOutput::direct && bounce > 1) return false;
-        if (st_.output == LightingOutput::indirect && bounce < 2) return false;
-        return st_.bounces == BounceMode::accumulate ? bounce <= st_.max_depth : bounce == st_.max_depth;
-    }
+    bool include(int bounce) const { return counts_bounce(st_, bounce); }
 
     glm::vec3 sky(const glm::vec3& d) const { return (s_.has_sky && d.y > 0.f) ? s_.sky : glm::vec3(0.f); }
     // What a ray that leaves the scene sees: the CS184 sky and the environment map.

@@ -73,4 +73,12 @@ struct RenderSettings {
     bool guided = true;
 };
 
+// Whether light reaching the camera after `bounce` bounces is in the image (0: emitters seen
+// directly), by the output and bounce settings.
+inline bool counts_bounce(const RenderSettings& st, int bounce) {
+    if (st.output == LightingOutput::direct && bounce > 1) return false;
+    if (st.output == LightingOutput::indirect && bounce < 2) return false;
+    return st.bounces == BounceMode::accumulate ? bounce <= st.max_depth : bounce == st.max_depth;
+}
+
 }  // namespace tessera

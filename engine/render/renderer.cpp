@@ -60,7 +60,8 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
     result.stats.threads = nthreads;
 
     std::vector<std::unique_ptr<TileContext>> contexts;
-    for (int i = 0; i < nthreads; ++i) contexts.push_back(std::make_unique<TileContext>(scene, settings, camera));
+    const SeenEmitters seen = seen_emitters(scene, settings, camera, 0, 0, settings.width, settings.height);
+    for (int i = 0; i < nthreads; ++i) contexts.push_back(std::make_unique<TileContext>(scene, settings, camera, &seen));
     std::atomic<uint64_t> samples_done{0};
     std::atomic<size_t> tiles_done_total{0};
     bool stop_time = false, stop_cancel = false;

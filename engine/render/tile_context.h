@@ -11,6 +11,7 @@
 #include "engine/sampling/warp.h"
 #include "engine/render/render_settings.h"
 #include "engine/render/renderer.h"
+#include "engine/render/seen_emitters.h"
 #include "engine/sampling/sampler.h"
 
 namespace tessera {
@@ -23,8 +24,10 @@ inline float illuminance(const glm::vec3& c) { return 0.2126f * c.x + 0.7152f * 
 // whenever the heap happened to place them so (measured: 3.3 s against 2.2 s).
 class alignas(64) TileContext {
 public:
-    TileContext(const RenderScene& scene, const RenderSettings& settings, const Camera& camera)
-        : settings_(settings), camera_(camera), integrator_(scene, settings, stats), motion_(scene.motion.any()) {
+    // `seen`: the lamps over the pixels this context renders (seen_emitters.h), or none.
+    TileContext(const RenderScene& scene, const RenderSettings& settings, const Camera& camera, const SeenEmitters* seen = nullptr)
+        : settings_(settings), camera_(camera), integrator_(scene, settings, stats), motion_(scene.motion.any()),
+          seen_(seen && !seen->empty() ? seen : nullptr) {
         if (scene.motion.camera) {
             camera_close_ = make_camera(scene.motion.camera_close, settings.width, settings.height);
             set_thin_lens(camera_close_, scene.motion.camera_close, settings.lens_radius, settings.focal_distance);
@@ -92,6 +95,11 @@ public:
                 aovs.emission = aovs.environment = aovs.diffuse_direct = aovs.diffuse_indirect = aovs.glossy_direct =
                     aovs.glossy_indirect = glm::vec3(0.f);
             }
+            if (seen_) {  // every sample, dropped ones too: the corrections' mean is zero only over all of them
+                const glm::vec3 c = seen_->correction(x, y, ray);
+                L += c;
+                if (aov_entry) aovs.emission += c;  // the light seen directly, so the split still sums to L
+            }
             if (aov_entry) add_sample_aovs(layout, aov_entry, aovs, L, s == 0);
             sum += glm::dvec3(L);
             if (split) {
@@ -132,6 +140,7 @@ private:
     bool moving_camera_ = false;  // ... and the camera moves to camera_close_
     Camera camera_close_;
     Camera moved_;                // the camera at this sample's time
+    const SeenEmitters* seen_ = nullptr;
 };
 
 }  // namespace tessera

@@ -778,7 +778,8 @@ struct RenderNode::Impl {
         auto interrupted = [&] { return cancel.load() || stopping.load(); };
         const auto t0 = Clock::now();
         const Camera camera = camera_for(prepared->scene, s);  // the context keeps a reference
-        TileContext ctx(prepared->scene, s, camera);
+        const SeenEmitters seen = seen_emitters(prepared->scene, s, camera, rect.x0, rect.y0, rect.width(), rect.height());
+        TileContext ctx(prepared->scene, s, camera, &seen);
         TileCommit commit;
         commit.timed_out = late();
         if (plan.whole_tiles) {

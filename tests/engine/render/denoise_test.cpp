@@ -523,8 +523,11 @@ TEST(Denoise, TheRegressionKeepsAGradientWhereTheWindowIsOneSided) {
 // NL-means pair's halves read theirs low, since f(A)'s weights read B and f(B)'s read A, which the
 // variance their weights give mends (denoise.cpp, filter_nlm). Relative, as the error is, on the
 // box with spheres at 192×144 and 16 spp over 12 seeds; uniform sampling, so each seed's pixels
-// take the same number of samples. Measured: noisy 1.00, NL-means regression 1.08 (its halves
-// alone 0.90), box regression 0.95, NL-means 0.95 (0.79).
+// take the same number of samples. Measured: noisy 1.00, NL-means regression 1.11, box regression
+// 0.87, NL-means 0.89. (Before the lamps seen directly took their exact coverage,
+// seen_emitters.h, the lamp's rim pixels, which every candidate leaves as they are, held a large
+// share of the sums at a ratio of 1: 1.08, 0.95 and 0.95 then, the pixels away from the lamp the
+// same as now.)
 TEST(Denoise, EachCandidatesVarianceMatchesItsSpreadOverSeeds) {
     const RenderScene scene = whole("builtin:cornell_spheres");
     constexpr int kSeeds = 12, kSpp = 16;
@@ -564,7 +567,7 @@ TEST(Denoise, EachCandidatesVarianceMatchesItsSpreadOverSeeds) {
             estimated += q * est[c][i];
             by_halves += q * halves[c][i];
         }
-        EXPECT_GT(estimated, 0.92 * spread) << "by halves alone: " << by_halves / spread;
+        EXPECT_GT(estimated, 0.84 * spread) << "by halves alone: " << by_halves / spread;
         EXPECT_LT(estimated, 1.25 * spread) << "by halves alone: " << by_halves / spread;
     }
 }

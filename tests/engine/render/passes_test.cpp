@@ -43,7 +43,10 @@ Image render_tiles_apart(const RenderScene& scene, const RenderSettings& s, int*
     Film image(s.width, s.height, plan.half_buffer, plan.adaptive);
     for (int pass = 0, target = pass_target(s, plan, 0);; ++pass) {
         for (size_t i = plan.tiles.size(); i-- > 0;) {
-            TileContext ctx(scene, s, camera);
+            // Each tile's own lamps, as a render node finds them (seen_emitters.h).
+            const TileRect& t = plan.tiles[i];
+            const SeenEmitters seen = seen_emitters(scene, s, camera, t.x0, t.y0, t.width(), t.height());
+            TileContext ctx(scene, s, camera, &seen);
             EXPECT_TRUE(render_tile(ctx, plan.tiles[i], films[i], target));
         }
         for (size_t i = 0; i < plan.tiles.size(); ++i) copy_tile_into(films[i], plan.tiles[i], image);
@@ -123,8 +126,9 @@ TEST(Passes, WholeTilesGiveThePassByPassImageAndCurve) {
     Film image(s.width, s.height, plan.half_buffer, plan.adaptive);
     std::vector<std::vector<TargetSums>> sums;
     for (size_t i = plan.tiles.size(); i-- > 0;) {
-        TileContext ctx(scene, s, camera);
         const TileRect& t = plan.tiles[i];
+        const SeenEmitters seen = seen_emitters(scene, s, camera, t.x0, t.y0, t.width(), t.height());
+        TileContext ctx(scene, s, camera, &seen);
         Film film = Film::tile(t.x0, t.y0, t.width(), t.height(), plan.half_buffer, plan.adaptive);
         const WholeTile w = render_whole_tile(ctx, plan, i, film, nullptr, {}, [&] { return double(i); });
         copy_tile_into(film, t, image);
