@@ -70,7 +70,12 @@ SeenEmitters seen_emitters(const RenderScene& scene, const RenderSettings& setti
     // scene's order, whatever rectangle is asked for (a farm's tile gets a process's pixels).
     constexpr uint8_t kPerPixel = 4;  // a quad's two triangles at its diagonal, and two lamps meeting
     std::vector<uint8_t> taken(pixels, 0);
+    // And the work: the lamps' boxes on the whole image (not on the rectangle, so that every
+    // rectangle stops at the same lamp) may cover 64 images in all; a hostile scene of many large
+    // overlapping emitters stops there, and the lamps after are left to the samples.
     const double W = settings.width, H = settings.height;
+    const double work_budget = 64.0 * W * H;
+    double work = 0;
     for (const LightTriangle& lt : tris) {
         if (lt.light >= scene.area_lights.size()) continue;
         const AreaLight& al = scene.area_lights[lt.light];
@@ -93,15 +98,24 @@ SeenEmitters seen_emitters(const RenderScene& scene, const RenderSettings& setti
             const double u = 0.5 * (glm::dot(q, glm::dvec3(camera.right)) / (z * camera.tan_half_w) + 1.0);
             const double v = 0.5 * (glm::dot(q, glm::dvec3(camera.up)) / (z * camera.tan_half_h) + 1.0);
             s[size_t(k)] = P2{u * W, (1.0 - v) * H};  // image pixels: x right, y down, as the sample loop's
+            // Far off the image (a vertex just past the near plane) the clipping would lose digits.
+            if (!(std::abs(s[size_t(k)].x) < 1e6 * W) || !(std::abs(s[size_t(k)].y) < 1e6 * H)) ok = false;
             xmin = std::min(xmin, s[size_t(k)].x);
             xmax = std::max(xmax, s[size_t(k)].x);
             ymin = std::min(ymin, s[size_t(k)].y);
             ymax = std::max(ymax, s[size_t(k)].y);
         }
         if (!ok) continue;
-        const int ax = std::max(x0, int(std::floor(xmin))), bx = std::min(x0 + out.width - 1, int(std::floor(xmax)));
-        const int ay = std::max(y0, int(std::floor(ymin))), by = std::min(y0 + out.height - 1, int(std::floor(ymax)));
-        if (ax > bx || ay > by) continue;
+        const double bw = std::min(W, std::floor(xmax) + 1) - std::max(0.0, std::floor(xmin)),
+                     bh = std::min(H, std::floor(ymax) + 1) - std::max(0.0, std::floor(ymin));
+        if (bw <= 0 || bh <= 0) continue;  // off the image
+        work += bw * bh;
+        if (work > work_budget) break;
+        // Clamped in double first: a vertex just past the near plane projects far off the image.
+        const double fx0 = std::max(double(x0), std::floor(xmin)), fx1 = std::min(double(x0 + out.width - 1), std::floor(xmax));
+        const double fy0 = std::max(double(y0), std::floor(ymin)), fy1 = std::min(double(y0 + out.height - 1), std::floor(ymax));
+        if (fx0 > fx1 || fy0 > fy1) continue;
+        const int ax = int(fx0), bx = int(fx1), ay = int(fy0), by = int(fy1);
         const uint32_t id = uint32_t(out.lamps.size());
         bool any = false;
         for (int y = ay; y <= by; ++y)

@@ -84,7 +84,10 @@ inline constexpr size_t kSeenEmittersMaxTriangles = 1u << 16;
 // the shutter, emission seen directly left out of the output (max_depth, output) or the normals
 // integrator, no light triangles or more than kSeenEmittersMaxTriangles. A lamp is left to the
 // samples where its emission is textured or cut by alpha, it faces away (one-sided), or it is
-// not wholly between the clip planes.
+// not wholly between the clip planes; a pixel takes at most four lamps, and once the lamps'
+// bounding boxes on the image add up to 64 images the lamps after are left to the samples (a
+// hostile scene of many large emitters costs no more). Every rectangle holds what the whole
+// image holds over its pixels, so a farm's tiles give one process's image.
 SeenEmitters seen_emitters(const RenderScene& scene, const RenderSettings& settings, const Camera& camera, int x0, int y0, int w, int h);
 
 // The report's line on it: built (how many lamps over how many pixels) or left out, and why.
