@@ -56,7 +56,6 @@ SeenEmitters seen_emitters(const RenderScene& scene, const RenderSettings& setti
     if (tris.empty() || tris.size() > kSeenEmittersMaxTriangles || out.width == 0 || out.height == 0) return out;
     if (settings.integrator != Integrator::path || !counts_bounce(settings, 0)) return out;
     if (camera.lens_radius > 0.f || scene.motion.camera || !scene.motion.light_triangles_close.empty()) return out;
-    out.lamps_considered = tris.size();
 
     const size_t pixels = size_t(out.width) * size_t(out.height);
     // Per pixel its (lamp, coverage) entries, gathered lamp by lamp, then laid out per pixel.
@@ -77,6 +76,7 @@ SeenEmitters seen_emitters(const RenderScene& scene, const RenderSettings& setti
     const double work_budget = 64.0 * W * H;
     double work = 0;
     for (const LightTriangle& lt : tris) {
+        ++out.lamps_considered;
         if (lt.light >= scene.area_lights.size()) continue;
         const AreaLight& al = scene.area_lights[lt.light];
         if (al.material >= scene.materials.size()) continue;

@@ -36,7 +36,7 @@ struct SeenEmitters {
     std::vector<uint32_t> first;     // per pixel of the rectangle, and one more: its entries in `lamp_of`
     std::vector<uint32_t> lamp_of;   // the lamps over each pixel
     std::vector<glm::vec3> mean;     // per pixel: Σ coverage × radiance, the exact mean of what the lamps give it
-    size_t lamps_considered = 0;     // light triangles looked at
+    size_t lamps_considered = 0;     // light triangles looked at before the work bound stopped it
 
     bool empty() const { return lamp_of.empty(); }
 

@@ -202,5 +202,40 @@ TEST(SeenEmitters, LeftOutWhereOneProjectionDoesNotHold) {
         }
 }
 
+// Hostile and extreme cases: emitters all round the camera (the furnace: walls behind it cross
+// the camera's plane and are left to the samples, the pixels' coverages still at most one), and
+// thousands of lamps each filling the image, which stop at the work bound.
+TEST(SeenEmitters, ExtremeScenesStayBounded) {
+    RenderSettings s = small(1, 1);
+    const RenderScene glow = build_render_scene(furnace_box(0.5f, 1.f), {});
+    const SeenEmitters inside = seen_emitters(glow, s, camera_for(glow, s), 0, 0, s.width, s.height);
+    ASSERT_FALSE(inside.empty());
+    for (const glm::vec3& m : inside.mean) EXPECT_LE(m.x, 1.f + 1e-5f);
+    SceneDescription wall = box_in_view();
+    const int lamp = int(wall.materials.size());
+    MaterialDesc md = wall.materials.back();
+    md.name = "wall lamp";
+    md.emission = glm::vec3(1.f);
+    md.kind = MaterialKind::emission;
+    wall.materials.push_back(md);
+    for (int i = 0; i < 3000; ++i) {
+        MeshDesc m;
+        m.name = "panel " + std::to_string(i);
+        const float z = 2.f - 0.0005f * float(i);  // in front of the box, facing the camera, each one nearer
+        m.positions = {{-20.f, -20.f, z}, {20.f, -20.f, z}, {20.f, 20.f, z}, {-20.f, 20.f, z}};
+        m.indices = {0, 1, 2, 0, 2, 3};
+        m.flat_normals = true;
+        m.material = lamp;
+        wall.meshes.push_back(std::move(m));
+    }
+    const RenderScene panels = build_render_scene(wall, {});
+    ASSERT_GT(panels.light_triangles.size(), 6000u);
+    const SeenEmitters bounded = seen_emitters(panels, s, camera_for(panels, s), 0, 0, s.width, s.height);
+    EXPECT_FALSE(bounded.empty());
+    EXPECT_LE(bounded.lamps_considered, 70u) << "each triangle's box is the whole image: about 64 of them at most";
+    EXPECT_LE(bounded.lamps.size(), 64u);
+    EXPECT_LE(bounded.lamp_of.size(), 4u * size_t(s.width) * size_t(s.height));
+}
+
 }  // namespace
 }  // namespace tessera
