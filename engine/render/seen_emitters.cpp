@@ -61,7 +61,7 @@ SeenEmitters seen_emitters(const RenderScene& scene, const RenderSettings& setti
     // Per pixel its (lamp, coverage) entries, gathered lamp by lamp, then laid out per pixel.
     struct Entry {
         uint32_t pixel, lamp;
-        float coverage;
+        double coverage;
     };
     std::vector<Entry> entries;
     // Each (pixel, lamp) pair is a control variate of its own, so a pixel may take some of the
@@ -124,7 +124,7 @@ SeenEmitters seen_emitters(const RenderScene& scene, const RenderSettings& setti
                 if (taken[q] >= kPerPixel) continue;
                 const double c = area_in_pixel(s, x, y);
                 if (c <= 0.0) continue;
-                entries.push_back({uint32_t(q), id, float(std::min(1.0, c))});
+                entries.push_back({uint32_t(q), id, std::min(1.0, c)});
                 ++taken[q];
                 any = true;
             }
@@ -138,12 +138,16 @@ SeenEmitters seen_emitters(const RenderScene& scene, const RenderSettings& setti
     for (const Entry& e : entries) ++out.first[e.pixel + 1];
     for (size_t q = 0; q < pixels; ++q) out.first[q + 1] += out.first[q];
     out.lamp_of.resize(entries.size());
-    out.mean.assign(pixels, glm::vec3(0.f));
+    // Summed in double and rounded once: a pixel that two triangles of one lamp share gets the
+    // lamp's radiance exactly, and a sample that hits one of them exactly none of a correction.
+    std::vector<glm::dvec3> sum(pixels, glm::dvec3(0.0));
     std::vector<uint32_t> at(out.first.begin(), out.first.end() - 1);
     for (const Entry& e : entries) {
         out.lamp_of[at[e.pixel]++] = e.lamp;
-        out.mean[e.pixel] += e.coverage * out.lamps[e.lamp].radiance;
+        sum[e.pixel] += e.coverage * glm::dvec3(out.lamps[e.lamp].radiance);
     }
+    out.mean.resize(pixels);
+    for (size_t q = 0; q < pixels; ++q) out.mean[q] = glm::vec3(sum[q]);
     return out;
 }
 

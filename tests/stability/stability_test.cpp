@@ -152,10 +152,11 @@ TEST(Stability, AdaptiveWithZeroMeanOrZeroVariance) {
     const RenderResult r = test::render_desc(dark, s);
     expect_finite(r);
     EXPECT_EQ(r.stats.samples, uint64_t(16 * 12 * 8));
-    // Albedo 0 furnace: every sample is exactly the emission 1, σ = 0.
+    // Albedo 0 furnace: every sample is the emission 1, σ = 0 (to float rounding: a pixel where
+    // several walls' triangles meet takes its lamps' exact coverage, engine/render/seen_emitters.h).
     const RenderResult c = test::render_desc(furnace_box(0.f, 1.f), s);
     EXPECT_EQ(c.stats.samples, uint64_t(16 * 12 * 8));
-    for (float v : c.image.rgb) ASSERT_EQ(v, 1.f);
+    for (float v : c.image.rgb) ASSERT_NEAR(v, 1.f, 1e-5f);
 }
 
 // Coplanar overlapping triangles (z-fighting): hits are finite and deterministic, and the
