@@ -347,7 +347,7 @@ TEST_F(RenderNodeFarm, APausedShotOrComparisonResumesOnTheFarm) {
     }
     EXPECT_GE(paused, 1) << "paused before it finished";
     EXPECT_TRUE(inside_a_frame) << "a pause inside a frame keeps the frame's checkpoint";
-    const api::JobStatus s = wait_final(id);
+    const api::JobStatus s = wait_final(id, 400);  // a shot, paused twice: minutes under the sanitizers
     ASSERT_EQ(s.state, api::JobState::succeeded) << api::to_json(s).dump();
     const fs::path one = run_in_one_process(body, (fs::path(TESSERA_PROJECT_SCENES) / "cornell_shot.gltf").string(), "one-paused-shot");
     for (int n = 0; n <= 48; n += 8) {
