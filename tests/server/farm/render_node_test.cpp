@@ -66,6 +66,21 @@ protected:
             nodes_.push_back(std::make_unique<RenderNode>(nc));
             nodes_.back()->start();
         }
+        // A node takes tasks before its first heartbeat is in Redis; a task it fails goes to
+        // another node only if that one is live by then. Tests about who ran what start once
+        // both are.
+        wait_registered({"test-node-1", "test-node-2"});
+    }
+    void wait_registered(const std::vector<std::string>& names) {
+        Redis r(redis_->url());
+        const auto t0 = std::chrono::steady_clock::now();
+        for (;;) {
+            size_t seen = 0;
+            for (const std::string& n : names) seen += r.command({"HEXISTS", "tessera:nodes", n}).as_int() == 1;
+            if (seen == names.size()) return;
+            ASSERT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(30)) << "the render nodes never sent a heartbeat";
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        }
     }
     void TearDown() override {
         for (auto& n : nodes_) n->stop();
@@ -118,6 +133,7 @@ protected:
         if (max_triangles) nc.load_limits.max_triangles = max_triangles;
         nodes_.push_back(std::make_unique<RenderNode>(nc));
         nodes_.back()->start();
+        wait_registered({name});
         return *nodes_.back();
     }
     // Stops the fixture's nodes and forgets their heartbeats: they are not live any more.
