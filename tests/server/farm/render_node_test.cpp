@@ -28,6 +28,7 @@
 #include "server/farm/farm_queue.h"
 #include "server/store/cluster_keys.h"
 #include "tests/server/redis_suite.h"
+#include "tests/test_scale.h"
 
 namespace tessera::server {
 namespace {
@@ -306,7 +307,9 @@ TEST_F(RenderNodeFarm, APausedShotOrComparisonResumesOnTheFarm) {
     without_fixture_nodes();
     add_node("quick-1", {}, 0, 1000);
     add_node("quick-2", {}, 0, 1000);
-    const json body = {{"scene", "cornell_shot"}, {"width", 96}, {"height", 72}, {"spp", 256}, {"max_depth", 3},
+    // A sanitizer build renders about ten times slower: a quarter of the pixels there.
+    const int w = tessera::test::kWorkScale > 1 ? 48 : 96, h = tessera::test::kWorkScale > 1 ? 36 : 72;
+    const json body = {{"scene", "cornell_shot"}, {"width", w}, {"height", h}, {"spp", 256}, {"max_depth", 3},
                        {"frames", {{"start", 0}, {"end", 48}, {"step", 8}}}, {"chunk", 1}};
     const std::string id = service_->submit(body).id;
     const fs::path farm = job_results_dir((dir_ / "data").string(), id);
