@@ -262,16 +262,25 @@ int bench_denoise(int argc, char** argv) {
         {"textured model under an environment map (Duck)", gltf + "/Duck.gltf", sky},
         {"1,000-lamp room (builtin:lamp_room)", "builtin:lamp_room", ""},
     };
+    // A --scene that names none is a typing error, not a run that measured nothing.
+    if (!only.empty() && std::none_of(scenes.begin(), scenes.end(), [&](const BenchScene& b) { return b.label.find(only) != std::string::npos; })) {
+        std::fprintf(stderr, "tessera bench denoise: --scene %s: no scene's label contains it; the scenes:", only.c_str());
+        for (const BenchScene& b : scenes) std::fprintf(stderr, " \"%s\"", b.label.c_str());
+        std::fprintf(stderr, "\n");
+        return 2;
+    }
     const int W = size.first, H = size.second;
     std::printf("denoiser: %dx%d, depth %d, MIS, references of %d spp (seed 7), renders seed %d, %u threads\n\n", W, H, depth, ref_spp,
                 seed, std::max(1u, std::thread::hardware_concurrency()));
     bool all_better = true, all_tracked = true;
+    int measured = 0;
     for (const BenchScene& bs : scenes) {
         if (!only.empty() && bs.label.find(only) == std::string::npos) continue;
         if (bs.source.rfind("builtin:", 0) != 0 && !std::filesystem::exists(bs.source)) {
             std::printf("## %s\nskipped: %s is absent\n\n", bs.label.c_str(), bs.source.c_str());
             continue;
         }
+        ++measured;
         SceneDescription desc = load_scene(bs.source);
         // The whole scene in view: the CS184 convention fixes the focal length for 800×600, which
         // crops a small image to the middle of the box (a flat wall, nothing to denoise).
@@ -464,6 +473,10 @@ int bench_denoise(int argc, char** argv) {
             for (const Kept& k : kept_images) print_region_row(k.label, k.noisy, k.denoised ? &*k.denoised : nullptr, ref.image, regions);
             std::printf("\n");
         }
+    }
+    if (measured == 0) {  // every scene asked for is absent: no verdict to give
+        std::printf("no scene was measured (their files are absent: --cs184, --gltf-pbr)\n");
+        return 1;
     }
     std::printf("denoised below noisy everywhere (image, edges and textures): %s; denoised estimate within 0.5-2x of the truth everywhere: %s%s\n",
                 all_better ? "yes" : "NO", all_tracked ? "yes" : "NO",

@@ -164,6 +164,9 @@ PairedThroughput paired_throughput(const RenderScene& ours, const RenderScene& e
 
 }  // namespace
 
+// The scenes' names, which --scene picks from by substring.
+constexpr const char* kRayScenes[] = {"CBbunny", "maxplanck", "building", "displaced_sphere (1M)"};
+
 int bench_rays(int argc, char** argv) {
     std::string cs184 = default_cs184_dir(), only, only_rays;
     double min_seconds = 0.3;
@@ -184,6 +187,12 @@ int bench_rays(int argc, char** argv) {
     }
     if (!(min_seconds > 0.0 && min_seconds <= 600.0)) {
         std::fprintf(stderr, "tessera bench rays: --seconds takes a number of seconds in (0, 600], not '%g'\n", min_seconds);
+        return 2;
+    }
+    // A --scene that names none is a typing error, not a run of empty tables.
+    if (std::none_of(std::begin(kRayScenes), std::end(kRayScenes), [&](const char* n) { return std::string(n).find(only) != std::string::npos; })) {
+        std::fprintf(stderr, "tessera bench rays: --scene %s: no scene's name contains it (CBbunny, maxplanck, building, displaced_sphere (1M))\n",
+                     only.c_str());
         return 2;
     }
     if (!embree_available()) { std::fprintf(stderr, "tessera bench rays: this build has no Embree\n"); return 2; }

@@ -3,7 +3,8 @@
 # count, and with --candidates each candidate's error and its variance by its halves; --seed is
 # the renders' (the header says so), and the references' own seed is refused; --until-reached stops
 # the renders at the first that reaches the undenoised baseline's error; --regions splits the error
-# by region, --exr writes every image measured.
+# by region, --exr writes every image measured; a --scene naming none is refused, and a run whose
+# scenes are all absent gives no verdict.
 tessera="$1"
 out=$("$tessera" bench denoise -r 32 24 --ref-spp 64 --max-spp 8 --scene lamp --candidates --seed 3 2>&1)
 status=$?
@@ -60,4 +61,16 @@ refused=$("$tessera" bench denoise --seed 7 2>&1)
 status=$?
 if [ "$status" -ne 2 ]; then echo "--seed 7 should exit 2, got $status: $refused"; exit 1; fi
 if ! printf '%s\n' "$refused" | grep -q "7 is the references' seed"; then echo "--seed 7 should say why: $refused"; exit 1; fi
+# A --scene that names no scene is refused with the scenes' labels, not measured as nothing.
+unknown=$("$tessera" bench denoise -r 16 16 --ref-spp 16 --max-spp 4 --scene nosuchscene 2>&1)
+status=$?
+if [ "$status" -ne 2 ]; then echo "--scene nosuchscene should exit 2, got $status: $unknown"; exit 1; fi
+if ! printf '%s\n' "$unknown" | grep -q "no scene's label contains it.*lamp room"; then echo "--scene nosuchscene should list the scenes: $unknown"; exit 1; fi
+# Scenes whose files are absent give no verdict.
+empty=$(mktemp -d)
+absent=$("$tessera" bench denoise -r 16 16 --ref-spp 16 --max-spp 4 --scene Duck --gltf-pbr "$empty" 2>&1)
+status=$?
+rmdir "$empty"
+if [ "$status" -ne 1 ]; then echo "an absent scene alone should exit 1, got $status: $absent"; exit 1; fi
+if printf '%s\n' "$absent" | grep -q "denoised below noisy everywhere"; then echo "no verdict without a scene measured: $absent"; exit 1; fi
 echo "ok"
