@@ -263,7 +263,8 @@ int bench_denoise(int argc, char** argv) {
         {"1,000-lamp room (builtin:lamp_room)", "builtin:lamp_room", ""},
     };
     // A --scene that names none is a typing error, not a run that measured nothing.
-    if (!only.empty() && std::none_of(scenes.begin(), scenes.end(), [&](const BenchScene& b) { return b.label.find(only) != std::string::npos; })) {
+    auto picked = [&](const BenchScene& b) { return b.label.find(only) != std::string::npos; };
+    if (std::none_of(scenes.begin(), scenes.end(), picked)) {
         std::fprintf(stderr, "tessera bench denoise: --scene %s: no scene's label contains it; the scenes:", only.c_str());
         for (const BenchScene& b : scenes) std::fprintf(stderr, " \"%s\"", b.label.c_str());
         std::fprintf(stderr, "\n");
@@ -275,7 +276,7 @@ int bench_denoise(int argc, char** argv) {
     bool all_better = true, all_tracked = true;
     int measured = 0;
     for (const BenchScene& bs : scenes) {
-        if (!only.empty() && bs.label.find(only) == std::string::npos) continue;
+        if (!picked(bs)) continue;
         if (bs.source.rfind("builtin:", 0) != 0 && !std::filesystem::exists(bs.source)) {
             std::printf("## %s\nskipped: %s is absent\n\n", bs.label.c_str(), bs.source.c_str());
             continue;

@@ -164,8 +164,14 @@ PairedThroughput paired_throughput(const RenderScene& ours, const RenderScene& e
 
 }  // namespace
 
-// The scenes' names, which --scene picks from by substring.
-constexpr const char* kRayScenes[] = {"CBbunny", "maxplanck", "building", "displaced_sphere (1M)"};
+// The CS184 scenes (name, path under --cs184) and the procedural sphere: --scene picks from
+// their names by substring.
+struct RayScene {
+    const char* name;
+    const char* path;  // none: the procedural sphere
+};
+constexpr RayScene kRayScenes[] = {
+    {"CBbunny", "sky/CBbunny.dae"}, {"maxplanck", "meshedit/maxplanck.dae"}, {"building", "keenan/building.dae"}, {"displaced_sphere (1M)", nullptr}};
 
 int bench_rays(int argc, char** argv) {
     std::string cs184 = default_cs184_dir(), only, only_rays;
@@ -190,21 +196,24 @@ int bench_rays(int argc, char** argv) {
         return 2;
     }
     // A --scene that names none is a typing error, not a run of empty tables.
-    if (std::none_of(std::begin(kRayScenes), std::end(kRayScenes), [&](const char* n) { return std::string(n).find(only) != std::string::npos; })) {
-        std::fprintf(stderr, "tessera bench rays: --scene %s: no scene's name contains it (CBbunny, maxplanck, building, displaced_sphere (1M))\n",
-                     only.c_str());
+    auto picked = [&](const RayScene& r) { return std::string(r.name).find(only) != std::string::npos; };
+    if (std::none_of(std::begin(kRayScenes), std::end(kRayScenes), picked)) {
+        std::fprintf(stderr, "tessera bench rays: --scene %s: no scene's name contains it (", only.c_str());
+        for (const RayScene& r : kRayScenes) std::fprintf(stderr, "%s%s", r.name, &r == std::end(kRayScenes) - 1 ? ")\n" : ", ");
         return 2;
     }
     if (!embree_available()) { std::fprintf(stderr, "tessera bench rays: this build has no Embree\n"); return 2; }
     const int all = int(std::max(1u, std::thread::hardware_concurrency()));
     std::vector<std::pair<std::string, SceneDescription>> scenes;
-    for (const char* f : {"sky/CBbunny.dae", "meshedit/maxplanck.dae", "keenan/building.dae"}) {
-        const std::string path = cs184 + "/" + f;
-        const std::string name = std::filesystem::path(f).stem().string();
-        if (std::filesystem::exists(path) && name.find(only) != std::string::npos) scenes.push_back({name, load_scene(path)});
+    for (const RayScene& r : kRayScenes) {
+        if (!picked(r)) continue;
+        if (!r.path) {
+            scenes.push_back({r.name, displaced_sphere(1'000'000)});
+            continue;
+        }
+        const std::string path = cs184 + "/" + r.path;
+        if (std::filesystem::exists(path)) scenes.push_back({r.name, load_scene(path)});
     }
-    if (std::string("displaced_sphere (1M)").find(only) != std::string::npos)
-        scenes.push_back({"displaced_sphere (1M)", displaced_sphere(1'000'000)});
 
     std::printf("## Build time and memory\n\n| scene | triangles | ours SAH, 1 thread (ms) | ours SAH, %d threads (ms) | Embree low (ms) | Embree medium (ms) | Embree high (ms) | ours / Embree medium | ours: bytes per triangle | Embree medium: bytes per triangle | ours: with shading data |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n", all);
     std::vector<std::string> throughput_rows, shape_rows;

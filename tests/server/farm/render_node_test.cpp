@@ -77,7 +77,7 @@ protected:
         const auto t0 = std::chrono::steady_clock::now();
         for (;;) {
             size_t seen = 0;
-            for (const std::string& n : names) seen += r.command({"HEXISTS", "tessera:nodes", n}).as_int() == 1;
+            for (const std::string& n : names) seen += r.command({"HEXISTS", keys::nodes, n}).as_int() == 1;
             if (seen == names.size()) return;
             ASSERT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(30)) << "the render nodes never sent a heartbeat";
             std::this_thread::sleep_for(std::chrono::milliseconds(5));
@@ -140,7 +140,7 @@ protected:
     // Stops the fixture's nodes and forgets their heartbeats: they are not live any more.
     void without_fixture_nodes() {
         for (int i = 0; i < 2; ++i) nodes_[size_t(i)]->stop();
-        Redis(redis_->url()).command({"HDEL", "tessera:nodes", "test-node-1", "test-node-2"});
+        Redis(redis_->url()).command({"HDEL", keys::nodes, "test-node-1", "test-node-2"});
     }
     api::JobStatus wait_final(const std::string& id, int seconds = 120) {
         const auto t0 = std::chrono::steady_clock::now();
@@ -366,7 +366,7 @@ TEST_F(RenderNodeFarm, APausedShotOrComparisonResumesOnTheFarm) {
     }
     EXPECT_GE(paused, 1) << "paused before it finished";
     EXPECT_TRUE(inside_a_frame) << "a pause inside a frame keeps the frame's checkpoint";
-    const api::JobStatus s = wait_final(id, 400);  // a shot, paused twice: minutes under the sanitizers
+    const api::JobStatus s = wait_final(id, 400);  // a shot, paused twice: about a minute under the sanitizers
     ASSERT_EQ(s.state, api::JobState::succeeded) << api::to_json(s).dump();
     const fs::path one = run_in_one_process(body, (fs::path(TESSERA_PROJECT_SCENES) / "cornell_shot.gltf").string(), "one-paused-shot");
     for (int n = 0; n <= 48; n += 8) {
@@ -497,7 +497,7 @@ TEST_F(RenderNodeFarm, AShotGivesOneProcessFramesBitForBitAndResumes) {
 // the reasons, and a node blocklisted by two jobs is reported failing.
 TEST_F(RenderNodeFarm, ANodeThatFailsEveryTaskIsBlocklistedAndTheOtherFinishes) {
     nodes_[1]->stop();
-    Redis(redis_->url()).command({"HDEL", "tessera:nodes", "test-node-2"});
+    Redis(redis_->url()).command({"HDEL", keys::nodes, "test-node-2"});
     add_node("failing-node", {}, 1);
     const json body = {{"scene", "cornell_box"}, {"width", 48}, {"height", 32}, {"spp", 8}, {"max_depth", 3}, {"tile_size", 8},
                        {"blocklist_after", 2}};

@@ -90,7 +90,7 @@ TEST_F(Pause, APausedJobFreesItsThreadsAndResumedEndsWithTheNeverPausedImage) {
     ASSERT_TRUE(post(quick, "pause"));
     auto back = post(quick, "resume");
     ASSERT_TRUE(back && back->status == 200);
-    // Patient: under the sanitizers on two shared cores the job takes minutes.
+    // Patient: a sanitizer build on two shared cores renders it in about a minute.
     const json ended = wait_state(quick, {"succeeded", "paused"}, 400);
     ASSERT_EQ(ended["state"], "succeeded") << ended.dump();
     EXPECT_TRUE(same_pixels(image_of(quick), image_of(whole)));
