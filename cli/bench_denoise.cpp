@@ -334,6 +334,7 @@ int bench_denoise(int argc, char** argv) {
             std::vector<AovPlane> planes = ref.aovs;
             AovPlane own;
             own.aov = Aov::variance;
+            own.components = 3;
             own.values.resize(ref_sq.size() * 3);
             for (size_t p = 0; p < ref_sq.size(); ++p)
                 for (int k = 0; k < 3; ++k) {

@@ -98,9 +98,18 @@ void layers_out(const std::string& path, int width, int height, const Image* ima
                 const Metadata& meta) {
     std::vector<std::string> names;
     if (image) names = {"R", "G", "B", "samples"};
-    for (const AovPlane& a : aovs)
-        for (const std::string& c : aov_channel_names(a.aov)) names.push_back(c);
-    const size_t n = size_t(width) * height, nc = names.size();
+    const size_t n = size_t(width) * height;
+    for (const AovPlane& a : aovs) {
+        const std::vector<std::string> ch = aov_channel_names(a.aov);
+        // A plane that holds other than its pass's channels for every pixel would write zeros or
+        // another pass's values under its names.
+        if (size_t(a.components) != ch.size() || a.values.size() != n * ch.size())
+            throw std::invalid_argument(path + ": the " + std::string(aov_info(a.aov).name) + " plane holds " +
+                                        std::to_string(a.values.size()) + " values in " + std::to_string(a.components) +
+                                        " components, not " + std::to_string(ch.size()) + " for each of " + std::to_string(n) + " pixels");
+        for (const std::string& c : ch) names.push_back(c);
+    }
+    const size_t nc = names.size();
     std::vector<float> data(n * nc);
     for (size_t i = 0; i < n; ++i) {
         float* px = &data[i * nc];

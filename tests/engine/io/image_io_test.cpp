@@ -121,6 +121,33 @@ TEST_F(ImageIo, ExrWithoutSampleCountsWritesZeros) {
     EXPECT_EQ(back.sample_count, std::vector<float>(6, 0.f));
 }
 
+// Each plane of a multilayer file reads back under its pass's channel names; a plane whose
+// components or values do not fit its pass is refused, never written as zeros or as another
+// pass's values (the bench's reference once wrote its own error as zeros so).
+TEST_F(ImageIo, LayersReadBackByNameAndAMisfitPlaneIsRefused) {
+    Image img;
+    img.width = 2;
+    img.height = 1;
+    img.rgb = {1, 2, 3, 4, 5, 6};
+    img.sample_count = {7, 8};
+    AovPlane depth{Aov::depth, 1, {0.5f, 2.5f}}, variance{Aov::variance, 3, {0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f}};
+    write_layers_exr(path("layers.exr"), img, {depth, variance});
+    const ChannelImage back = read_channels(path("layers.exr"));
+    EXPECT_EQ(back.channel("Z"), (std::vector<float>{0.5f, 2.5f}));
+    const std::vector<std::string> v = aov_channel_names(Aov::variance);
+    ASSERT_EQ(v.size(), 3u);
+    EXPECT_EQ(back.channel(v[0]), (std::vector<float>{0.1f, 0.4f}));
+    EXPECT_EQ(back.channel(v[2]), (std::vector<float>{0.3f, 0.6f}));
+    EXPECT_EQ(back.channel("samples"), img.sample_count);
+
+    AovPlane unset{Aov::variance, 0, variance.values};  // components left at its default
+    EXPECT_THROW(write_layers_exr(path("unset.exr"), img, {unset}), std::invalid_argument);
+    AovPlane short_plane{Aov::variance, 3, {0.1f, 0.2f, 0.3f}};  // one pixel's values for two
+    EXPECT_THROW(write_layers_exr(path("short.exr"), img, {depth, short_plane}), std::invalid_argument);
+    EXPECT_THROW(write_aov_exr(path("one.exr"), 2, 1, AovPlane{Aov::depth, 3, variance.values}), std::invalid_argument);
+    EXPECT_FALSE(fs::exists(path("unset.exr")) || fs::exists(path("short.exr")) || fs::exists(path("one.exr")));
+}
+
 TEST_F(ImageIo, MetadataIsWrittenIntoTheFiles) {
     const Image img = awkward_image();
     const Metadata meta = {{"tessera:job", "job-7f3a"}, {"tessera:scene", "builtin:cornell_box"}};
