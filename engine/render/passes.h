@@ -38,9 +38,11 @@ std::vector<TileRect> make_tiles(int width, int height, int size);
 // The schedule of a render, fixed by its settings before its first sample.
 // Guided sampling starts after the uniform pass of this many samples per pixel (fewer give the
 // denoiser's estimate too little to go by), and gives no pixel more than kGuidedCap times the
-// pass's mean.
+// pass's mean: enough for the few pixels no filter helps (a crease's heavy-tailed noise; at 16
+// times the Duck at 640×480 took twice the time to its target, docs/denoising.md), while one
+// wrong estimate can take no more than that of a pass.
 inline constexpr int kGuidedFrom = 8;
-inline constexpr int kGuidedCap = 16;
+inline constexpr int kGuidedCap = 64;
 // The first uniform pass target that is denoised (the last pass always is): denoising an image
 // costs about what 2-4 samples per pixel of the Cornell box do (0.08 s at 320×240 on 2
 // threads), so denoising the 2-spp pass (one sample has no halves) would about double its time
