@@ -21,7 +21,9 @@ using Metadata = std::vector<std::pair<std::string, std::string>>;
 void write_png(const std::string& path, const Image& image, ToneCurve curve = ToneCurve::srgb, const Metadata& meta = {});
 void write_exr(const std::string& path, const Image& image, const Metadata& meta = {});
 // A multilayer OpenEXR: the image (R, G, B, samples) and each AOV under the channel names
-// compositors read (albedo.R, N.X, Z, …; engine/render/aov.h), all 32-bit float.
+// compositors read (albedo.R, N.X, Z, …; engine/render/aov.h), all 32-bit float. A plane whose
+// components or values are not its pass's for every pixel throws std::invalid_argument, and
+// nothing is written (so does write_aov_exr).
 void write_layers_exr(const std::string& path, const Image& image, const std::vector<AovPlane>& aovs, const Metadata& meta = {});
 // One AOV alone (its channels as in the multilayer file).
 void write_aov_exr(const std::string& path, int width, int height, const AovPlane& aov, const Metadata& meta = {});
