@@ -74,16 +74,22 @@ double masked_rel_mse(const Image& img, const Image& ref, const std::vector<uint
 // halves' means A and B are independent and (A − B)²/4 is an unbiased estimate of the squared
 // error of their mean, the image (whatever the samples' stratification, which an estimate from
 // one net's sample variance would miss).
-std::vector<double> half_gap_error(const Film& film) {
+// `squared`, where given: each channel's own (A − B)²/4, absolute (the EXR's layer of it).
+std::vector<double> half_gap_error(const Film& film, std::vector<float>* squared = nullptr) {
     const size_t n = size_t(film.width) * film.height;
     std::vector<double> e(n, 0.0);
+    if (squared) squared->assign(n * 3, 0.f);
     if (film.sum_odd.size() != n) return e;
     for (size_t p = 0; p < n; ++p) {
         const uint32_t c = film.count[p], odd = c / 2, even = c - odd;
         if (odd == 0) continue;
         const glm::dvec3 a = film.sum_odd[p] / double(odd), b = (film.sum[p] - film.sum_odd[p]) / double(even),
                          m = film.sum[p] / double(c);
-        for (int k = 0; k < 3; ++k) e[p] += (a[k] - b[k]) * (a[k] - b[k]) / 4.0 / (m[k] * m[k] + 0.01) / 3.0;
+        for (int k = 0; k < 3; ++k) {
+            const double g = (a[k] - b[k]) * (a[k] - b[k]) / 4.0;
+            e[p] += g / (m[k] * m[k] + 0.01) / 3.0;
+            if (squared) (*squared)[p * 3 + k] = float(g);
+        }
     }
     return e;
 }
@@ -302,12 +308,16 @@ int bench_denoise(int argc, char** argv) {
         rs.guided = false;
         rs.aovs = aov_bit(Aov::albedo) | aov_bit(Aov::normal) | aov_bit(Aov::depth) | aov_bit(Aov::emission) | aov_bit(Aov::environment);
         std::vector<double> ref_sq;
+        std::vector<float> ref_gap;  // per channel, for --exr
         RenderCallbacks ref_calls;
         ref_calls.on_pass = [&](const PassView& v) {
-            if (v.spp >= ref_spp) ref_sq = half_gap_error(v.film);
+            if (v.spp >= ref_spp) ref_sq = half_gap_error(v.film, &ref_gap);
         };
         const RenderResult ref = render(scene, rs, ref_calls);
-        if (ref_sq.size() != ref.image.rgb.size() / 3) ref_sq.assign(ref.image.rgb.size() / 3, 0.0);
+        if (ref_sq.size() != ref.image.rgb.size() / 3) {
+            ref_sq.assign(ref.image.rgb.size() / 3, 0.0);
+            ref_gap.assign(ref.image.rgb.size(), 0.f);
+        }
         const std::vector<uint8_t> mask = reference_detail_mask(ref, W, H);
         // Elsewhere: the other pixels that saw a surface (the sky and a black void have nothing to denoise).
         std::vector<uint8_t> rest(mask.size(), 0);
@@ -332,16 +342,7 @@ int bench_denoise(int argc, char** argv) {
             std::filesystem::create_directories(exr_dir);
             // The reference's own error per pixel as one more layer, as a compositor reads it.
             std::vector<AovPlane> planes = ref.aovs;
-            AovPlane own;
-            own.aov = Aov::variance;
-            own.components = 3;
-            own.values.resize(ref_sq.size() * 3);
-            for (size_t p = 0; p < ref_sq.size(); ++p)
-                for (int k = 0; k < 3; ++k) {
-                    const double m = ref.image.rgb[p * 3 + k];
-                    own.values[p * 3 + k] = float(ref_sq[p] * (m * m + 0.01));  // back to absolute: the pixel's squared error
-                }
-            planes.push_back(std::move(own));
+            planes.push_back(AovPlane{Aov::variance, 3, ref_gap});
             write_layers_exr(exr_dir + "/" + stem + "_reference.exr", ref.image, planes,
                              {{"tessera:variance", "the reference's own squared error per pixel, (A - B)^2/4 of its two halves"}});
         }

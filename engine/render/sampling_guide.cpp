@@ -72,8 +72,8 @@ std::vector<uint32_t> guided_targets(const Film& film, const std::vector<float>&
         for (size_t p = 0; p < n; ++p) goal[p] = std::max<uint32_t>(goal[p], uint32_t(std::min(mean_target, cap)));
         return goal;
     }
-    // Every pixel with an error at the cap spends no more than the total (a budget above 16
-    // times the mean's reach): that is the pass.
+    // Every pixel with an error at the cap spends no more than the total (a budget beyond the
+    // cap's reach): that is the pass.
     double at_cap = 0;
     for (size_t p = 0; p < n; ++p) at_cap += w[p] > 0 ? std::max(double(film.count[p]), top) : double(film.count[p]);
     if (at_cap <= total) {

@@ -114,7 +114,7 @@ TEST(Checkpoint, AbsurdGuidedTargetsAreDropped) {
     ASSERT_TRUE(stopped.result.stats.canceled);
     RenderCheckpoint c = *stopped.checkpoints.back();
     ASSERT_FALSE(c.film.goal.empty()) << "stopped in a guided pass";
-    // Four times the cap (16 × 16 spp): without the check, every pixel would be taken there.
+    // Four times the cap (kGuidedCap × 16 spp): without the check, every pixel would be taken there.
     std::fill(c.film.goal.begin(), c.film.goal.end(), uint32_t(4 * kGuidedCap * s.spp));
     const Stopped resumed = render_with(scene, s, &c, size_t(-1), 0);
     EXPECT_FALSE(resumed.result.stats.canceled);
