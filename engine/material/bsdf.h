@@ -114,6 +114,7 @@ struct MetallicRoughness {
     float d_f0, d_f90;   // the dielectric's
     glm::vec3 c_diff;
     float alpha;
+    float e_o;           // E(μo): the dielectric lobe's directional albedo toward wo
     float base_o;        // 1 − E(μo), over 1 − E_avg
     explicit MetallicRoughness(const Bsdf& b, const glm::vec3& wo) {
         const float r = (b.ior - 1.f) / (b.ior + 1.f);
@@ -124,7 +125,8 @@ struct MetallicRoughness {
         c_diff = b.albedo * (1.f - b.metallic);
         alpha = std::max(b.alpha, kMinAlpha);
         const float avg = ggx_albedo_average(alpha)(d_f0, d_f90);
-        base_o = avg < 1.f ? std::max(0.f, 1.f - ggx_albedo(wo.z, alpha)(d_f0, d_f90)) / (1.f - avg) : 0.f;
+        e_o = ggx_albedo(wo.z, alpha)(d_f0, d_f90);
+        base_o = avg < 1.f ? std::max(0.f, 1.f - e_o) / (1.f - avg) : 0.f;
     }
     glm::vec3 f_spec(float c) const {
         const float m = std::clamp(1.f - c, 0.f, 1.f);
@@ -154,10 +156,17 @@ struct MetallicRoughness {
     // The probability of sampling the specular lobe, from wo alone: each lobe's albedo guess.
     float p_spec(const glm::vec3& wo) const {
         const float s = luminance(f_spec(wo.z));
-        const float d = luminance(c_diff) * std::max(0.f, 1.f - ggx_albedo(wo.z, alpha)(d_f0, d_f90));
+        const float d = luminance(c_diff) * std::max(0.f, 1.f - e_o);
         if (d <= 0.f) return 1.f;
         if (s <= 0.f) return 0.f;
         return std::clamp(s / (s + d), 0.1f, 0.9f);
+    }
+    // The whole BSDF and its sampling density, both directions above the surface.
+    glm::vec3 f(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi) const { return f_glossy(b, wo, wi) + f_base(wi); }
+    float pdf(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi) const {
+        const float ps = p_spec(wo);
+        const float spec = b.alpha < kSmoothAlpha ? 0.f : pdf_glossy(wo, wi);
+        return ps * spec + (1.f - ps) * cosine_hemisphere_pdf(wi.z);
     }
 };
 
@@ -186,8 +195,7 @@ inline glm::vec3 bsdf_f(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi)
         }
         case BsdfKind::metallic_roughness: {
             if (wo.z <= 0.f || wi.z <= 0.f) return glm::vec3(0.f);
-            const bsdf_detail::MetallicRoughness m(b, wo);
-            return m.f_glossy(b, wo, wi) + m.f_base(wi);
+            return bsdf_detail::MetallicRoughness(b, wo).f(b, wo, wi);
         }
     }
     return glm::vec3(0.f);
@@ -213,10 +221,7 @@ inline float bsdf_pdf(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi) {
         }
         case BsdfKind::metallic_roughness: {
             if (wo.z <= 0.f || wi.z <= 0.f) return 0.f;
-            const bsdf_detail::MetallicRoughness m(b, wo);
-            const float ps = m.p_spec(wo);
-            const float spec = b.alpha < kSmoothAlpha ? 0.f : m.pdf_glossy(wo, wi);
-            return ps * spec + (1.f - ps) * cosine_hemisphere_pdf(wi.z);
+            return bsdf_detail::MetallicRoughness(b, wo).pdf(b, wo, wi);
         }
     }
     return 0.f;
@@ -318,7 +323,14 @@ inline bool bsdf_sample(const Bsdf& b, const glm::vec3& wo, float uc, glm::vec2 
             } else {
                 s.wi = sample_cosine_hemisphere(u.x, u.y);
             }
-            return bsdf_detail::weigh(b, wo, s);
+            // weigh()'s sums from the m built here: each bsdf_pdf and bsdf_f would build it again
+            // (two table lookups each, a tenth of a glTF scene's render time in all).
+            if (s.wi.z <= 0.f) return false;
+            s.pdf = m.pdf(b, wo, s.wi);
+            if (!(s.pdf > 0.f)) return false;
+            s.weight = m.f(b, wo, s.wi) * (s.wi.z / s.pdf);
+            s.delta = false;
+            return true;
         }
     }
     return false;
