@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 
 #include <glm/glm.hpp>
 
@@ -361,5 +362,38 @@ inline BsdfSplit bsdf_split(const Bsdf& b, const glm::vec3& wo, const glm::vec3&
     }
     return r;
 }
+
+// A BSDF at one vertex, seen from wo (local frame): what depends on wo alone is built once (a
+// glTF material's Fresnel terms and albedo-table lookups), not again for every direction the
+// vertex weighs (each light sample's f and density, the continuation's, the light split's
+// lobes). Its f, pdf and split are bsdf_f's, bsdf_pdf's and bsdf_split's, bit for bit.
+class BsdfAt {
+public:
+    BsdfAt(const Bsdf& b, const glm::vec3& wo) : b_(b), wo_(wo) {
+        if (b.kind == BsdfKind::metallic_roughness && wo.z > 0.f) m_.emplace(b, wo);
+    }
+    const Bsdf& bsdf() const { return b_; }
+    glm::vec3 f(const glm::vec3& wi) const {
+        if (!m_) return bsdf_f(b_, wo_, wi);
+        return wi.z > 0.f ? m_->f(b_, wo_, wi) : glm::vec3(0.f);
+    }
+    float pdf(const glm::vec3& wi) const {
+        if (!m_) return bsdf_pdf(b_, wo_, wi);
+        return wi.z > 0.f ? m_->pdf(b_, wo_, wi) : 0.f;
+    }
+    BsdfSplit split(const glm::vec3& wi) const {
+        if (!m_) return bsdf_split(b_, wo_, wi);
+        BsdfSplit r;
+        if (wi.z <= 0.f) return r;
+        r.diffuse = m_->f_base(wi);
+        r.glossy = m_->f_glossy(b_, wo_, wi);
+        return r;
+    }
+
+private:
+    const Bsdf& b_;
+    glm::vec3 wo_;
+    std::optional<bsdf_detail::MetallicRoughness> m_;
+};
 
 }  // namespace tessera

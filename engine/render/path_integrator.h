@@ -123,6 +123,7 @@ public:
             if (bsdf_is_black(b)) break;  // nothing is reflected from here on
             const Frame frame(si.ns);
             const glm::vec3 wo_l = frame.to_local(wo);
+            const BsdfAt at(b, wo_l);
             // A delta lobe sees lights only along its own directions: a continuation drawn from
             // it carries the emission it finds, in place of direct lighting, for this same
             // bounce. The rest of the BSDF gets light samples here; where MIS applies (the
@@ -135,7 +136,7 @@ public:
             // Whether the continuation is this vertex's MIS BSDF sample (lights it could find).
             const bool mis_here = part != MisPart::none && include(depth) && (!s_.area_lights.empty() || env_);
             if (!only_delta) {
-                if (include(depth)) L += beta * direct(si, b, frame, wo_l, part, rng, aovs && depth == 1 ? &split : nullptr);
+                if (include(depth)) L += beta * direct(si, at, frame, wo_l, part, rng, aovs && depth == 1 ? &split : nullptr);
                 if (last && !has_delta && !mis_here) break;
             }
             // Roulette before the continuation unless it is the MIS BSDF sample: then after its
@@ -163,7 +164,7 @@ public:
                 pdf = bs.pdf;
                 delta = bs.delta;
                 if (aovs && depth == 1) {
-                    cont_glossy = delta ? glm::vec3(1.f) : glossy_share(bsdf_split(b, wo_l, bs.wi));
+                    cont_glossy = delta ? glm::vec3(1.f) : glossy_share(at.split(bs.wi));
                     found_glossy = part == MisPart::glossy && !delta ? glm::vec3(1.f) : cont_glossy;
                 }
             }
@@ -188,14 +189,14 @@ public:
             } else if (mis_here) {
                 // The emission the continuation finds, weighted against the light samples that
                 // could have found it (`n` of them, power heuristic), for this vertex's bounce.
-                const glm::vec3 fw = part == MisPart::whole ? weight : glossy_weight(b, wo_l, frame.to_local(wi), pdf);
+                const glm::vec3 fw = part == MisPart::whole ? weight : glossy_weight(at, frame.to_local(wi), pdf);
                 if (!hit_next) {
                     if (env_) L += beta_here * fw * environment_radiance(*env_, wi) * bsdf_mis_weight(pdf, environment_pdf(*env_, wi, env_sampling(part)));
                     break;
                 }
                 const SurfaceInteraction from = si;
                 si = surface_at(s_, next, hit);
-                L += beta_here * fw * mis_emission(from, b, frame, wo_l, wi, si, hit);
+                L += beta_here * fw * mis_emission(from, at, frame, wi, si, hit);
             } else {
                 if (!hit_next) break;
                 si = surface_at(s_, next, hit);
@@ -281,12 +282,12 @@ private:
     float light_mis_weight(float pdf_l, float pdf_b) const { return power_heuristic(light_samples_ * pdf_l, pdf_b); }
 
     // The continuation's density toward wi, as the light samples' weights see it.
-    static float continuation_pdf(const Bsdf& b, const glm::vec3& wo_l, const glm::vec3& wl) {
-        return b.kind == BsdfKind::lambertian ? (wl.z > 0.f ? cosine_hemisphere_pdf(wl.z) : 0.f) : bsdf_pdf(b, wo_l, wl);
+    static float continuation_pdf(const BsdfAt& at, const glm::vec3& wl) {
+        return at.bsdf().kind == BsdfKind::lambertian ? (wl.z > 0.f ? cosine_hemisphere_pdf(wl.z) : 0.f) : at.pdf(wl);
     }
     // The glossy lobe's f·cos/pdf for a continuation drawn from the whole BSDF with density pdf.
-    static glm::vec3 glossy_weight(const Bsdf& b, const glm::vec3& wo_l, const glm::vec3& wl, float pdf) {
-        return pdf > 0.f ? bsdf_split(b, wo_l, wl).glossy * (wl.z / pdf) : glm::vec3(0.f);
+    static glm::vec3 glossy_weight(const BsdfAt& at, const glm::vec3& wl, float pdf) {
+        return pdf > 0.f ? at.split(wl).glossy * (wl.z / pdf) : glm::vec3(0.f);
     }
 
     // Direct light at the first vertex by lobe, for the light split.
@@ -307,8 +308,8 @@ private:
     // geometry is taken from the shading point, not from the offset ray origin (whose offset is
     // not small against the distance far from the origin), as the light sample computes it, so
     // the two weights sum to one.
-    glm::vec3 mis_emission(const SurfaceInteraction& from, const Bsdf& b, const Frame& frame, const glm::vec3& wo_l,
-                           const glm::vec3& wi, const SurfaceInteraction& hs, const Hit& h) const {
+    glm::vec3 mis_emission(const SurfaceInteraction& from, const BsdfAt& at, const Frame& frame, const glm::vec3& wi,
+                           const SurfaceInteraction& hs, const Hit& h) const {
         if (h.sphere) return glm::vec3(0.f);
         const uint32_t lti = s_.tri_shading[h.prim].light;
         if (lti == kNoLight) return glm::vec3(0.f);
@@ -318,7 +319,7 @@ private:
         const float dist = glm::length(d);
         if (!(dist > 0.f)) return glm::vec3(0.f);
         const glm::vec3 wp = d / dist;
-        const float pdf_bp = continuation_pdf(b, wo_l, frame.to_local(wp));
+        const float pdf_bp = continuation_pdf(at, frame.to_local(wp));
         float pdf_l;
         if (by_tree_) {
             const float area = light_triangle_at(s_, lti, hs.time).area;
@@ -338,21 +339,22 @@ private:
     // alone find both small lights and narrow lobes. `part` says what MIS covers: its light
     // samples are weighted here against the continuation, which radiance() weighs in turn as
     // the BSDF sample. A Lambertian BSDF keeps its constant f without a call per sample.
-    glm::vec3 direct(const SurfaceInteraction& si, const Bsdf& b, const Frame& frame, const glm::vec3& wo_l, MisPart part,
+    glm::vec3 direct(const SurfaceInteraction& si, const BsdfAt& at, const Frame& frame, const glm::vec3& wo_l, MisPart part,
                      Sampler& rng, DirectSplit* split = nullptr) {
+        const Bsdf& b = at.bsdf();
         if (!s_.has_lights() && !env_) return glm::vec3(0.f);
         const bool lambert = b.kind == BsdfKind::lambertian;
         const glm::vec3 f_lambert = b.albedo * kInvPi;
         const bool hemisphere = st_.direct == DirectLighting::hemisphere;
-        auto f = [&](const glm::vec3& wi) { return lambert ? f_lambert : bsdf_f(b, wo_l, frame.to_local(wi)); };
+        auto f = [&](const glm::vec3& wi) { return lambert ? f_lambert : at.f(frame.to_local(wi)); };
         // f toward a light sample of density `pdf`, MIS-weighted where MIS applies; under
         // `hemisphere` only the glossy lobe (the diffuse part has its own samples).
         auto f_light = [&](const glm::vec3& wi, float pdf) -> glm::vec3 {
             if (part == MisPart::none) return f(wi);
             const glm::vec3 wl = frame.to_local(wi);
-            const float w = light_mis_weight(pdf, continuation_pdf(b, wo_l, wl));
+            const float w = light_mis_weight(pdf, continuation_pdf(at, wl));
             if (part == MisPart::whole) return f(wi) * w;
-            const BsdfSplit p = bsdf_split(b, wo_l, wl);
+            const BsdfSplit p = at.split(wl);
             return hemisphere ? p.glossy * w : p.diffuse + p.glossy * w;
         };
         glm::vec3 Ld(0.f);
@@ -361,8 +363,8 @@ private:
         auto g_light = [&](const glm::vec3& wi, float pdf) -> glm::vec3 {
             if (lambert) return glm::vec3(0.f);
             const glm::vec3 wl = frame.to_local(wi);
-            const float w = part == MisPart::none ? 1.f : light_mis_weight(pdf, continuation_pdf(b, wo_l, wl));
-            return bsdf_split(b, wo_l, wl).glossy * w;
+            const float w = part == MisPart::none ? 1.f : light_mis_weight(pdf, continuation_pdf(at, wl));
+            return at.split(wl).glossy * w;
         };
         auto done = [&] {
             if (split) {
@@ -383,7 +385,7 @@ private:
                 ++stats_.shadow_rays;
                 if (!occluded(s_, spawn_ray_to(si.p, si.p_err, si.ng, dl.position, si.tri, si.instance, si.time), stats_.traversal)) {
                     Ld += f(wi) * dl.intensity * (c / dist2);
-                    if (split && !lambert) Lg += bsdf_split(b, wo_l, frame.to_local(wi)).glossy * dl.intensity * (c / dist2);
+                    if (split && !lambert) Lg += at.split(frame.to_local(wi)).glossy * dl.intensity * (c / dist2);
                 }
             } else {
                 const glm::vec3 wi = -dl.direction;
@@ -392,7 +394,7 @@ private:
                 ++stats_.shadow_rays;
                 if (!occluded(s_, spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance, si.time), stats_.traversal)) {
                     Ld += f(wi) * dl.intensity * c;
-                    if (split && !lambert) Lg += bsdf_split(b, wo_l, frame.to_local(wi)).glossy * dl.intensity * c;
+                    if (split && !lambert) Lg += at.split(frame.to_local(wi)).glossy * dl.intensity * c;
                 }
             }
         }
@@ -405,7 +407,7 @@ private:
                 const glm::vec3 wl = sample_uniform_hemisphere(u.x, u.y);
                 const glm::vec3 wi = frame.to_world(wl);
                 if (glm::dot(wi, si.ng) <= 0.f) continue;
-                const glm::vec3 fd = lambert ? f_lambert : bsdf_split(b, wo_l, wl).diffuse;
+                const glm::vec3 fd = lambert ? f_lambert : at.split(wl).diffuse;
                 if (fd == glm::vec3(0.f)) continue;
                 Ray r = spawn_ray(si.p, si.p_err, si.ng, wi, si.tri, si.instance, si.time);
                 ++stats_.shadow_rays;
@@ -496,7 +498,7 @@ private:
                     if (!sample(b, false, wo_l, rng, bs) || bs.delta || bs.wi.z <= 0.f) continue;
                     wi = frame.to_world(bs.wi);
                     weight = bs.weight;
-                    if (split) share = glossy_share(bsdf_split(b, wo_l, bs.wi));
+                    if (split) share = glossy_share(at.split(bs.wi));
                 }
                 if (glm::dot(wi, si.ng) <= 0.f || wi.y <= 0.f) continue;
                 ++stats_.shadow_rays;
