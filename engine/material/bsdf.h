@@ -6,7 +6,8 @@
 //
 // bsdf_f and bsdf_pdf describe the non-delta part (zero for mirror, glass and
 // lobes smoother than kSmoothAlpha); bsdf_sample draws
-// from the whole BSDF and returns f·|cos θi|/pdf, so delta lobes need no density.
+// from the whole BSDF and returns f·|cos θi|/pdf, so delta lobes need no density. BsdfAt is
+// the one piece of state: a vertex's BSDF with what depends on wo alone built once.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -230,15 +231,20 @@ inline float bsdf_pdf(const Bsdf& b, const glm::vec3& wo, const glm::vec3& wi) {
 
 namespace bsdf_detail {
 
-// A sampled reflection direction s.wi given its density and weight from bsdf_pdf and bsdf_f
-// (mixtures and lobes clipped by the horizon: the density is the whole sampling routine's).
-inline bool weigh(const Bsdf& b, const glm::vec3& wo, BsdfSample& s) {
+// A sampled reflection direction s.wi given its density and weight from `pdf` and `f` (mixtures
+// and lobes clipped by the horizon: the density is the whole sampling routine's).
+template <class Pdf, class F>
+inline bool weigh_by(BsdfSample& s, const Pdf& pdf, const F& f) {
     if (s.wi.z <= 0.f) return false;
-    s.pdf = bsdf_pdf(b, wo, s.wi);
+    s.pdf = pdf(s.wi);
     if (!(s.pdf > 0.f)) return false;
-    s.weight = bsdf_f(b, wo, s.wi) * (s.wi.z / s.pdf);
+    s.weight = f(s.wi) * (s.wi.z / s.pdf);
     s.delta = false;
     return true;
+}
+inline bool weigh(const Bsdf& b, const glm::vec3& wo, BsdfSample& s) {
+    return weigh_by(s, [&](const glm::vec3& wi) { return bsdf_pdf(b, wo, wi); },
+                    [&](const glm::vec3& wi) { return bsdf_f(b, wo, wi); });
 }
 
 }  // namespace bsdf_detail
@@ -324,14 +330,10 @@ inline bool bsdf_sample(const Bsdf& b, const glm::vec3& wo, float uc, glm::vec2 
             } else {
                 s.wi = sample_cosine_hemisphere(u.x, u.y);
             }
-            // weigh()'s sums from the m built here: each bsdf_pdf and bsdf_f would build it again
-            // (two table lookups each, a tenth of a glTF scene's render time in all).
-            if (s.wi.z <= 0.f) return false;
-            s.pdf = m.pdf(b, wo, s.wi);
-            if (!(s.pdf > 0.f)) return false;
-            s.weight = m.f(b, wo, s.wi) * (s.wi.z / s.pdf);
-            s.delta = false;
-            return true;
+            // Weighed by the terms built here: bsdf_pdf and bsdf_f would build them again from wo
+            // (their table lookups were most of their cost, docs/benchmarks.md).
+            return bsdf_detail::weigh_by(s, [&](const glm::vec3& wi) { return m.pdf(b, wo, wi); },
+                                         [&](const glm::vec3& wi) { return m.f(b, wo, wi); });
         }
     }
     return false;
@@ -372,14 +374,19 @@ public:
     BsdfAt(const Bsdf& b, const glm::vec3& wo) : b_(b), wo_(wo) {
         if (b.kind == BsdfKind::metallic_roughness && wo.z > 0.f) m_.emplace(b, wo);
     }
+    BsdfAt(Bsdf&&, const glm::vec3&) = delete;  // it keeps a reference
     const Bsdf& bsdf() const { return b_; }
+    const glm::vec3& wo() const { return wo_; }
+    // The guards are the free functions' (wi.z <= 0, so a NaN direction gives what they give).
     glm::vec3 f(const glm::vec3& wi) const {
         if (!m_) return bsdf_f(b_, wo_, wi);
-        return wi.z > 0.f ? m_->f(b_, wo_, wi) : glm::vec3(0.f);
+        if (wi.z <= 0.f) return glm::vec3(0.f);
+        return m_->f(b_, wo_, wi);
     }
     float pdf(const glm::vec3& wi) const {
         if (!m_) return bsdf_pdf(b_, wo_, wi);
-        return wi.z > 0.f ? m_->pdf(b_, wo_, wi) : 0.f;
+        if (wi.z <= 0.f) return 0.f;
+        return m_->pdf(b_, wo_, wi);
     }
     BsdfSplit split(const glm::vec3& wi) const {
         if (!m_) return bsdf_split(b_, wo_, wi);

@@ -84,7 +84,9 @@ const Tables& tables() {
 
 // The table's coordinate along √α, as (index, weight of index + 1).
 std::pair<int, float> rough_coord(float alpha) {
-    const float x = std::clamp(std::sqrt(std::max(alpha, 0.f)), 0.f, 1.f) * float(kRough - 1);
+    // Written so that NaN reads the first entry (std::clamp and std::max pass NaN on, and int(NaN)
+    // indexes anywhere): a lookup never leaves its table, whatever direction it is asked about.
+    const float x = std::min(std::sqrt(alpha > 0.f ? alpha : 0.f), 1.f) * float(kRough - 1);
     const int j = std::min(int(x), kRough - 2);
     return {j, x - float(j)};
 }
@@ -96,7 +98,7 @@ GgxAlbedo lerp(const GgxAlbedo& p, const GgxAlbedo& q, float w) { return {p.a + 
 GgxAlbedo ggx_albedo(float mu, float alpha) {
     const Tables& t = tables();
     const auto [j, wj] = rough_coord(alpha);
-    const float x = std::clamp(mu, 0.f, 1.f) * float(kMu - 1);
+    const float x = (mu > 0.f ? std::min(mu, 1.f) : 0.f) * float(kMu - 1);  // NaN: 0, as in rough_coord
     const int i = std::min(int(x), kMu - 2);
     const float wi = x - float(i);
     const GgxAlbedo lo = lerp(t.e[j * kMu + i], t.e[j * kMu + i + 1], wi);

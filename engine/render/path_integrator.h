@@ -136,7 +136,7 @@ public:
             // Whether the continuation is this vertex's MIS BSDF sample (lights it could find).
             const bool mis_here = part != MisPart::none && include(depth) && (!s_.area_lights.empty() || env_);
             if (!only_delta) {
-                if (include(depth)) L += beta * direct(si, at, frame, wo_l, part, rng, aovs && depth == 1 ? &split : nullptr);
+                if (include(depth)) L += beta * direct(si, at, frame, part, rng, aovs && depth == 1 ? &split : nullptr);
                 if (last && !has_delta && !mis_here) break;
             }
             // Roulette before the continuation unless it is the MIS BSDF sample: then after its
@@ -303,7 +303,7 @@ private:
         return true;
     }
 
-    // The emission a continuation from `from` (BSDF b, local frame) found at `hs`, times its
+    // The emission a continuation from `from` (its BSDF there: `at`) found at `hs`, times its
     // MIS weight against the light samples that could have chosen the same point. The weight's
     // geometry is taken from the shading point, not from the offset ray origin (whose offset is
     // not small against the distance far from the origin), as the light sample computes it, so
@@ -339,9 +339,10 @@ private:
     // alone find both small lights and narrow lobes. `part` says what MIS covers: its light
     // samples are weighted here against the continuation, which radiance() weighs in turn as
     // the BSDF sample. A Lambertian BSDF keeps its constant f without a call per sample.
-    glm::vec3 direct(const SurfaceInteraction& si, const BsdfAt& at, const Frame& frame, const glm::vec3& wo_l, MisPart part,
-                     Sampler& rng, DirectSplit* split = nullptr) {
+    glm::vec3 direct(const SurfaceInteraction& si, const BsdfAt& at, const Frame& frame, MisPart part, Sampler& rng,
+                     DirectSplit* split = nullptr) {
         const Bsdf& b = at.bsdf();
+        const glm::vec3& wo_l = at.wo();
         if (!s_.has_lights() && !env_) return glm::vec3(0.f);
         const bool lambert = b.kind == BsdfKind::lambertian;
         const glm::vec3 f_lambert = b.albedo * kInvPi;
@@ -379,6 +380,7 @@ private:
             if (dl.kind == DeltaKind::point) {
                 const glm::vec3 d = dl.position - si.p;
                 const float dist2 = glm::dot(d, d);
+                if (!(dist2 > 0.f)) continue;  // a light at the shading point has no direction
                 const glm::vec3 wi = d / std::sqrt(dist2);
                 const float c = glm::dot(si.ns, wi);
                 if (c <= 0.f || glm::dot(si.ng, wi) <= 0.f) continue;

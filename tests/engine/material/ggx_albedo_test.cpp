@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "engine/material/microfacet.h"
@@ -212,6 +213,19 @@ TEST(GgxAlbedo, AverageIsTheCosineWeightedIntegral) {
         }
         expect_matches(avg, mc, 2e-3, "average, alpha " + std::to_string(alpha));
     }
+}
+
+// A direction or roughness that is NaN or out of range reads the table's edge, never outside
+// it (int(NaN) indexed anywhere: a glTF vertex asked about a NaN direction crashed).
+TEST(GgxAlbedo, NanAndOutOfRangeReadTheTablesEdges) {
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    auto equal = [](GgxAlbedo a, GgxAlbedo b) { return a.a == b.a && a.b == b.b; };
+    EXPECT_TRUE(equal(ggx_albedo(nan, 0.3f), ggx_albedo(0.f, 0.3f)));
+    EXPECT_TRUE(equal(ggx_albedo(-2.f, 0.3f), ggx_albedo(0.f, 0.3f)));
+    EXPECT_TRUE(equal(ggx_albedo(7.f, 0.3f), ggx_albedo(1.f, 0.3f)));
+    EXPECT_TRUE(equal(ggx_albedo(0.5f, nan), ggx_albedo(0.5f, 0.f)));
+    EXPECT_TRUE(equal(ggx_albedo(0.5f, 9.f), ggx_albedo(0.5f, 1.f)));
+    EXPECT_TRUE(equal(ggx_albedo_average(nan), ggx_albedo_average(0.f)));
 }
 
 }  // namespace
