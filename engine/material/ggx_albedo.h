@@ -3,8 +3,8 @@
 // conserving base layer of glTF's metallic-roughness material (Kulla & Conty 2017, "Revisiting
 // Physically Based Shading at Imageworks"). Schlick's F is linear in f0 and f90, so the albedo
 // is E(μ, α) = f0·a(μ, α) + f90·b(μ, α): two tables serve every f0, index and specular factor.
-// They are integrated once per process, on first use, with a fixed stratified quadrature (the
-// same numbers on every run and thread).
+// They are integrated when the engine is built, with a fixed stratified quadrature
+// (ggx_albedo_tables.h), so a process reads them from its first pixel at no cost.
 namespace tessera {
 
 struct GgxAlbedo {

@@ -12,9 +12,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 
+#include "engine/material/ggx_albedo_tables.h"
 #include "engine/material/microfacet.h"
 #include "engine/sampling/rng.h"
 #include "engine/sampling/warp.h"
@@ -226,6 +228,24 @@ TEST(GgxAlbedo, NanAndOutOfRangeReadTheTablesEdges) {
     EXPECT_TRUE(equal(ggx_albedo(0.5f, nan), ggx_albedo(0.5f, 0.f)));
     EXPECT_TRUE(equal(ggx_albedo(0.5f, 9.f), ggx_albedo(0.5f, 1.f)));
     EXPECT_TRUE(equal(ggx_albedo_average(nan), ggx_albedo_average(0.f)));
+}
+
+// The tables are integrated when the engine is built (ggx_albedo_table_gen); the numbers the
+// engine carries are the quadrature's as this build computes it, to the bit, at every node: a
+// stale or mis-printed table would shade every glTF material a little off.
+TEST(GgxAlbedo, TheBuiltInTablesAreTheQuadraturesBitForBit) {
+    const ggx_albedo_detail::Tables fresh = ggx_albedo_detail::integrate();
+    const ggx_albedo_detail::Tables& built = ggx_albedo_detail::built_in();
+    auto same = [](GgxAlbedo x, GgxAlbedo y) {
+        return std::memcmp(&x.a, &y.a, sizeof(float)) == 0 && std::memcmp(&x.b, &y.b, sizeof(float)) == 0;
+    };
+    int differ = 0;
+    for (size_t k = 0; k < fresh.e.size(); ++k) differ += !same(fresh.e[k], built.e[k]);
+    for (size_t k = 0; k < fresh.avg.size(); ++k) differ += !same(fresh.avg[k], built.avg[k]);
+    EXPECT_EQ(differ, 0);
+    // And the lookups read the built-in tables (at the grid's corner the bilinear weights are 0).
+    EXPECT_TRUE(same(ggx_albedo(0.f, 0.f), built.e[0]));
+    EXPECT_TRUE(same(ggx_albedo_average(0.f), built.avg[0]));
 }
 
 }  // namespace
