@@ -21,6 +21,7 @@
 #include "cli/serve_command.h"
 
 #include "cli/command_line.h"
+#include "engine/io/image_io.h"
 #include "server/http/http_api.h"
 #include "server/farm/farm_queue.h"
 #include "server/memory_return.h"
@@ -236,6 +237,7 @@ int serve_command(int argc, char** argv) {
     std::unique_ptr<HttpApi> api;
     int port = 0;
     try {
+        load_image_io();  // a server that cannot write its results stops here, not at its first job
         service = open_job_queue(o.service);
         {
             std::ofstream out(openapi);

@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include "engine/io/image_io.h"
 #include "server/memory_return.h"
 #include "cli/command_line.h"
 #include "cli/node_options.h"
@@ -56,6 +57,7 @@ int worker_command(int argc, char** argv) {
     sigset_t signals = block_stop_signals();
     tune_allocator();
     try {
+        load_image_io();  // a node that cannot read a job's reference image stops here
         // Fails early, with the redacted address, when Redis does not answer.
         Redis probe(node.redis);
         probe.command({"PING"});

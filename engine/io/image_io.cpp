@@ -1,13 +1,17 @@
 #include "engine/io/image_io.h"
 
+#include <dlfcn.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <cstdio>
-#include <memory>
+#include <filesystem>
 #include <stdexcept>
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
+#include "build_paths.h"
+#include "engine/io/oiio_module.h"
 
 namespace tessera {
 namespace {
@@ -19,23 +23,55 @@ float srgb_encode(float v) {
 
 float cs184_encode(float v) { return std::clamp(std::pow(std::max(0.f, std::sqrt(2.f) * v), 1.f / 2.2f), 0.f, 1.f); }
 
-// Writes a file, or into `memory` through an I/O proxy (`path` then only names the format).
-void write(const std::string& path, OIIO::ImageSpec spec, OIIO::TypeDesc type, const void* data, const Metadata& meta,
-           std::vector<unsigned char>* memory = nullptr) {
-    for (const auto& [k, v] : meta) spec.attribute(k, v);
-    // Before the writer: it is destroyed after it, so a writer closing on an error path never
-    // writes through a freed proxy.
-    std::unique_ptr<OIIO::Filesystem::IOVecOutput> proxy;
-    auto out = OIIO::ImageOutput::create(path);
-    if (!out) throw std::runtime_error(path + ": cannot create an image writer: " + OIIO::geterror());
-    if (memory) {
-        proxy = std::make_unique<OIIO::Filesystem::IOVecOutput>(*memory);
-        if (!out->supports("ioproxy") || !out->set_ioproxy(proxy.get()))
-            throw std::runtime_error(path + ": the writer cannot encode into memory");
+// Where the OpenImageIO module may be: installed beside the program (lib/tessera/ next to its
+// bin/, as in the container image), else in the build tree that built it.
+std::vector<std::string> module_candidates() {
+    std::vector<std::string> paths;
+    char exe[PATH_MAX];
+    const ssize_t n = ::readlink("/proc/self/exe", exe, sizeof exe - 1);
+    if (n > 0) {
+        exe[n] = '\0';
+        const std::filesystem::path dir = std::filesystem::path(exe).parent_path();
+        paths.push_back((dir.parent_path() / "lib" / "tessera" / "libtessera_oiio.so").string());
     }
-    if (!out->open(path, spec)) throw std::runtime_error(path + ": " + out->geterror());
-    if (!out->write_image(type, data)) throw std::runtime_error(path + ": " + out->geterror());
-    if (!out->close()) throw std::runtime_error(path + ": " + out->geterror());
+    paths.emplace_back(build_paths::oiio_module());
+    return paths;
+}
+
+const oiio_module::Api* load_module() {
+    std::string tried;
+    for (const std::string& path : module_candidates()) {
+        if (!std::filesystem::exists(path)) {
+            tried += "\n  " + path + ": no such file";
+            continue;
+        }
+        // RTLD_LOCAL: OpenImageIO's libraries stay out of the program's symbol lookups.
+        void* h = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+        if (!h) {
+            tried += "\n  " + path + ": " + ::dlerror();
+            continue;
+        }
+        using Entry = const oiio_module::Api* (*)();
+        const auto entry = reinterpret_cast<Entry>(::dlsym(h, "tessera_oiio_module_api"));
+        const oiio_module::Api* api = entry ? entry() : nullptr;
+        if (api && api->version == oiio_module::kApiVersion) return api;
+        tried += "\n  " + path + ": not this build's module (rebuild it)";
+    }
+    throw std::runtime_error("image files need the OpenImageIO module libtessera_oiio.so, and none could be loaded:" + tried);
+}
+
+// Loaded once, by the first thread that reads or writes an image (a failure is retried).
+const oiio_module::Api& oiio() {
+    static const oiio_module::Api* api = load_module();
+    return *api;
+}
+
+using Attributes = std::vector<std::pair<std::string, std::string>>;
+
+// The writer's own attributes, then the caller's.
+Attributes with(Attributes own, const Metadata& meta) {
+    own.insert(own.end(), meta.begin(), meta.end());
+    return own;
 }
 
 bool ends_with(const std::string& s, const std::string& suffix) {
@@ -74,9 +110,8 @@ namespace {
 void png_out(const std::string& path, const Image& image, ToneCurve curve, float gain, const Metadata& meta,
              std::vector<unsigned char>* memory) {
     const auto px = encode_srgb8(image, curve, gain);
-    OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
-    spec.attribute("oiio:ColorSpace", curve == ToneCurve::srgb ? "sRGB" : "CS184 gamma 2.2 with sqrt(2) exposure");
-    write(path, spec, OIIO::TypeDesc::UINT8, px.data(), meta, memory);
+    oiio().write(path, {image.width, image.height, 3, false, px.data(), nullptr},
+                 with({{"oiio:ColorSpace", curve == ToneCurve::srgb ? "sRGB" : "CS184 gamma 2.2 with sqrt(2) exposure"}}, meta), memory);
 }
 
 void exr_out(const std::string& path, const Image& image, const Metadata& meta, std::vector<unsigned char>* memory) {
@@ -86,12 +121,9 @@ void exr_out(const std::string& path, const Image& image, const Metadata& meta, 
         for (int k = 0; k < 3; ++k) data[i * 4 + k] = image.rgb[i * 3 + k];
         data[i * 4 + 3] = image.sample_count.empty() ? 0.f : image.sample_count[i];
     }
-    OIIO::ImageSpec spec(image.width, image.height, 4, OIIO::TypeDesc::FLOAT);
-    spec.channelnames = {"R", "G", "B", "samples"};
-    spec.alpha_channel = -1;  // the fourth channel is data, not coverage
-    spec.attribute("oiio:ColorSpace", "Linear");
-    spec.attribute("compression", "zip");
-    write(path, spec, OIIO::TypeDesc::FLOAT, data.data(), meta, memory);
+    const std::vector<std::string> names = {"R", "G", "B", "samples"};
+    oiio().write(path, {image.width, image.height, 4, true, data.data(), &names},
+                 with({{"oiio:ColorSpace", "Linear"}, {"compression", "zip"}}, meta), memory);
 }
 
 void layers_out(const std::string& path, int width, int height, const Image* image, const std::vector<AovPlane>& aovs,
@@ -120,20 +152,15 @@ void layers_out(const std::string& path, int width, int height, const Image* ima
         for (const AovPlane& a : aovs)
             for (int k = 0; k < a.components; ++k) *px++ = a.values[i * size_t(a.components) + size_t(k)];
     }
-    OIIO::ImageSpec spec(width, height, int(nc), OIIO::TypeDesc::FLOAT);
-    spec.channelnames = names;
-    spec.alpha_channel = -1;
-    spec.z_channel = -1;
-    spec.attribute("oiio:ColorSpace", "Linear");
-    spec.attribute("compression", "zip");
-    write(path, spec, OIIO::TypeDesc::FLOAT, data.data(), meta);
+    oiio().write(path, {width, height, int(nc), true, data.data(), &names},
+                 with({{"oiio:ColorSpace", "Linear"}, {"compression", "zip"}}, meta), nullptr);
 }
 
 void rate_out(const std::string& path, const Image& image, int max_spp, const Metadata& meta, std::vector<unsigned char>* memory) {
     const auto px = rate_colors8(image, max_spp);
-    OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
-    spec.attribute("tessera:rate_scale", "blue = 0, green = 0.5, red = 1 x " + std::to_string(max_spp) + " samples per pixel");
-    write(path, spec, OIIO::TypeDesc::UINT8, px.data(), meta, memory);
+    oiio().write(path, {image.width, image.height, 3, false, px.data(), nullptr},
+                 with({{"tessera:rate_scale", "blue = 0, green = 0.5, red = 1 x " + std::to_string(max_spp) + " samples per pixel"}}, meta),
+                 memory);
 }
 
 }  // namespace
@@ -198,18 +225,12 @@ void write_aov_exr(const std::string& path, int width, int height, const AovPlan
 }
 
 ChannelImage read_channels(const std::string& path) {
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) throw std::runtime_error(path + ": " + OIIO::geterror());
-    const OIIO::ImageSpec& spec = in->spec();
-    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels < 1 || spec.nchannels > 256 || int64_t(spec.width) * spec.height > (1ll << 26))
-        throw std::runtime_error(path + ": not an image of a sensible size");
+    oiio_module::ReadPixels r = oiio().read(path, 1, 256, int64_t(1) << 26);
     ChannelImage c;
-    c.width = spec.width;
-    c.height = spec.height;
-    c.names = spec.channelnames;
-    c.data.resize(size_t(spec.width) * spec.height * size_t(spec.nchannels));
-    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, c.data.data())) throw std::runtime_error(path + ": " + in->geterror());
-    in->close();
+    c.width = r.width;
+    c.height = r.height;
+    c.names = std::move(r.names);
+    c.data = std::move(r.data);
     return c;
 }
 
@@ -223,23 +244,19 @@ std::vector<float> ChannelImage::channel(const std::string& name) const {
 }
 
 Image read_image(const std::string& path) {
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) throw std::runtime_error(path + ": " + OIIO::geterror());
-    const OIIO::ImageSpec& spec = in->spec();
-    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels < 3 || spec.nchannels > 64 || int64_t(spec.width) * spec.height > (1ll << 28))
-        throw std::runtime_error(path + ": not an RGB image of a sensible size");
-    std::vector<float> all(size_t(spec.width) * spec.height * spec.nchannels);
-    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, all.data()))
-        throw std::runtime_error(path + ": " + in->geterror());
-    Image img(spec.width, spec.height);
-    for (size_t i = 0; i < size_t(spec.width) * spec.height; ++i)
-        for (int k = 0; k < 3; ++k) img.rgb[i * 3 + k] = all[i * spec.nchannels + k];
-    int samples = -1;
-    for (int c = 0; c < spec.nchannels; ++c) if (spec.channelnames[c] == "samples") samples = c;
-    if (samples >= 0)
-        for (size_t i = 0; i < size_t(spec.width) * spec.height; ++i) img.sample_count[i] = all[i * spec.nchannels + samples];
-    in->close();
+    const oiio_module::ReadPixels r = oiio().read(path, 3, 64, int64_t(1) << 28);
+    const size_t nc = r.names.size(), n = size_t(r.width) * size_t(r.height);
+    Image img(r.width, r.height);
+    for (size_t i = 0; i < n; ++i)
+        for (size_t k = 0; k < 3; ++k) img.rgb[i * 3 + k] = r.data[i * nc + k];
+    const auto samples = std::find(r.names.begin(), r.names.end(), "samples");
+    if (samples != r.names.end()) {
+        const size_t k = size_t(samples - r.names.begin());
+        for (size_t i = 0; i < n; ++i) img.sample_count[i] = r.data[i * nc + k];
+    }
     return img;
 }
+
+void load_image_io() { oiio(); }
 
 }  // namespace tessera

@@ -1,5 +1,5 @@
 #pragma once
-// Writing images through OpenImageIO: PNG (sRGB-encoded, clamped, 8 bit) and EXR (linear
+// Writing images through OpenImageIO (a module loaded on first use): PNG (sRGB-encoded, clamped, 8 bit) and EXR (linear
 // float RGB plus the per-pixel sample count, with metadata).
 #include <string>
 #include <utility>
@@ -57,5 +57,11 @@ ChannelImage read_channels(const std::string& path);
 
 // Reads a float RGB image (EXR or anything OIIO reads) as linear RGB; throws on failure.
 Image read_image(const std::string& path);
+
+// Image files are read and written by OpenImageIO in a module loaded on first use
+// (engine/io/oiio_module.h says why). A server loads it at start, so that a missing module
+// stops it there rather than failing its first job; throws std::runtime_error saying where it
+// looked.
+void load_image_io();
 
 }  // namespace tessera
