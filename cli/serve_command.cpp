@@ -131,6 +131,11 @@ int serve_command(int argc, char** argv) {
            "MiB that all request bodies being read at once may take (each counts its Content-Length, or its route's "
            "bound when chunked); past it a request gets 503 before its body is read")
         ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 24));
+    uint64_t encoded_mb = o.http.max_encoded >> 20;
+    option("max-encoded-mb", encoded_mb,
+           "MiB that images encoded on request (a running job's pass, another exposure) may hold until their clients "
+           "have read them; past it such a request gets 503 with Retry-After (result files are streamed from disk)")
+        ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 24));
     option("max-header-bytes", o.http.max_head_bytes, "bytes of a request's line and headers; past them 431")
         ->type_name("BYTES")->check(CLI::Range(1024LL, 1LL << 24));
     option("max-json-depth", o.http.max_json_depth,
@@ -195,6 +200,7 @@ int serve_command(int argc, char** argv) {
     if (max_triangles->count() > 0) o.service.load_limits.max_vertices = o.service.load_limits.max_triangles * 3;
     o.service.load_limits.max_texture_bytes = texture_mb << 20;
     o.http.max_bodies_in_flight = bodies_mb << 20;
+    o.http.max_encoded = encoded_mb << 20;
     o.service.load_limits.max_file_bytes = scene_file_mb << 20;
     o.service.load_limits.max_json_depth = o.http.max_json_depth;
     if (const char* env = std::getenv("TESSERA_SCENES")) {

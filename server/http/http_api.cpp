@@ -29,6 +29,7 @@
 #include "engine/render/aov.h"
 #include "server/http/connection_stream.h"
 #include "server/http/problem.h"
+#include "server/http/response_bytes.h"
 
 namespace tessera::server {
 using nlohmann::json;
@@ -450,6 +451,16 @@ int HttpApi::bind(const std::string& host, int port) {
 }
 
 void HttpApi::serve() { server_->listen_after_bind(); }
+
+void HttpApi::send_encoded(httplib::Response& res, uint64_t estimate, const std::string& content_type,
+                           const std::function<std::vector<unsigned char>()>& encode) {
+    if (!encoded_.send(res, estimate, encode, content_type))
+        throw Problem(503, "busy", "Too many images encoded at once",
+                      "images encoded on request and not yet sent hold " + std::to_string(encoded_.held()) +
+                          " bytes; with this one they would pass the bound of " + std::to_string(encoded_.budget()) +
+                          " bytes (--max-encoded-mb); retry when clients have read them")
+            .with_retry_after(1);
+}
 void HttpApi::stop() {
     if (!server_) return;
     // Event streams wait for events in connection threads: they end now, not at their timeout.
@@ -677,7 +688,7 @@ void HttpApi::routes() {
         const std::string id = req.matches[1];
         const int frame = std::stoi(req.matches[2]);
         const std::string file = req.matches[3];
-        res.set_content(read_file(queue_.frame_result_path(id, frame, file)), content_type(file));
+        send_file(res, queue_.frame_result_path(id, frame, file), content_type(file));
     });
     s.Get("/v1/jobs/([^/]+)/(" + job_files_re() + ")", [this](const httplib::Request& req, httplib::Response& res) {
         const std::string id = req.matches[1];
@@ -691,27 +702,31 @@ void HttpApi::routes() {
             const auto live = queue_.live_pass(id);
             if (live && (!denoised || live->denoised)) {
                 const Image& img = denoised ? *live->denoised : *live->image;
-                const auto bytes = file.ends_with(".exr") ? exr_bytes(img)
-                                 : file == "rate.png" ? rate_png_bytes(img, live->max_spp) : png_bytes(img, exposure);
+                const uint64_t pixels = uint64_t(img.width) * uint64_t(img.height);
+                send_encoded(res, pixels * (file.ends_with(".exr") ? 16 : 3), type, [&] {
+                    return file.ends_with(".exr") ? exr_bytes(img)
+                         : file == "rate.png" ? rate_png_bytes(img, live->max_spp) : png_bytes(img, exposure);
+                });
                 res.set_header("Cache-Control", "no-store");
                 res.set_header("X-Tessera-Pass", std::to_string(live->pass.index));
                 res.set_header("X-Tessera-Pass-Spp", std::to_string(live->pass.spp));
                 const double err = denoised ? live->pass.denoised_est_rel_mse
                                  : live->pass.rel_mse >= 0 ? live->pass.rel_mse : live->pass.est_rel_mse;
                 if (err >= 0) res.set_header("X-Tessera-Pass-Error", fmt::format("{:.6g}", err));
-                res.set_content(std::string(bytes.begin(), bytes.end()), type);
                 return;
             }
         }
         const std::string path = queue_.result_path(id, file);
         if (exposure != 0.f) {
             // Another exposure of the linear image: the EXR beside the PNG, encoded anew.
+            // Reserved before the EXR is read: its pixels as floats, about twice the file.
             const std::string exr = queue_.result_path(id, "image.exr");
-            const auto bytes = png_bytes(read_image(exr), exposure);
-            res.set_content(std::string(bytes.begin(), bytes.end()), type);
+            std::error_code ec;
+            const uint64_t file_bytes = std::filesystem::file_size(exr, ec);
+            send_encoded(res, ec ? 0 : 2 * file_bytes, type, [&] { return png_bytes(read_image(exr), exposure); });
             return;
         }
-        res.set_content(read_file(path), type);
+        send_file(res, path, type);
     });
 
     s.Get("/v1/scenes", [this](const httplib::Request&, httplib::Response& res) {

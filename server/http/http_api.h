@@ -2,14 +2,17 @@
 // The HTTP API v1 over a JobQueue (routes in http_api.cpp, described in api/openapi.yaml).
 #include <atomic>
 #include <chrono>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "server/http/bearer_auth.h"
 #include "server/http/connection_guard.h"
+#include "server/http/response_bytes.h"
 #include "server/queue/job_queue.h"
 #include "server/loggable.h"
 
@@ -31,6 +34,7 @@ struct HttpLimits {
     size_t max_upload = 256ull << 20;      // bytes of an uploaded scene
     size_t max_head_bytes = 64 << 10;      // a request's line and headers
     uint64_t max_bodies_in_flight = 1ull << 30;  // bytes all request bodies being read at once may take
+    uint64_t max_encoded = 512ull << 20;  // bytes of images encoded on request and not yet sent (response_bytes.h)
     int max_json_depth = 64;               // nested arrays and objects of a job's JSON
     ConnectionLimits connections;          // bound, deadlines and spare threads (connection_guard.h)
     // Who may use it: with tokens, every /v1 route (and /metrics unless metrics_open) needs
@@ -88,6 +92,10 @@ private:
     std::unique_ptr<ConnectionGuard> guard_;
     std::unique_ptr<httplib::Server> server_;
     std::atomic<uint64_t> bodies_in_flight_{0};
+    EncodedResponses encoded_{limits_.max_encoded};
+    // Answers with `encode`'s bytes, or throws 503 busy past limits_.max_encoded.
+    void send_encoded(httplib::Response& res, uint64_t estimate, const std::string& content_type,
+                      const std::function<std::vector<unsigned char>()>& encode);
     std::mutex probe_mutex_;  // readiness as the refusing thread last asked it
     std::chrono::steady_clock::time_point probe_at_;
     std::string probe_reason_;
