@@ -89,7 +89,7 @@ json check_value(const Field<Job>& f, const json& v, const ParseContext& ctx) {
                 if (v.get_ref<const std::string&>() == c) return v;
                 list += (list.empty() ? "" : "|") + std::string(c);
             }
-            throw InvalidJob(ptr, ptr + " must be one of " + list + ", got " + json_text(v));
+            throw InvalidJob(ptr, ptr + " must be one of " + list + ", got " + json_excerpt(v));
         }
         case FieldKind::job_id: {
             if (!v.is_string() || v.get_ref<const std::string&>().size() != 16 ||

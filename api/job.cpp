@@ -5,6 +5,7 @@
 #include "engine/render/passes.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 namespace tessera::api {
@@ -73,7 +74,11 @@ RenderJob parse_render_job(const json& body, const JobLimits& limits) {
     // Passes and denoising multiply a pixel's film: a job may not keep more than the largest
     // plain job (max_pixels with the error estimate's buffers) would.
     if (job.render.aovs || job.render.denoise) {
-        const PassPlan plan = plan_passes(job.render, false, true);
+        // As the runners render it: they estimate the error to report its curve (job_runner.cpp,
+        // render_node.cpp), which keeps the half-sample buffers of a job that does not denoise.
+        RenderSettings as_run = job.render;
+        as_run.estimate_error = true;
+        const PassPlan plan = plan_passes(as_run, !job.reference.empty(), true);
         const double bytes = double(pixels) * double(Film::bytes_per_pixel(plan.half_buffer, plan.adaptive, plan.aovs));
         const double bound = double(limits.max_pixels) * double(Film::bytes_per_pixel(true, false, 0));
         if (bytes > bound)
@@ -83,9 +88,25 @@ RenderJob parse_render_job(const json& body, const JobLimits& limits) {
                                  " MiB of film, over the " + std::to_string(int64_t(bound / 1048576)) +
                                  " MiB the largest plain job may keep (--max-pixels): ask for fewer passes or pixels");
     }
+    if (job.render.denoise && job.render.spp < 2)
+        throw InvalidJob("/denoise", "denoising compares each pixel's two halves (its even and odd samples): it needs spp 2 or more");
     if (job.render.integrator == Integrator::normals && (job.render.aovs || job.render.denoise))
         throw InvalidJob(job.render.denoise ? "/denoise" : "/passes",
                          "passes and denoising follow light paths: integrator \"normals\" traces none (leave them out or use \"path\")");
+    if (job.frames) {
+        // Each frame's time, n / fps (and its shutter's), must be a time an animation can be
+        // asked about: fps 1e-302 at frame 10^7 is past any double, and such a job was taken and
+        // then failed on every node that tried it.
+        const FrameSet& f = *job.frames;
+        double far = f.list.empty() ? std::max(std::abs(double(f.start)), std::abs(double(f.end))) : 0.0;
+        for (int n : f.list) far = std::max(far, std::abs(double(n)));
+        if (job.shutter) far += std::max(std::abs(job.shutter->first), std::abs(job.shutter->second));
+        const double t = far / job.fps;
+        if (!(t <= kMaxShotSeconds))
+            throw InvalidJob("/fps", "frame times reach " + (std::isfinite(t) ? std::to_string(t) + " s" : std::string("infinity")) +
+                                         " (frame / fps): a shot's frames must fall within " + std::to_string(int64_t(kMaxShotSeconds)) +
+                                         " s of the animation's start; raise fps or render nearer frames");
+    }
     if (job.frames && job.frames->count() > size_t(limits.max_frames))
         throw InvalidJob("/frames", "a shot of " + std::to_string(job.frames->count()) + " frames is over the limit of " +
                                         std::to_string(limits.max_frames));

@@ -51,6 +51,10 @@ struct FrameSet {
     bool contains(int frame) const;  // without listing a range's frames
 };
 
+// How far from the animation's start a shot's frame (n / fps, with its shutter) may be: about
+// 32 years, a time every animation and its float keys can be asked about.
+inline constexpr double kMaxShotSeconds = 1e9;
+
 // The seed frame `frame` renders with: the job's seed mixed with the frame number, so that a
 // frame's noise is not the next frame's and a frame renders the same wherever it is rendered.
 uint64_t frame_seed(uint64_t seed, int frame);

@@ -256,7 +256,7 @@ void set_passes(RenderJob& j, const json& v, const ParseContext& ctx) {
         const std::string at = p + "/" + std::to_string(i);
         Aov a;
         if (!v[i].is_string() || !aov_named(v[i].get_ref<const std::string&>(), a))
-            throw InvalidJob(at, at + " must be one of " + names + ", got " + json_text(v[i]));
+            throw InvalidJob(at, at + " must be one of " + names + ", got " + json_excerpt(v[i]));
         if (has_aov(set, a)) throw InvalidJob(at, p + " lists " + json_text(v[i]) + " twice");
         set |= aov_bit(a);
     }
@@ -276,7 +276,7 @@ void set_after(Job& j, const json& v, const ParseContext& ctx) {
         const std::string at = p + "/" + std::to_string(i);
         const bool hex = v[i].is_string() && v[i].get_ref<const std::string&>().size() == 16 &&
                          v[i].get_ref<const std::string&>().find_first_not_of("0123456789abcdef") == std::string::npos;
-        if (!hex) throw InvalidJob(at, at + " must be a job id (16 lowercase hexadecimal digits), got " + json_text(v[i]));
+        if (!hex) throw InvalidJob(at, at + " must be a job id (16 lowercase hexadecimal digits), got " + json_excerpt(v[i]));
         if (std::find(ids.begin(), ids.end(), v[i].get<std::string>()) != ids.end())
             throw InvalidJob(at, p + " lists " + json_text(v[i]) + " twice");
         ids.push_back(v[i].get<std::string>());
@@ -368,7 +368,7 @@ void set_requires(Job& j, const json& v, const ParseContext& ctx) {
         const std::string at = p + "/" + std::to_string(i);
         if (!v[i].is_string() || !valid_node_tag(v[i].template get<std::string>()))
             throw InvalidJob(at, at + " must be a node tag (1 to 32 of a-z 0-9 _ . -, starting with a letter or digit), got " +
-                                     json_text(v[i]).substr(0, 80));
+                                     json_excerpt(v[i]));
         if (std::find(tags.begin(), tags.end(), v[i].template get<std::string>()) != tags.end())
             throw InvalidJob(at, p + " lists " + json_text(v[i]) + " twice");
         tags.push_back(v[i].template get<std::string>());
@@ -547,7 +547,8 @@ const Field<RenderJob> kRenderFields[] = {
         Field<RenderJob> f = field<RenderJob>(
             "denoise", FieldKind::boolean,
             "Denoise after every pass from 4 spp on and the last (denoised.exr and denoised.png beside the image) and "
-            "report the denoised image's estimated error; target_error then applies to the denoised image.",
+            "report the denoised image's estimated error; target_error then applies to the denoised image. Needs spp 2 "
+            "or more (the denoiser compares each pixel's two halves).",
             "false");
         f.cli = "--denoise";
         f.set = &set_bool<RenderJob, &RenderJob::render, &RenderSettings::denoise>;
@@ -595,7 +596,9 @@ const Field<RenderJob> kRenderFields[] = {
         f.per_config = false;
         return f;
     }(),
-    not_per_config(number<RenderJob, &RenderJob::fps>("fps", 0, 1000, "24", "A shot's frames per second (glTF files carry none).",
+    not_per_config(number<RenderJob, &RenderJob::fps>("fps", 0, 1000, "24",
+                                                      "A shot's frames per second (glTF files carry none); every frame's time, n / fps "
+                                                      "with its shutter, within 1e9 s.",
                                                       "--fps", Limit::none, true)),
     not_per_config(integer<RenderJob, &RenderJob::chunk>(
         "chunk", 0, 100'000, "0",

@@ -8,6 +8,14 @@ std::string json_text(const nlohmann::json& j, int indent) {
     return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
+std::string json_excerpt(const nlohmann::json& j, size_t max) {
+    std::string text = json_text(j);
+    if (text.size() <= max) return text;
+    size_t cut = max;
+    while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;  // not inside a character
+    return text.substr(0, cut) + "… (" + std::to_string(text.size()) + " bytes)";
+}
+
 JsonTooDeep::JsonTooDeep(int max_depth_)
     : std::runtime_error("the JSON nests arrays and objects deeper than " + std::to_string(max_depth_) + " levels, the bound"),
       max_depth(max_depth_) {}

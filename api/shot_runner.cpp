@@ -311,6 +311,15 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
     write_text(out.report_json, json_text(outcome.report, 2));
     outcome.summary = {{"shot", {{"frames_total", frames.size()}, {"frames_done", frames.size()},
                                  {"mean_frame_s", shot["timings"]["mean_frame_s"]}, {"timings", shot["timings"]}}}};
+    // The status's progress counts every frame's samples and tiles, as it did while the shot ran.
+    uint64_t samples_done = 0, tiles_done = 0, tiles_total = 0;
+    for (const json& e : entries)
+        if (const auto p = e.find("progress"); p != e.end() && p->is_object()) {
+            samples_done += p->value("samples_done", uint64_t{0});
+            tiles_done += p->value("tiles_done", uint64_t{0});
+            tiles_total += p->value("tiles_total", uint64_t{0});
+        }
+    outcome.summary["progress"] = {{"fraction", 1.0}, {"tiles_done", tiles_done}, {"tiles_total", tiles_total}, {"samples_done", samples_done}};
     if (frames.size() <= kStatusFrameList) {
         json summary_frames = json::array();
         for (const json& e : entries)

@@ -1,7 +1,9 @@
 #include "engine/render/passes.h"
 
 #include <algorithm>
+#include <tuple>
 
+#include "engine/render/cryptomatte.h"
 #include "engine/render/light_sampler.h"
 #include "engine/render/sampling_guide.h"
 #include "engine/render/tile_context.h"
@@ -75,10 +77,13 @@ PassEnd end_pass(const RenderSettings& settings, const PassPlan& plan, const Fil
     if (plan.measuring) e.point = measure_error(film, reference);
     else e.point.spp_mean = double(samples) / (double(settings.width) * settings.height);
     // A pass below kDenoiseFrom is denoised only where it is the last (it stops on its spp, the
-    // clock, a cancel or the pass cap; not on target_error, which reads the denoised image):
-    // so target_error is not tested before 4 spp unless the render ends sooner.
-    const bool denoise_now = settings.denoise && (plan.adaptive || target >= kDenoiseFrom || pass + 1 >= plan.max_passes ||
-                                                  stop_after_pass(settings, plan, film, target, e.point, out_of_time, canceled));
+    // clock or the pass cap; not on target_error, which reads the denoised image): so
+    // target_error is not tested before 4 spp unless the render ends sooner. A canceled pass is
+    // never denoised: a paused job runs it again, a canceled one keeps nothing, and a pause,
+    // cancel or shutdown waited for the denoiser (7-10 s at a megapixel on one thread).
+    const bool denoise_now = settings.denoise && !canceled &&
+                             (plan.adaptive || target >= kDenoiseFrom || pass + 1 >= plan.max_passes ||
+                              stop_after_pass(settings, plan, film, target, e.point, out_of_time, canceled));
     if (denoise_now) {
         if (auto d = denoise(film, settings.threads, nullptr, memory)) {
             e.point.denoised_est_rel_mse = d->est_rel_mse;
@@ -133,9 +138,23 @@ ConvergenceCurve whole_tile_curve(const PassPlan& plan, const std::vector<std::v
     return curve;
 }
 
+void describe_denoised(const RenderSettings& settings, bool denoised, bool canceled, std::vector<std::string>& left_out) {
+    if (settings.denoise && !denoised && !canceled)
+        left_out.push_back("denoised image: the render ended before every pixel had the two samples the denoiser compares "
+                           "(its time limit, or one sample per pixel)");
+}
+
 void describe_render(const RenderScene& scene, const RenderSettings& settings, const Film& film,
                      std::vector<std::string>& built, std::vector<std::string>& left_out) {
     film.describe(built, left_out);
+    // A Cryptomatte layer keeps every id, but a header holds the manifest of names only up to
+    // kCryptoManifestNames (cryptomatte.h): past it the compositor sees ids without names.
+    for (const auto& [aov, names, what] : {std::tuple{Aov::crypto_object, &scene.object_names, "objects"},
+                                           std::tuple{Aov::crypto_material, &scene.material_names, "materials"}})
+        if (has_aov(settings.aovs, aov) && names->size() > kCryptoManifestNames)
+            left_out.push_back(std::string("Cryptomatte manifest of ") + what + ": " + std::to_string(names->size()) +
+                               " names, over the " + std::to_string(kCryptoManifestNames) +
+                               " a header holds (the layer's ids are all there; a compositor shows them without names)");
     if (settings.denoise) built.push_back("denoiser: feature regression over 2 window sizes and cross-filtered NL-means, chosen per pixel by the error its two independent halves give (after every pass from " + std::to_string(kDenoiseFrom) + " spp on, and the last)");
     else left_out.push_back("denoiser (not asked for)");
     if (guides_samples(settings))

@@ -117,6 +117,9 @@ ConvergenceCurve whole_tile_curve(const PassPlan& plan, const std::vector<std::v
 // What the render builds and leaves out (film buffers, bounces, light paths), for the report.
 void describe_render(const RenderScene& scene, const RenderSettings& settings, const Film& film,
                      std::vector<std::string>& built, std::vector<std::string>& left_out);
+// A denoising render that ended with no denoised image (before every pixel had the two samples
+// the denoiser compares: a time limit) says so in `left_out`, and why.
+void describe_denoised(const RenderSettings& settings, bool denoised, bool canceled, std::vector<std::string>& left_out);
 
 // A pass's task: one tile through the pass's target, into `film`, which covers the tile (the
 // whole image's, or the tile's own: Film::tile). `out_of_time` is checked before each row: rows

@@ -199,6 +199,7 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
     result.image = film.resolve();
     result.aovs = film.resolve_aovs(settings.aovs);
     result.stats.canceled = stop_cancel;
+    describe_denoised(settings, result.denoised != nullptr, stop_cancel, result.left_out);
     result.stats.render_seconds = elapsed();
     return result;
 }

@@ -906,6 +906,7 @@ struct RenderNode::Impl {
         st = run.stats;
         st.render_seconds = seconds;
         describe_render(prepared->scene, s, buffers, result.built, result.left_out);
+        describe_denoised(s, result.denoised != nullptr, false, result.left_out);
         const auto shares = r.pipeline({{"HGETALL", keys::node_tiles(t.job)}, {"HGETALL", keys::node_seconds(t.job)}});
         std::map<std::string, api::NodeShare> by_node;
         for (size_t i = 0; i + 1 < shares[0].items.size(); i += 2) {

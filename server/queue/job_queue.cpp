@@ -414,6 +414,14 @@ void check_asked_for(const std::string& id, const nlohmann::json& settings, cons
     }
 }
 
+// A denoising job whose render ended before every pixel had two samples (a time limit): the
+// denoiser compares a pixel's two halves, and there was nothing to denoise.
+QueueError nothing_denoised(const std::string& what) {
+    return QueueError(QueueErrorKind::not_found, "not-denoised", "Nothing was denoised",
+                      "job " + what + " has no denoised image: its render ended before every pixel had the two samples the "
+                      "denoiser compares (its time limit, or a pixel of one sample); the report's render.left_out says so");
+}
+
 }  // namespace
 
 std::string JobQueue::result_path(const std::string& id, const std::string& file) {
@@ -422,20 +430,23 @@ std::string JobQueue::result_path(const std::string& id, const std::string& file
     const bool shot = st.settings.is_object() && st.settings.contains("frames") && !st.settings["frames"].is_null();
     if (!shot && (file == "contact_sheet.png" || file == "preview.mp4"))
         throw QueueError(QueueErrorKind::not_found, "not-a-shot", "Not a shot", "job " + id + " is a still: it has no " + file);
-    // A running shot's image.png between passes is "not yet", as a still's before its first.
-    if (!is_final(state))
-        throw QueueError(QueueErrorKind::conflict, "not-finished", "The job is not finished",
-                         "job " + id + " is " + to_string(state) + "; poll /v1/jobs/" + id);
+    // What the job will never have is 404 whatever its state (not "poll" while it runs).
     check_asked_for(id, st.settings, file);
     if (shot && (file == "image.png" || file == "image.exr" || file == "rate.png" || file.starts_with("convergence.") ||
                  file.starts_with("denoised.") || file.starts_with("passes")))
         throw QueueError(QueueErrorKind::not_found, "per-frame-result", "A shot's images are per frame",
                          "job " + id + " is a shot: fetch /v1/jobs/" + id + "/frames/{n}/" + file + ", or contact_sheet.png");
+    // A running shot's image.png between passes is "not yet", as a still's before its first.
+    if (!is_final(state))
+        throw QueueError(QueueErrorKind::conflict, "not-finished", "The job is not finished",
+                         "job " + id + " is " + to_string(state) + "; poll /v1/jobs/" + id);
     const fs::path p = fs::path(job_dir(id)) / file;
-    if (!fs::exists(p))
+    if (!fs::exists(p)) {
+        if (file.starts_with("denoised.") && fs::exists(fs::path(job_dir(id)) / "image.exr")) throw nothing_denoised(id);
         throw QueueError(QueueErrorKind::gone, "gone", "No such result",
                          state == JobState::succeeded ? "the results of job " + id + " were deleted"
                                                       : "job " + id + " " + to_string(state) + " without results");
+    }
     return p.string();
 }
 
@@ -460,8 +471,10 @@ std::string JobQueue::frame_result_path(const std::string& id, int frame, const 
                          "job " + id + " " + to_string(st.state) + " without frame " + std::to_string(frame));
     }
     const fs::path p = dir / file;
-    if (!fs::exists(p))
+    if (!fs::exists(p)) {
+        if (file.starts_with("denoised.") && fs::exists(dir / "image.exr")) throw nothing_denoised(id + " frame " + std::to_string(frame));
         throw QueueError(QueueErrorKind::gone, "gone", "No such result", "frame " + std::to_string(frame) + " of job " + id + " has no " + file);
+    }
     return p.string();
 }
 

@@ -1,11 +1,15 @@
 #include "api/job.h"
 
+#include "engine/render/film.h"
+#include "engine/render/passes.h"
+
 #include <gtest/gtest.h>
 
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <set>
 
@@ -71,6 +75,73 @@ TEST(RenderJob, ErrorsNameTheField) {
     JobLimits tight;
     tight.max_pixels = 1000;
     EXPECT_THROW(parse_render_job(json{{"scene", "a"}, {"width", 100}, {"height", 100}}, tight), InvalidJob);
+}
+
+// Passes multiply a pixel's film, counted as the runners render the job: they estimate its
+// error for the curve, so a job without denoising keeps the half-sample buffers too (they were
+// left out of the count, and a job of every pass went 15 % past the bound it was held to).
+TEST(RenderJob, PassesAreCountedWithTheBuffersTheRunnersKeep) {
+    JobLimits limits;
+    limits.max_pixels = 1'000'000;
+    const json every = {"albedo", "normal", "depth", "position", "object_id", "material_id", "emission", "environment",
+                        "diffuse_direct", "diffuse_indirect", "glossy_direct", "glossy_indirect", "variance", "crypto_object",
+                        "crypto_material"};
+    auto job = [&](int w, int h) { return json{{"scene", "a"}, {"width", w}, {"height", h}, {"passes", every}}; };
+    const RenderSettings largest_plain = [] {
+        RenderSettings s;
+        s.estimate_error = true;
+        return s;
+    }();
+    const PassPlan plain = plan_passes(largest_plain, false, true);
+    const double bound = 1e6 * double(Film::bytes_per_pixel(plain.half_buffer, plain.adaptive, plain.aovs));
+    RenderSettings as_run = parse_render_job(job(16, 16), limits).render;
+    as_run.estimate_error = true;
+    const PassPlan plan = plan_passes(as_run, false, true);
+    ASSERT_TRUE(plan.half_buffer);
+    const double per_pixel = double(Film::bytes_per_pixel(plan.half_buffer, plan.adaptive, plan.aovs));
+    // The largest square within the bound is taken, the next one up refused on /passes.
+    const int side = int(std::sqrt(bound / per_pixel));
+    EXPECT_NO_THROW(parse_render_job(job(side, side), limits));
+    try {
+        parse_render_job(job(side + 1, side + 1), limits);
+        ADD_FAILURE() << "a job of every pass past the bound was taken";
+    } catch (const InvalidJob& e) {
+        EXPECT_EQ(e.pointer(), "/passes");
+    }
+}
+
+// A shot's frame times (n / fps, and its shutter's) must be times an animation can be asked
+// about; such a job was taken and then failed on every try.
+TEST(RenderJob, FrameTimesPastAnyAnimationAreRefusedOnFps) {
+    auto shot = [](json frames, double fps) { return json{{"scene", "a"}, {"frames", frames}, {"fps", fps}}; };
+    EXPECT_EQ(pointer_of(shot(json::array({10000000}), 1e-302)), "/fps");
+    EXPECT_EQ(pointer_of(shot(json::array({0, 1, 2}), 1e-320)), "/fps");
+    EXPECT_EQ(pointer_of(shot(json::array({-10000000, 5}), 1e-3)), "/fps");
+    EXPECT_EQ(pointer_of(shot({{"start", 1}, {"end", 250}}, 24)), "<accepted>");
+    EXPECT_EQ(pointer_of(shot(json::array({10000000}), 0.01)), "<accepted>");  // 10^9 s: the edge
+    json blurred = shot(json::array({10000000}), 0.01);
+    blurred["shutter"] = {{"open", -0.5}, {"close", 0.5}};
+    EXPECT_EQ(pointer_of(blurred), "/fps");
+    // And denoising needs two samples a pixel to compare.
+    EXPECT_EQ(pointer_of(json{{"scene", "a"}, {"denoise", true}, {"spp", 1}}), "/denoise");
+    EXPECT_EQ(pointer_of(json{{"scene", "a"}, {"denoise", true}, {"spp", 2}}), "<accepted>");
+}
+
+// A refused value is quoted back cut short: a megabyte of it made a megabyte of answer.
+TEST(RenderJob, ARefusedValueIsQuotedCutShort) {
+    const std::string huge(1 << 20, 'A');
+    for (const json& body : {json{{"scene", "a"}, {"bvh", huge}}, json{{"scene", "a"}, {"passes", {huge}}},
+                             json{{"scene", "a"}, {"bvh", std::string(78, 'x') + "\xc3\xa9" + huge}}}) {
+        try {
+            parse_render_job(body);
+            ADD_FAILURE() << "taken";
+        } catch (const InvalidJob& e) {
+            const std::string what = e.what();
+            EXPECT_LT(what.size(), 600u) << what.substr(0, 600);
+            EXPECT_NE(what.find("bytes)"), std::string::npos) << what.substr(0, 600);
+            EXPECT_NO_THROW((void)json(what).dump()) << "valid UTF-8";
+        }
+    }
 }
 
 // The limits in force at submission apply to the submission only: a stored job reads back

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/render/film.h"
+#include "engine/render/passes.h"
 #include "engine/render/renderer.h"
 #include "engine/scene/procedural.h"
 
@@ -87,6 +88,31 @@ const AovPlane& plane(const RenderResult& r, Aov a) {
     for (const AovPlane& p : r.aovs)
         if (p.aov == a) return p;
     throw std::runtime_error(std::string("no plane ") + aov_info(a).name);
+}
+
+// Past kCryptoManifestNames a header holds no manifest; the report says so (it said nothing,
+// and a compositor showed ids without names).
+TEST(Cryptomatte, AManifestLeftOutIsReported) {
+    RenderScene scene = build_render_scene(builtin_scene("builtin:cornell_spheres"), {});
+    RenderSettings s;
+    s.width = 8;
+    s.height = 8;
+    s.aovs = aov_bit(Aov::crypto_object) | aov_bit(Aov::crypto_material);
+    auto left_out_of = [&] {
+        std::vector<std::string> built, left_out;
+        const Film film(s.width, s.height, false, false, s.aovs);
+        describe_render(scene, s, film, built, left_out);
+        std::string all;
+        for (const std::string& l : left_out) all += l + "\n";
+        return all;
+    };
+    EXPECT_EQ(left_out_of().find("Cryptomatte manifest"), std::string::npos);
+    scene.object_names.resize(kCryptoManifestNames + 1, "object");
+    const std::string all = left_out_of();
+    EXPECT_NE(all.find("Cryptomatte manifest of objects: 20001 names"), std::string::npos) << all;
+    EXPECT_EQ(all.find("Cryptomatte manifest of materials"), std::string::npos) << all;
+    EXPECT_TRUE(crypto_metadata("CryptoObject", scene.object_names).size() < crypto_metadata("CryptoObject", {"a"}).size())
+        << "the header itself has no manifest";
 }
 
 TEST(Cryptomatte, CoverageOfARenderedScene) {

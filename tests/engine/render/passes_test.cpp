@@ -171,8 +171,8 @@ TEST(Passes, EndPassStopsOnSppAtTheLastPlannedPass) {
 }
 
 // Denoising starts at the kDenoiseFrom pass; a pass before it is denoised only where the render
-// ends there (its spp reached, the clock run out, a cancel), never to test target_error, so a
-// loose target stops at the same pass whatever the machine's speed.
+// ends there (its spp reached, the clock run out), never to test target_error, so a loose target
+// stops at the same pass whatever the machine's speed; a canceled pass never.
 TEST(Passes, DenoisesFromTheFourSppPassAndWhereTheRenderEnds) {
     const RenderScene scene = build_render_scene(cornell_spheres(), {});
     RenderSettings s = settings();
@@ -192,7 +192,9 @@ TEST(Passes, DenoisesFromTheFourSppPassAndWhereTheRenderEnds) {
         EXPECT_FALSE(going_on.stop) << "target_error cannot stop a pass it did not denoise";
         if (target < 2) continue;  // one sample has no halves to denoise from
         EXPECT_TRUE(end_pass(s, plan, film, nullptr, pass, target, 0, 0.0, true, false).denoised) << "out of time";
-        EXPECT_TRUE(end_pass(s, plan, film, nullptr, pass, target, 0, 0.0, false, true).denoised) << "canceled";
+        // A canceled pass is not: a paused job runs it again, and its pause waited for the denoiser.
+        EXPECT_FALSE(end_pass(s, plan, film, nullptr, pass, target, 0, 0.0, false, true).denoised) << "canceled";
+        EXPECT_FALSE(end_pass(s, plan, film, nullptr, pass, kDenoiseFrom, 0, 0.0, false, true).denoised) << "canceled at 4 spp";
         RenderSettings last = s;
         last.spp = target;
         EXPECT_TRUE(end_pass(last, plan_passes(last, false, false), film, nullptr, pass, target, 0, 0.0, false, false).denoised)

@@ -100,12 +100,39 @@ TEST_F(Server, TheDenoisedImageIsShownWhileTheJobRuns) {
         }
     }
     EXPECT_TRUE(seen);
+    // What the running job will never have is 404 now, not "poll" (409).
+    for (const char* f : {"/passes/albedo.exr", "/passes.exr"}) {
+        auto r = client_->Get(base + f);
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->status, 404) << f << ": " << r->body;
+        EXPECT_NE(r->body.find("no-such-pass"), std::string::npos) << r->body;
+    }
     const json st = status(id);
     if (st["latest_pass"].is_object()) {
         EXPECT_TRUE(st["latest_pass"].contains("denoised_est_rel_mse"));
     }
     client_->Delete(base);
     wait_state(id, {"canceled", "succeeded", "failed"});
+}
+
+// A denoising job whose time ran out before every pixel had two samples has no denoised image:
+// fetching it says so (404), not that the results were deleted (410), and the report says why.
+TEST_F(Server, AJobThatEndedBeforeTwoSamplesSaysNothingWasDenoised) {
+    start();
+    const json job = {{"scene", "builtin:cornell_box"}, {"width", 320}, {"height", 240}, {"spp", 65536}, {"max_depth", 5},
+                      {"denoise", true}, {"time_limit_s", 0.001}};
+    const std::string id = submit(job);
+    ASSERT_EQ(wait_state(id, {"succeeded", "failed"})["state"], "succeeded");
+    const std::string base = "/v1/jobs/" + id;
+    for (const char* f : {"/denoised.png", "/denoised.exr"}) {
+        auto r = client_->Get(base + f);
+        expect_problem(r, 404);
+        EXPECT_NE(r->body.find("two samples"), std::string::npos) << r->body;
+    }
+    auto report = client_->Get(base + "/report.json");
+    ASSERT_TRUE(report && report->status == 200);
+    EXPECT_NE(report->body.find("denoised image: the render ended before"), std::string::npos) << report->body;
+    EXPECT_EQ(client_->Get(base + "/image.png")->status, 200);  // the image is there
 }
 
 TEST_F(Server, BadPassesAndDenoiseAreRefusedNamingTheField) {
@@ -126,6 +153,9 @@ TEST_F(Server, BadPassesAndDenoiseAreRefusedNamingTheField) {
     expect_problem(post_job(with("denoise", 1)), 400, "/denoise");
     expect_problem(post_job(with("denoise", "true")), 400, "/denoise");
     expect_problem(post_job(with("denoise", nullptr)), 400, "/denoise");
+    json one_sample = with("denoise", true);
+    one_sample["spp"] = 1;  // the denoiser compares a pixel's two halves
+    expect_problem(post_job(one_sample), 400, "/denoise");
     json normals = with("denoise", true);
     normals["integrator"] = "normals";
     expect_problem(post_job(normals), 400, "/denoise");

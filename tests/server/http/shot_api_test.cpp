@@ -70,6 +70,12 @@ TEST_F(ShotApi, EveryFrameIsServedWithItsOwnSeedBesideAContactSheet) {
     ASSERT_TRUE(shot.is_object()) << done.dump();
     EXPECT_EQ(shot["frames_total"], kFrames.size());
     EXPECT_EQ(shot["frames_done"], kFrames.size());
+    // Its progress counts every frame's samples and tiles, as while it ran (it read zero once done).
+    const json& progress = done["progress"];
+    EXPECT_EQ(progress["fraction"], 1.0);
+    EXPECT_GT(progress["samples_done"].get<uint64_t>(), 0u) << progress;
+    EXPECT_GT(progress["tiles_total"].get<uint64_t>(), 0u) << progress;
+    EXPECT_EQ(progress["tiles_done"], progress["tiles_total"]) << progress;
     EXPECT_TRUE(shot["current_frame"].is_null()) << shot.dump();
     EXPECT_EQ(shot["eta_s"], 0.0);
     ASSERT_TRUE(shot["mean_frame_s"].is_number()) << shot.dump();
