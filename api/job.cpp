@@ -1,16 +1,21 @@
 #include "api/job.h"
 
 #include "api/job_fields.h"
+#include "api/json_text.h"
 #include "engine/render/film.h"
 #include "engine/render/passes.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 namespace tessera::api {
 
 using nlohmann::json;
+
+InvalidJob::InvalidJob(std::string pointer, const std::string& what)
+    : std::runtime_error(cut_text(what, 1000)), pointer_(cut_text(std::move(pointer), 200)) {}
 
 JobLimits JobLimits::none() {
     JobLimits l;
@@ -21,6 +26,7 @@ JobLimits JobLimits::none() {
     l.max_light_rays = std::numeric_limits<int>::max();
     l.max_time_limit_s = std::numeric_limits<double>::max();
     l.max_frames = std::numeric_limits<int>::max();
+    l.submission = false;
     return l;
 }
 
@@ -88,12 +94,12 @@ RenderJob parse_render_job(const json& body, const JobLimits& limits) {
                                  " MiB of film, over the " + std::to_string(int64_t(bound / 1048576)) +
                                  " MiB the largest plain job may keep (--max-pixels): ask for fewer passes or pixels");
     }
-    if (job.render.denoise && job.render.spp < 2)
+    if (limits.submission && job.render.denoise && job.render.spp < 2)
         throw InvalidJob("/denoise", "denoising compares each pixel's two halves (its even and odd samples): it needs spp 2 or more");
     if (job.render.integrator == Integrator::normals && (job.render.aovs || job.render.denoise))
         throw InvalidJob(job.render.denoise ? "/denoise" : "/passes",
                          "passes and denoising follow light paths: integrator \"normals\" traces none (leave them out or use \"path\")");
-    if (job.frames) {
+    if (job.frames && limits.submission) {
         // Each frame's time, n / fps (and its shutter's), must be a time an animation can be
         // asked about: fps 1e-302 at frame 10^7 is past any double, and such a job was taken and
         // then failed on every node that tried it.
@@ -102,8 +108,10 @@ RenderJob parse_render_job(const json& body, const JobLimits& limits) {
         for (int n : f.list) far = std::max(far, std::abs(double(n)));
         if (job.shutter) far += std::max(std::abs(job.shutter->first), std::abs(job.shutter->second));
         const double t = far / job.fps;
+        char reach[32];
+        std::snprintf(reach, sizeof reach, "%.3g s", t);
         if (!(t <= kMaxShotSeconds))
-            throw InvalidJob("/fps", "frame times reach " + (std::isfinite(t) ? std::to_string(t) + " s" : std::string("infinity")) +
+            throw InvalidJob("/fps", "frame times reach " + (std::isfinite(t) ? std::string(reach) : std::string("infinity")) +
                                          " (frame / fps): a shot's frames must fall within " + std::to_string(int64_t(kMaxShotSeconds)) +
                                          " s of the animation's start; raise fps or render nearer frames");
     }

@@ -20,7 +20,9 @@ namespace tessera::api {
 // Bad input: `pointer` names the offending field ("/spp", "/adaptive/batch"; "" for the body).
 class InvalidJob : public std::runtime_error {
 public:
-    InvalidJob(std::string pointer, const std::string& what) : std::runtime_error(what), pointer_(std::move(pointer)) {}
+    // Both cut to a few hundred bytes: they quote what the client sent (a 1 MB unknown key made
+    // a 3 MB answer).
+    InvalidJob(std::string pointer, const std::string& what);
     const std::string& pointer() const { return pointer_; }
 
 private:
@@ -37,6 +39,10 @@ struct JobLimits {
     int max_light_rays = 1024;
     double max_time_limit_s = 7 * 24 * 3600.0;
     int max_frames = 100'000;          // frames in one shot
+    // The checks between fields that came after jobs were stored (denoise needs spp 2, frame
+    // times within kMaxShotSeconds): at submission only, so a job stored before them still
+    // reads back (its status, its frames, a job after it).
+    bool submission = true;
     // No limits: how a stored job, already checked when it was accepted, is read back.
     static JobLimits none();
 };

@@ -8,13 +8,16 @@ std::string json_text(const nlohmann::json& j, int indent) {
     return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
-std::string json_excerpt(const nlohmann::json& j, size_t max) {
-    std::string text = json_text(j);
+std::string cut_text(std::string text, size_t max) {
     if (text.size() <= max) return text;
     size_t cut = max;
     while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;  // not inside a character
-    return text.substr(0, cut) + "… (" + std::to_string(text.size()) + " bytes)";
+    const size_t all = text.size();
+    text.resize(cut);
+    return text + "… (" + std::to_string(all) + " bytes)";
 }
+
+std::string json_excerpt(const nlohmann::json& j, size_t max) { return cut_text(json_text(j), max); }
 
 JsonTooDeep::JsonTooDeep(int max_depth_)
     : std::runtime_error("the JSON nests arrays and objects deeper than " + std::to_string(max_depth_) + " levels, the bound"),

@@ -19,6 +19,8 @@ std::string json_text(const nlohmann::json& j, int indent = -1);
 // json_text() of a value an error quotes back to its client, cut to about `max` bytes (at a
 // character's boundary, saying how long it was): a 1 MB field value refused made a 1 MB answer.
 std::string json_excerpt(const nlohmann::json& j, size_t max = 80);
+// Text cut to about `max` bytes the same way (an error's message and pointer).
+std::string cut_text(std::string text, size_t max);
 
 // The text parsed, or nothing when it is not JSON. Throws JsonTooDeep when it nests deeper than
 // `max_depth` (checked on the bytes, before the parser builds anything).

@@ -61,6 +61,7 @@ function renderBody(container, first) {
       if (e.status === 409) showPlaceholder(job.state === 'queued' ? 'The image appears once the job runs.'
         : showDenoised ? 'The denoised image appears after the 4-spp pass.' : 'The image appears after the first pass.');
       else if (e.status === 410) showPlaceholder(job.state === 'succeeded' ? 'The results of this job were removed.' : 'This job ended without an image.');
+      else if (e.status === 503) showPlaceholder('The server is busy encoding images for other clients; the next update tries again.');
       else showPlaceholder(`The image could not be loaded: ${e.message}`);
     },
   });

@@ -7,10 +7,10 @@
 #include <climits>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <stdexcept>
 
-#include "build_paths.h"
 #include "engine/io/oiio_module.h"
 
 namespace tessera {
@@ -23,25 +23,30 @@ float srgb_encode(float v) {
 
 float cs184_encode(float v) { return std::clamp(std::pow(std::max(0.f, std::sqrt(2.f) * v), 1.f / 2.2f), 0.f, 1.f); }
 
-// Where the OpenImageIO module may be: installed beside the program (lib/tessera/ next to its
-// bin/, as in the container image), else in the build tree that built it.
+// Where the OpenImageIO module may be: named by TESSERA_OIIO_MODULE (a binary copied away from
+// its build), installed beside the program (lib/tessera/ next to its bin/, as in the container
+// image), or in the build tree that built it (engine/ beside tests/ and cli/, two up from
+// tests/fuzz/). Relative to the program, so no absolute path is compiled in.
 std::vector<std::string> module_candidates() {
     std::vector<std::string> paths;
+    if (const char* env = std::getenv("TESSERA_OIIO_MODULE"); env && *env) paths.emplace_back(env);
     char exe[PATH_MAX];
     const ssize_t n = ::readlink("/proc/self/exe", exe, sizeof exe - 1);
     if (n > 0) {
         exe[n] = '\0';
         const std::filesystem::path dir = std::filesystem::path(exe).parent_path();
         paths.push_back((dir.parent_path() / "lib" / "tessera" / "libtessera_oiio.so").string());
+        paths.push_back((dir.parent_path() / "engine" / "libtessera_oiio.so").string());
+        paths.push_back((dir.parent_path().parent_path() / "engine" / "libtessera_oiio.so").string());
     }
-    paths.emplace_back(build_paths::oiio_module());
     return paths;
 }
 
 const oiio_module::Api* load_module() {
     std::string tried;
     for (const std::string& path : module_candidates()) {
-        if (!std::filesystem::exists(path)) {
+        std::error_code ec;
+        if (!std::filesystem::exists(path, ec)) {
             tried += "\n  " + path + ": no such file";
             continue;
         }
@@ -55,6 +60,7 @@ const oiio_module::Api* load_module() {
         const auto entry = reinterpret_cast<Entry>(::dlsym(h, "tessera_oiio_module_api"));
         const oiio_module::Api* api = entry ? entry() : nullptr;
         if (api && api->version == oiio_module::kApiVersion) return api;
+        ::dlclose(h);
         tried += "\n  " + path + ": not this build's module (rebuild it)";
     }
     throw std::runtime_error("image files need the OpenImageIO module libtessera_oiio.so, and none could be loaded:" + tried);

@@ -10,7 +10,7 @@ namespace tessera {
 namespace ggx_albedo_detail {
 
 // Written by ggx_albedo_table_gen at build time: `constexpr Tables kBuiltIn`.
-#include "ggx_albedo_table.inc"
+#include "engine/material/ggx_albedo_table.inc"
 
 const Tables& built_in() { return kBuiltIn; }
 

@@ -337,7 +337,8 @@ HttpApi::HttpApi(JobQueue& queue, HttpLimits limits, std::string openapi_path)
     server_->set_post_routing_handler([this](const httplib::Request&, httplib::Response& res) {
         contained("post-routing", [&] {
             if (res.get_header_value("Content-Type") == "text/event-stream") guard_->response_streaming(limits_.event_keep_alive_s);
-            else guard_->response_started(res.body.size());
+            // A streamed answer holds no body: its length is the provider's.
+            else guard_->response_started(res.body.empty() ? res.content_length_ : res.body.size());
         });
     });
     server_->set_logger([this](const httplib::Request& req, const httplib::Response& res) {
@@ -452,9 +453,9 @@ int HttpApi::bind(const std::string& host, int port) {
 
 void HttpApi::serve() { server_->listen_after_bind(); }
 
-void HttpApi::send_encoded(httplib::Response& res, uint64_t estimate, const std::string& content_type,
+void HttpApi::send_encoded(const httplib::Request& req, httplib::Response& res, uint64_t estimate, const std::string& content_type,
                            const std::function<std::vector<unsigned char>()>& encode) {
-    if (!encoded_.send(res, estimate, encode, content_type))
+    if (!encoded_.send(req, res, estimate, encode, content_type))
         throw Problem(503, "busy", "Too many images encoded at once",
                       "images encoded on request and not yet sent hold " + std::to_string(encoded_.held()) +
                           " bytes; with this one they would pass the bound of " + std::to_string(encoded_.budget()) +
@@ -688,7 +689,7 @@ void HttpApi::routes() {
         const std::string id = req.matches[1];
         const int frame = std::stoi(req.matches[2]);
         const std::string file = req.matches[3];
-        send_file(res, queue_.frame_result_path(id, frame, file), content_type(file));
+        send_file(req, res, queue_.frame_result_path(id, frame, file), content_type(file));
     });
     s.Get("/v1/jobs/([^/]+)/(" + job_files_re() + ")", [this](const httplib::Request& req, httplib::Response& res) {
         const std::string id = req.matches[1];
@@ -703,7 +704,7 @@ void HttpApi::routes() {
             if (live && (!denoised || live->denoised)) {
                 const Image& img = denoised ? *live->denoised : *live->image;
                 const uint64_t pixels = uint64_t(img.width) * uint64_t(img.height);
-                send_encoded(res, pixels * (file.ends_with(".exr") ? 16 : 3), type, [&] {
+                send_encoded(req, res, pixels * (file.ends_with(".exr") ? 16 : 3), type, [&] {
                     return file.ends_with(".exr") ? exr_bytes(img)
                          : file == "rate.png" ? rate_png_bytes(img, live->max_spp) : png_bytes(img, exposure);
                 });
@@ -719,14 +720,15 @@ void HttpApi::routes() {
         const std::string path = queue_.result_path(id, file);
         if (exposure != 0.f) {
             // Another exposure of the linear image: the EXR beside the PNG, encoded anew.
-            // Reserved before the EXR is read: its pixels as floats, about twice the file.
+            // Reserved before the EXR is read, for what the encoding holds at its peak: the file's
+            // channels as floats, the image, its 8-bit pixels and the PNG (about 36 bytes a pixel).
             const std::string exr = queue_.result_path(id, "image.exr");
-            std::error_code ec;
-            const uint64_t file_bytes = std::filesystem::file_size(exr, ec);
-            send_encoded(res, ec ? 0 : 2 * file_bytes, type, [&] { return png_bytes(read_image(exr), exposure); });
+            const nlohmann::json settings = queue_.status(id).settings;
+            const uint64_t pixels = uint64_t(settings.value("width", int64_t{0})) * uint64_t(settings.value("height", int64_t{0}));
+            send_encoded(req, res, 36 * pixels, type, [&] { return png_bytes(read_image(exr), exposure); });
             return;
         }
-        send_file(res, path, type);
+        send_file(req, res, path, type);
     });
 
     s.Get("/v1/scenes", [this](const httplib::Request&, httplib::Response& res) {

@@ -3,52 +3,105 @@
 #include <httplib.h>
 
 #include <algorithm>
-#include <filesystem>
 #include <fstream>
+#include <stdexcept>
+
+#include "server/http/problem.h"
 
 namespace tessera::server {
+namespace {
 
-void send_file(httplib::Response& res, const std::string& path, const std::string& content_type) {
-    auto in = std::make_shared<std::ifstream>(path, std::ios::binary);
-    std::error_code ec;
-    const uintmax_t size = std::filesystem::file_size(path, ec);
-    if (!*in || ec) throw std::runtime_error(path + ": cannot be read");
-    res.set_content_provider(size_t(size), content_type, [in](size_t offset, size_t length, httplib::DataSink& sink) {
+// Files up to this size are answered from memory (compressed by httplib where the client
+// accepts it); larger ones are streamed.
+constexpr uint64_t kInMemory = 256 << 10;
+
+// Fits the request's one range (if any) to a body of `size` bytes, as httplib does for a body it
+// holds: an open or overlong end is cut at the body's, a start at or past it is 416.
+void fit_range(const httplib::Request& req, httplib::Response& res, uint64_t size) {
+    if (req.ranges.empty()) return;
+    // httplib's Request is not const where it is made; the handler sees it so.
+    httplib::Range& r = const_cast<httplib::Request&>(req).ranges.front();
+    int64_t first = r.first, last = r.second;
+    const int64_t n = int64_t(size);
+    if (first < 0) {  // the last `last` bytes
+        if (last <= 0) last = 0;
+        first = std::max<int64_t>(0, n - last);
+        last = n - 1;
+    } else if (last < 0 || last >= n) {
+        last = n - 1;
+    }
+    if (n == 0 || first >= n || first > last) {
+        res.set_header("Content-Range", "bytes */" + std::to_string(size));
+        throw Problem(416, "range-not-satisfiable", "Range not satisfiable",
+                      "the range asked for starts past the end of the " + std::to_string(size) + "-byte answer");
+    }
+    r = {first, last};
+}
+
+}  // namespace
+
+void send_file(const httplib::Request& req, httplib::Response& res, const std::string& path, const std::string& content_type) {
+    auto in = std::make_shared<std::ifstream>(path, std::ios::binary | std::ios::ate);
+    if (!*in) throw std::runtime_error(path + ": cannot be read");
+    const std::streamoff end = in->tellg();
+    if (end < 0) throw std::runtime_error(path + ": cannot be read");
+    const uint64_t size = uint64_t(end);  // of the file opened, whatever the path names later
+    if (size <= kInMemory) {
+        std::string body(size, '\0');
+        in->seekg(0);
+        in->read(body.data(), std::streamsize(size));
+        body.resize(size_t(in->gcount()));
+        res.set_content(std::move(body), content_type);
+        return;
+    }
+    fit_range(req, res, size);
+    res.set_content_provider(size_t(size), content_type, [in, size](size_t offset, size_t length, httplib::DataSink& sink) {
+        if (offset >= size) return false;
         char buf[64 << 10];
         in->clear();
         in->seekg(std::streamoff(offset));
-        in->read(buf, std::streamsize(std::min(length, sizeof buf)));
+        in->read(buf, std::streamsize(std::min<uint64_t>({length, size - offset, sizeof buf})));
         const std::streamsize got = in->gcount();
-        // A file that shrank under the response (results deleted meanwhile) ends the connection.
+        // A file cut short under the answer (truncated in place) ends the connection.
         return got > 0 && sink.write(buf, size_t(got));
     });
 }
 
-bool EncodedResponses::send(httplib::Response& res, uint64_t estimate, const std::function<std::vector<unsigned char>()>& encode,
-                            const std::string& content_type) {
+bool EncodedResponses::send(const httplib::Request& req, httplib::Response& res, uint64_t estimate,
+                            const std::function<std::vector<unsigned char>()>& encode, const std::string& content_type) {
     const std::shared_ptr<State> state = state_;
     uint64_t now = state->held.load();
     do {
         if (now > 0 && now + estimate > state->budget) return false;
     } while (!state->held.compare_exchange_weak(now, now + estimate));
     std::shared_ptr<const std::vector<unsigned char>> bytes;
-    try {
-        auto encoded = std::make_unique<std::vector<unsigned char>>(encode());
+    {
+        // The reservation is given back on every path; the bytes' own size is held from the
+        // moment the shared bytes own it, and given back by their deleter.
+        std::unique_ptr<std::vector<unsigned char>> encoded;
+        try {
+            encoded = std::make_unique<std::vector<unsigned char>>(encode());
+        } catch (...) {
+            state->held -= estimate;
+            throw;
+        }
         const uint64_t size = encoded->size();
-        // The reservation becomes the bytes' own size; the deleter gives it back when the last
-        // copy of the response is gone.
         state->held += size;
         state->held -= estimate;
+        // Should the control block fail to allocate, the deleter runs (and gives `size` back).
         bytes = std::shared_ptr<const std::vector<unsigned char>>(encoded.release(), [state, size](const std::vector<unsigned char>* p) {
             delete p;
             state->held -= size;
         });
-    } catch (...) {
-        state->held -= estimate;
-        throw;
     }
+    if (bytes->empty()) {
+        res.set_content("", content_type);
+        return true;
+    }
+    fit_range(req, res, bytes->size());
     res.set_content_provider(bytes->size(), content_type, [bytes](size_t offset, size_t length, httplib::DataSink& sink) {
-        const size_t n = std::min(length, size_t(1) << 20);
+        if (offset >= bytes->size()) return false;
+        const size_t n = std::min({length, bytes->size() - offset, size_t(1) << 20});
         return sink.write(reinterpret_cast<const char*>(bytes->data()) + offset, n);
     });
     return true;

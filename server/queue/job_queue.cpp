@@ -430,16 +430,17 @@ std::string JobQueue::result_path(const std::string& id, const std::string& file
     const bool shot = st.settings.is_object() && st.settings.contains("frames") && !st.settings["frames"].is_null();
     if (!shot && (file == "contact_sheet.png" || file == "preview.mp4"))
         throw QueueError(QueueErrorKind::not_found, "not-a-shot", "Not a shot", "job " + id + " is a still: it has no " + file);
-    // What the job will never have is 404 whatever its state (not "poll" while it runs).
+    // What the job did not ask for is 404 whatever its state (not "poll" while it runs).
     check_asked_for(id, st.settings, file);
+    // A running shot's image.png between passes is "not yet", as a still's before its first
+    // (the web page shows the running shot's passes by it).
+    if (!is_final(state))
+        throw QueueError(QueueErrorKind::conflict, "not-finished", "The job is not finished",
+                         "job " + id + " is " + to_string(state) + "; poll /v1/jobs/" + id);
     if (shot && (file == "image.png" || file == "image.exr" || file == "rate.png" || file.starts_with("convergence.") ||
                  file.starts_with("denoised.") || file.starts_with("passes")))
         throw QueueError(QueueErrorKind::not_found, "per-frame-result", "A shot's images are per frame",
                          "job " + id + " is a shot: fetch /v1/jobs/" + id + "/frames/{n}/" + file + ", or contact_sheet.png");
-    // A running shot's image.png between passes is "not yet", as a still's before its first.
-    if (!is_final(state))
-        throw QueueError(QueueErrorKind::conflict, "not-finished", "The job is not finished",
-                         "job " + id + " is " + to_string(state) + "; poll /v1/jobs/" + id);
     const fs::path p = fs::path(job_dir(id)) / file;
     if (!fs::exists(p)) {
         if (file.starts_with("denoised.") && fs::exists(fs::path(job_dir(id)) / "image.exr")) throw nothing_denoised(id);

@@ -3,6 +3,8 @@
 // that asks and never reads cannot make the server hold more than the bound).
 #include "server/http/response_bytes.h"
 
+#include "server/http/problem.h"
+
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <unistd.h>
@@ -12,6 +14,8 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace tessera::server {
 namespace {
@@ -38,46 +42,101 @@ TEST(ResponseBytes, AFileIsStreamedInSmallReadsNotHeldWhole) {
     std::string content(1'000'003, '\0');
     for (size_t i = 0; i < content.size(); ++i) content[i] = char((i * 2654435761u) >> 13);
     std::ofstream(path, std::ios::binary).write(content.data(), std::streamsize(content.size()));
+    httplib::Request req;
     httplib::Response res;
-    send_file(res, path.string(), "image/x-exr");
+    send_file(req, res, path.string(), "image/x-exr");
     EXPECT_TRUE(res.body.empty());  // nothing of the file in the response itself
     EXPECT_EQ(res.content_length_, content.size());
     size_t largest = 0;
     EXPECT_EQ(drain(res, &largest), content);
     EXPECT_LE(largest, size_t(64) << 10);
+    // httplib checks a range only against a body it holds: the answer fits it to the file.
+    const size_t n = content.size();
+    for (const auto& [asked, fitted] : std::vector<std::pair<httplib::Range, httplib::Range>>{
+             {{10, 99'999'999}, {10, ssize_t(n) - 1}}, {{5, -1}, {5, ssize_t(n) - 1}}, {{-1, 100}, {ssize_t(n) - 100, ssize_t(n) - 1}},
+             {{7, 20}, {7, 20}}}) {
+        httplib::Request ranged;
+        ranged.ranges = {asked};
+        httplib::Response r;
+        send_file(ranged, r, path.string(), "image/x-exr");
+        EXPECT_EQ(ranged.ranges.front(), fitted) << asked.first << "-" << asked.second;
+    }
+    for (const httplib::Range& past : {httplib::Range{ssize_t(n), -1}, httplib::Range{ssize_t(n) + 5, ssize_t(n) + 9}}) {
+        httplib::Request ranged;
+        ranged.ranges = {past};
+        httplib::Response r;
+        EXPECT_THROW(send_file(ranged, r, path.string(), "image/x-exr"), Problem);
+        EXPECT_EQ(r.get_header_value("Content-Range"), "bytes */" + std::to_string(n));
+    }
+    // Asked past the end all the same, the provider writes nothing outside the file.
+    httplib::Response again;
+    send_file(req, again, path.string(), "image/x-exr");
+    httplib::DataSink sink;
+    size_t written = 0;
+    sink.write = [&](const char*, size_t k) { written += k; return true; };
+    EXPECT_FALSE(again.content_provider_(n, 1000, sink));
+    EXPECT_TRUE(again.content_provider_(n - 3, 1000, sink));
+    EXPECT_EQ(written, 3u);
     fs::remove(path);
     httplib::Response missing;
-    EXPECT_THROW(send_file(missing, path.string(), "image/x-exr"), std::runtime_error);
+    EXPECT_THROW(send_file(req, missing, path.string(), "image/x-exr"), std::runtime_error);
+    // A small file (a report, a curve) is answered from memory, so httplib may compress it;
+    // an empty one too.
+    for (const size_t size : {size_t(0), size_t(1000)}) {
+        std::ofstream(path, std::ios::binary) << std::string(size, 'r');
+        httplib::Response small;
+        send_file(req, small, path.string(), "application/json");
+        EXPECT_EQ(small.body, std::string(size, 'r'));
+        EXPECT_FALSE(small.content_provider_);
+        fs::remove(path);
+    }
 }
 
 TEST(ResponseBytes, EncodedImagesAreBoundedTogetherUntilTheirClientsHaveThem) {
     EncodedResponses enc(1000);
     auto bytes = [](size_t n) { return [n] { return std::vector<unsigned char>(n, 7); }; };
+    const httplib::Request req;
     auto first = std::make_optional<httplib::Response>();
-    ASSERT_TRUE(enc.send(*first, 600, bytes(600), "image/png"));
+    ASSERT_TRUE(enc.send(req, *first, 600, bytes(600), "image/png"));
     EXPECT_EQ(enc.held(), 600u);
     EXPECT_EQ(drain(*first), std::string(600, char(7)));
     // While the first response lives (its client has not read it all), a second would pass the bound.
     httplib::Response second;
-    EXPECT_FALSE(enc.send(second, 600, bytes(600), "image/png"));
+    EXPECT_FALSE(enc.send(req, second, 600, bytes(600), "image/png"));
     EXPECT_EQ(second.content_length_, 0u);
     EXPECT_EQ(enc.held(), 600u);
     httplib::Response small;
-    EXPECT_TRUE(enc.send(small, 300, bytes(250), "image/png"));  // within it: the size, not the estimate, is held
+    EXPECT_TRUE(enc.send(req, small, 300, bytes(250), "image/png"));  // within it: the size, not the estimate, is held
     EXPECT_EQ(enc.held(), 850u);
     first.reset();  // the response is gone: its bytes are given back
     EXPECT_EQ(enc.held(), 250u);
-    EXPECT_TRUE(enc.send(second, 600, bytes(600), "image/png"));
+    EXPECT_TRUE(enc.send(req, second, 600, bytes(600), "image/png"));
     // One is always allowed, however large: a huge image can still be fetched alone.
     EncodedResponses tiny(10);
     httplib::Response big;
-    EXPECT_TRUE(tiny.send(big, 5000, bytes(5000), "image/x-exr"));
+    EXPECT_TRUE(tiny.send(req, big, 5000, bytes(5000), "image/x-exr"));
     // An encoder that throws holds nothing.
     EncodedResponses e2(1000);
     httplib::Response r;
-    EXPECT_THROW(e2.send(r, 100, [] () -> std::vector<unsigned char> { throw std::runtime_error("no"); }, "image/png"),
+    EXPECT_THROW(e2.send(req, r, 100, [] () -> std::vector<unsigned char> { throw std::runtime_error("no"); }, "image/png"),
                  std::runtime_error);
     EXPECT_EQ(e2.held(), 0u);
+    // A range is fitted to the encoded bytes; one past them is 416 and holds nothing after.
+    httplib::Request ranged;
+    ranged.ranges = {{100, 99'999'999}};
+    httplib::Response r2;
+    ASSERT_TRUE(e2.send(ranged, r2, 300, bytes(300), "image/png"));
+    EXPECT_EQ(ranged.ranges.front(), (httplib::Range{100, 299}));
+    httplib::DataSink sink;
+    size_t written = 0;
+    sink.write = [&](const char*, size_t k) { written += k; return true; };
+    EXPECT_FALSE(r2.content_provider_(300, 1'000'000, sink));
+    EXPECT_TRUE(r2.content_provider_(290, 1'000'000, sink));
+    EXPECT_EQ(written, 10u);
+    ranged.ranges = {{300, -1}};
+    httplib::Response r3;
+    EXPECT_THROW(e2.send(ranged, r3, 300, bytes(300), "image/png"), Problem);
+    EXPECT_EQ(e2.held(), 300u);  // r2's alone
 }
 
 }  // namespace
