@@ -23,6 +23,7 @@ export function taskLog(id) {
   const body = h('tbody');
   const status = h('p', { class: 'muted' }, 'Open to load the log.');
   let read = 0;
+  let shown = 0;
   let loading = false;
   let last = 0;
   const el = h('details', { class: 'card', id: 'job-log' }, h('summary', {}, 'Log'), status,
@@ -32,12 +33,19 @@ export function taskLog(id) {
     loading = true;
     last = Date.now();
     try {
-      const res = await api.blob(jobPath(id, 'log', { from: read }));
-      const text = await res.blob.text();
-      const tasks = text.split('\n').filter((l) => l).map((l) => JSON.parse(l));
-      read += tasks.length;
-      body.append(...tasks.map(row));
-      status.textContent = read ? `${read} task${read === 1 ? '' : 's'}` : 'No task has ended yet.';
+      // A page at a time (the server answers at most 1,000 tasks); Next-From is where the next starts.
+      for (let page = 0; page < 20; ++page) {
+        const res = await api.blob(jobPath(id, 'log', { from: read }));
+        const text = await res.blob.text();
+        const tasks = text.split('\n').filter((l) => l).map((l) => JSON.parse(l));
+        const header = res.headers.get('Next-From');
+        const next = header === null ? NaN : Number(header);
+        read = Number.isFinite(next) && next >= read ? next : read + tasks.length;
+        shown += tasks.length;
+        body.append(...tasks.map(row));
+        if (tasks.length < 1000) break;  // the last page (one cut at 4 MiB is read on at the next refresh)
+      }
+      status.textContent = shown ? `${shown} task${shown === 1 ? '' : 's'}` : 'No task has ended yet.';
     } catch (e) {
       status.textContent = `The log could not be read: ${e.message}`;
     } finally {

@@ -261,12 +261,13 @@ api::JobStatus FarmQueue::resume(const std::string& id) {
     return status(id);
 }
 
-std::string FarmQueue::job_log(const std::string& id, size_t from) {
+LogPage FarmQueue::job_log(const std::string& id, size_t from, size_t limit) {
     status(id);
     try {
-        std::string out;
-        for (const std::string& line : redis_->task_log(id, from)) out += line + "\n";
-        return out;
+        const auto got = redis_->task_log(id, from, limit, kMaxLogPageBytes);
+        LogPage page{{}, got.first + got.lines.size()};
+        for (const std::string& line : got.lines) page.ndjson += line + "\n";
+        return page;
     } catch (const StoreError& e) {
         throw store_refusal(e);
     }

@@ -48,7 +48,7 @@ public:
     api::JobStatus pause(const std::string& id) override;
     api::JobStatus resume(const std::string& id) override;
     // The nodes' records in Redis (RenderNode keeps the newest keys::max_task_records).
-    std::string job_log(const std::string& id, size_t from) override;
+    LogPage job_log(const std::string& id, size_t from, size_t limit) override;
     void record_task(const std::string& job, const TaskRecord& task) override;
     bool claim_notification(const std::string& id, const std::string& event) override;
     void shutdown() override;

@@ -677,7 +677,10 @@ void HttpApi::routes() {
     });
     s.Get(R"(/v1/jobs/([^/]+)/log)", [this](const httplib::Request& req, httplib::Response& res) {
         const size_t from = size_param(req, "from", 0, 0, 1'000'000'000);
-        res.set_content(queue_.job_log(req.matches[1], from), "application/x-ndjson");
+        const size_t limit = size_param(req, "limit", 1000, 1, 10'000);
+        const LogPage page = queue_.job_log(req.matches[1], from, limit);
+        res.set_header("Next-From", std::to_string(page.next));
+        res.set_content(page.ndjson, "application/x-ndjson");
     });
     s.Get("/v1/nodes", [this](const httplib::Request&, httplib::Response& res) {
         send_json(res, 200, {{"nodes", queue_.node_report()}});

@@ -29,6 +29,7 @@
 #include "server/queue/notifier.h"
 #include "server/queue/queue_error.h"
 #include "server/queue/scene_catalog.h"
+#include "server/queue/task_log.h"
 #include "server/store/job_store.h"
 
 namespace tessera::server {
@@ -102,8 +103,9 @@ public:
     // it would have had never paused. Idempotent for a queued or running job; conflict for a
     // finished one.
     virtual api::JobStatus resume(const std::string& id) = 0;
-    // The job's log (task_log.h) as JSON lines, from its `from`th task on; throws not_found.
-    virtual std::string job_log(const std::string& id, size_t from) = 0;
+    // A page of the job's log (task_log.h) as JSON lines, from its `from`th task on, at most
+    // `limit` of them; throws not_found.
+    virtual LogPage job_log(const std::string& id, size_t from, size_t limit) = 0;
     // Jobs waiting for others (`after`): queued once every one has succeeded; failed or
     // canceled, naming it, once one has failed or been canceled. Called wherever a job may have
     // ended, and at start; a store read when none waits. Thread-safe; call it holding no lock

@@ -244,9 +244,9 @@ api::JobStatus LocalQueue::resume(const std::string& id) {
     return st;
 }
 
-std::string LocalQueue::job_log(const std::string& id, size_t from) {
+LogPage LocalQueue::job_log(const std::string& id, size_t from, size_t limit) {
     status(id);  // not_found for unknown ids
-    return read_task_log((fs::path(job_dir(id)) / "log.jsonl").string(), from);
+    return read_task_log((fs::path(job_dir(id)) / "log.jsonl").string(), from, limit);
 }
 
 std::map<int, size_t, std::greater<int>> LocalQueue::queued_by_priority() {

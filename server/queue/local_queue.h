@@ -30,7 +30,7 @@ public:
     api::JobStatus cancel(const std::string& id) override;
     api::JobStatus pause(const std::string& id) override;
     api::JobStatus resume(const std::string& id) override;
-    std::string job_log(const std::string& id, size_t from) override;
+    LogPage job_log(const std::string& id, size_t from, size_t limit) override;
     std::optional<LivePass> live_pass(const std::string& id) override;
     void shutdown() override;
     size_t queue_depth() override;

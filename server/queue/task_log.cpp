@@ -74,12 +74,22 @@ void append_task_record(const std::string& path, const TaskRecord& r) {
     if (!ok) spdlog::warn("cannot append to the job log {}", path);
 }
 
-std::string read_task_log(const std::string& path, size_t from) {
+LogPage read_task_log(const std::string& path, size_t from, size_t limit) {
     std::ifstream in(path, std::ios::binary);
-    std::string out, line;
-    for (size_t n = 0; std::getline(in, line); ++n)
-        if (n >= from && !line.empty()) out += line + "\n";
-    return out;
+    LogPage page;
+    std::string line;
+    size_t n = 0, taken = 0;
+    // The lines before `from` are read and dropped one by one: a reader holds a line, not the file.
+    while (taken < limit && std::getline(in, line)) {
+        if (line.empty()) continue;
+        if (n++ < from) continue;
+        if (taken > 0 && page.ndjson.size() + line.size() + 1 > kMaxLogPageBytes) break;
+        page.ndjson += line;
+        page.ndjson += '\n';
+        ++taken;
+    }
+    page.next = from + taken;
+    return page;
 }
 
 }  // namespace tessera::server

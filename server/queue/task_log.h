@@ -44,7 +44,15 @@ private:
 // Logged, not thrown, when the disk refuses: a log must not fail its job.
 void append_task_record(const std::string& path, const TaskRecord& r);
 
-// Lines `from` onwards of a log file (empty when there is none).
-std::string read_task_log(const std::string& path, size_t from);
+// A page of a job's log: at most `limit` lines and about kMaxLogPageBytes (a longer line comes
+// alone), so that neither a reader nor the server holds a whole log of a long shot or farm job.
+inline constexpr size_t kMaxLogPageBytes = size_t(4) << 20;
+struct LogPage {
+    std::string ndjson;  // the lines, each ending in "\n"
+    size_t next = 0;     // the `from` that reads on after them (where the next line will be)
+};
+
+// Lines `from` onwards of a log file (none when there is no file), read as they are sent.
+LogPage read_task_log(const std::string& path, size_t from, size_t limit);
 
 }  // namespace tessera::server

@@ -315,14 +315,27 @@ return redis.call('INCR', KEYS[2])
 )lua";
 
 // A job's log from line `from` (counted from the first line ever appended; lines dropped
-// since are skipped). A log without a count (written before it was kept) starts at its first.
+// since are skipped), at most `limit` lines and about `bytes` bytes (one line at least).
+// Returns the number of the first line returned (where the lines dropped put it), then the
+// lines. A log without a count (written before it was kept) starts at its first.
 inline const std::string read_log = R"lua(
--- KEYS: log, count; ARGV: from
+-- KEYS: log, count; ARGV: from, limit, bytes
 local len = redis.call('LLEN', KEYS[1])
 local count = tonumber(redis.call('GET', KEYS[2]) or tostring(len))
-local start = tonumber(ARGV[1]) - (count - len)
-if start < 0 then start = 0 end
-return redis.call('LRANGE', KEYS[1], start, -1)
+local from = tonumber(ARGV[1])
+local start = from - (count - len)
+if start < 0 then
+  from = from - start
+  start = 0
+end
+local out = {from}
+local size = 0
+for _, line in ipairs(redis.call('LRANGE', KEYS[1], start, start + tonumber(ARGV[2]) - 1)) do
+  size = size + #line + 1
+  if #out > 1 and size > tonumber(ARGV[3]) then break end
+  out[#out + 1] = line
+end
+return out
 )lua";
 
 // Removes the lanes of required tags that no unfinished job uses and whose stream holds nothing

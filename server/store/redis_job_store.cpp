@@ -230,12 +230,14 @@ bool RedisJobStore::release(const std::string& id) {
     });
 }
 
-std::vector<std::string> RedisJobStore::task_log(const std::string& id, size_t from) const {
+RedisJobStore::LogLines RedisJobStore::task_log(const std::string& id, size_t from, size_t limit, size_t bytes) const {
     return locked("task log", [&] {
-        std::vector<std::string> lines;
-        for (const auto& v : redis_.eval(kReadLog, {keys::task_log(id), keys::task_log_count(id)}, {std::to_string(from)}).items)
-            lines.push_back(v.text);
-        return lines;
+        const RedisValue r = redis_.eval(kReadLog, {keys::task_log(id), keys::task_log_count(id)},
+                                         {std::to_string(from), std::to_string(limit), std::to_string(bytes)});
+        LogLines out{from, {}};
+        if (!r.items.empty()) out.first = size_t(std::max(0ll, r.items[0].as_int()));
+        for (size_t i = 1; i < r.items.size(); ++i) out.lines.push_back(r.items[i].text);
+        return out;
     });
 }
 

@@ -30,8 +30,13 @@ public:
     bool pause(const std::string& id) override;
     bool resume(const std::string& id) override;
     bool release(const std::string& id) override;
-    // The job's task log (keys::task_log), from its `from`th line on.
-    std::vector<std::string> task_log(const std::string& id, size_t from) const;
+    // The job's task log (keys::task_log) from its `from`th line on: at most `limit` lines and
+    // about `bytes` bytes (one line at least), and the number of the first (past lines dropped).
+    struct LogLines {
+        size_t first = 0;
+        std::vector<std::string> lines;
+    };
+    LogLines task_log(const std::string& id, size_t from, size_t limit, size_t bytes) const;
     void append_task_log(const std::string& id, const std::string& line);
     // Whether this call is the first to claim `what` (SET NX, kept a week): one API node of
     // many does a thing once.

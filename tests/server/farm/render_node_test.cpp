@@ -229,7 +229,7 @@ TEST_F(RenderNodeFarm, EveryPassScheduleGivesOneProcessImageBitForBit) {
         EXPECT_EQ(fr["nodes"].size() >= 1, true) << "the farm's report names its nodes";
         // Its log: the start, every tile of every pass and each assembly, by named nodes; the
         // start with the line its node logged.
-        std::istringstream log(service_->job_log(id, 0));
+        std::istringstream log(service_->job_log(id, 0, 10000).ndjson);
         std::map<std::string, int> tasks;
         bool start_line = false;
         for (std::string line; std::getline(log, line);) {
@@ -545,7 +545,7 @@ TEST_F(RenderNodeFarm, ANodeThatFailsEveryTaskIsBlocklistedAndTheOtherFinishes) 
     ASSERT_EQ(blocklisted_by(), 2);
 // The log has each failed task with its node and reason.
     size_t failed_lines = 0;
-    std::istringstream log(service_->job_log(ids[0], 0));
+    std::istringstream log(service_->job_log(ids[0], 0, 10000).ndjson);
     for (std::string line; std::getline(log, line);) {
         const json t = json::parse(line);
         if (t["outcome"] == "failed") {

@@ -88,6 +88,41 @@ TEST_F(JobLog, AFailureSaysWhyAndAPauseIsARunOfItsOwn) {
     EXPECT_EQ(b[0]["outcome"], "paused");
     expect_problem(client_->Get("/v1/jobs/0123456789abcdef/log"), 404);
     expect_problem(client_->Get("/v1/jobs/" + id + "/log?from=-1"), 400, "from");
+    expect_problem(client_->Get("/v1/jobs/" + id + "/log?limit=0"), 400, "limit");
+    expect_problem(client_->Get("/v1/jobs/" + id + "/log?limit=10001"), 400, "limit");
+}
+
+// A long log is read in pages: at most `limit` lines an answer, and Next-From where the next
+// page starts, so that no answer holds a whole shot's log.
+TEST_F(JobLog, ALongLogIsReadInPages) {
+    start();
+    const json shot = {{"scene", "cornell_shot"}, {"width", 8}, {"height", 6}, {"spp", 1}, {"max_depth", 1},
+                       {"frames", {{"start", 0}, {"end", 11}}}};
+    const std::string id = submit(shot);
+    wait_state(id, {"succeeded"});
+    const auto all = log_of(id);
+    ASSERT_EQ(all.size(), 13u);  // twelve frames, then the shot
+    std::vector<json> paged;
+    size_t from = 0;
+    for (int page = 0; page < 10; ++page) {
+        auto r = client_->Get("/v1/jobs/" + id + "/log?limit=5&from=" + std::to_string(from));
+        ASSERT_TRUE(r && r->status == 200);
+        std::istringstream in(r->body);
+        size_t lines = 0;
+        for (std::string line; std::getline(in, line); ++lines) paged.push_back(json::parse(line));
+        EXPECT_LE(lines, 5u);
+        ASSERT_TRUE(r->has_header("Next-From"));
+        const size_t next = std::stoul(r->get_header_value("Next-From"));
+        EXPECT_EQ(next, from + lines);
+        if (lines == 0) break;
+        from = next;
+    }
+    EXPECT_EQ(from, 13u);
+    EXPECT_EQ(paged, all) << "the pages are the log, in order, each line once";
+    auto past = client_->Get("/v1/jobs/" + id + "/log?from=40");
+    ASSERT_TRUE(past && past->status == 200);
+    EXPECT_TRUE(past->body.empty());
+    EXPECT_EQ(past->get_header_value("Next-From"), "40") << "a reader ahead of the log waits where it is";
 }
 
 }  // namespace

@@ -130,15 +130,21 @@ TEST_F(ClusterLua, ALogLinesIndexStaysItsOwnWhenTheOldestAreDropped) {
     const std::vector<std::string> ks = {keys::task_log(id), keys::task_log_count(id), keys::job(id)};
     r.command({"HSET", keys::job(id), "state", "running"});
     for (int i = 0; i < 10; ++i) r.eval(append, ks, {"line " + std::to_string(i), "4"});  // keeps the newest 4
-    auto from = [&](int n) {
+    // The first line's number, then the lines.
+    auto from = [&](int n, int limit = 100, int bytes = 1 << 20) {
         std::vector<std::string> out;
-        for (const auto& v : r.eval(read, ks, {std::to_string(n)}).items) out.push_back(v.text);
+        const auto items = r.eval(read, ks, {std::to_string(n), std::to_string(limit), std::to_string(bytes)}).items;
+        if (!items.empty()) out.push_back(std::to_string(items[0].as_int()));
+        for (size_t i = 1; i < items.size(); ++i) out.push_back(items[i].text);
         return out;
     };
-    EXPECT_EQ(from(8), (std::vector<std::string>{"line 8", "line 9"}));
-    EXPECT_EQ(from(0), (std::vector<std::string>{"line 6", "line 7", "line 8", "line 9"})) << "the dropped ones skipped";
-    EXPECT_TRUE(from(10).empty());
-    EXPECT_TRUE(from(99).empty());
+    EXPECT_EQ(from(8), (std::vector<std::string>{"8", "line 8", "line 9"}));
+    EXPECT_EQ(from(0), (std::vector<std::string>{"6", "line 6", "line 7", "line 8", "line 9"})) << "the dropped ones skipped";
+    EXPECT_EQ(from(10), (std::vector<std::string>{"10"}));
+    EXPECT_EQ(from(99), (std::vector<std::string>{"99"}));
+    EXPECT_EQ(from(6, 2), (std::vector<std::string>{"6", "line 6", "line 7"})) << "at most limit lines";
+    EXPECT_EQ(from(6, 100, 10), (std::vector<std::string>{"6", "line 6"})) << "about the bytes asked (line and newline: 7)";
+    EXPECT_EQ(from(6, 100, 1), (std::vector<std::string>{"6", "line 6"})) << "one line at least";
 }
 
 }  // namespace
