@@ -137,11 +137,6 @@ Metadata crypto_meta(const RenderScene& scene, Aov a) {
     return {};
 }
 
-Metadata with(Metadata meta, const Metadata& more) {
-    meta.insert(meta.end(), more.begin(), more.end());
-    return meta;
-}
-
 }  // namespace
 
 JobOutcome write_render(const FinishedRender& done, const RunOptions& opt, const RunOutputs& out) {
@@ -226,6 +221,7 @@ JobOutcome write_render(const FinishedRender& done, const RunOptions& opt, const
     }
     rep.render_built = result.built;
     rep.render_left_out = result.left_out;
+    rep.denoised = result.denoised != nullptr;
     rep.curve = result.curve;
     float smin = INFINITY, smax = 0;
     for (float c : result.image.sample_count) { smin = std::min(smin, c); smax = std::max(smax, c); }
@@ -295,6 +291,9 @@ JobOutcome render_prepared(const RenderJob& job, const RenderSettings& render_se
         // One write at a time: a write slower than the interval skips the next checkpoint rather
         // than race it on the same file.
         rcb.on_checkpoint = [&, writing = std::make_shared<std::mutex>()](const RenderCheckpoint& c) {
+            // A canceled job's film is thrown away: writing it (hundreds of MB for a large
+            // job with passes) would only hold up the cancel.
+            if (cb.discard && cb.discard->load()) return;
             std::unique_lock<std::mutex> lock(*writing, std::try_to_lock);
             if (lock.owns_lock()) write_checkpoint(out.checkpoint, c);
         };

@@ -122,6 +122,7 @@ struct RunCallbacks {
     std::function<void(const FrameDone&)> frame;          // after each frame of a shot
     std::function<void(const PassSnapshot&)> pass;        // after each pass of a render job (not set: none made)
     const std::atomic<bool>* stop = nullptr;             // set: end early, write nothing but the checkpoint
+    const std::atomic<bool>* discard = nullptr;          // set with `stop`: the job is canceled, so not even the checkpoint
 };
 
 struct JobOutcome {

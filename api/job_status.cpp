@@ -112,14 +112,37 @@ json to_json(const JobStatus& s) {
     // A farm's: tasks that failed and where, and why no node can take the job now.
     j["task_failures"] = s.task_failures ? to_json(*s.task_failures) : json(nullptr);
     j["unplaceable"] = s.unplaceable.empty() ? json(nullptr) : json(s.unplaceable);
+    // The links are to what the job will have: a shot's images are per frame, a comparison's
+    // result is its report and plot, and the denoised image and passes only where asked for.
     const std::string self = "/v1/jobs/" + s.id;
-    j["links"] = {{"self", self}, {"image_png", self + "/image.png"}, {"image_exr", self + "/image.exr"},
-                  {"rate_png", self + "/rate.png"}, {"report", self + "/report.json"}};
+    const json* settings_frames = s.settings.is_object() && s.settings.contains("frames") ? &s.settings["frames"] : nullptr;
+    const bool shot = settings_frames && !settings_frames->is_null();
+    const bool comparison = s.settings.is_object() && s.settings.value("kind", "") == "comparison";
+    // A denoising render that ended before two samples a pixel made no denoised image (its summary says).
+    const bool denoise = s.settings.is_object() && s.settings.value("denoise", false) == true &&
+                         !(has_summary && s.summary.value("denoised", true) == false);
+    const bool passes = s.settings.is_object() && s.settings.contains("passes") && s.settings["passes"].is_array() &&
+                        !s.settings["passes"].empty();
+    j["links"] = {{"self", self}, {"report", self + "/report.json"}};
+    json& links = j["links"];
+    if (comparison) {
+        links["convergence_svg"] = self + "/convergence.svg";
+    } else {
+        const std::string at = shot ? self + "/frames/{n}" : self;
+        const std::string prefix = shot ? "frame_" : "";
+        links[prefix + "image_png"] = at + "/image.png";
+        links[prefix + "image_exr"] = at + "/image.exr";
+        links[prefix + "rate_png"] = at + "/rate.png";
+        if (denoise) {
+            links[prefix + "denoised_png"] = at + "/denoised.png";
+            links[prefix + "denoised_exr"] = at + "/denoised.exr";
+        }
+        if (passes) links[prefix + "passes_exr"] = at + "/passes.exr";
+    }
     // A shot: its frames' states, from the running job or, once finished, from its summary;
     // a still's is null. Its results are per frame, and a contact sheet.
     j["shot"] = nullptr;
-    const json* settings_frames = s.settings.is_object() && s.settings.contains("frames") ? &s.settings["frames"] : nullptr;
-    if (settings_frames && !settings_frames->is_null()) {
+    if (shot) {
         if (has_summary && s.summary.contains("shot")) {
             j["shot"] = s.summary["shot"];
             j["shot"]["current_frame"] = nullptr;
@@ -127,9 +150,14 @@ json to_json(const JobStatus& s) {
         } else if (s.shot) {
             j["shot"] = to_json(*s.shot);
         }
-        j["links"]["frame_exr"] = self + "/frames/{n}/image.exr";
-        j["links"]["contact_sheet"] = self + "/contact_sheet.png";
-        j["links"]["preview"] = self + "/preview.mp4";
+        links["frame_exr"] = self + "/frames/{n}/image.exr";  // the name it had first, kept for clients that read it
+        links["contact_sheet"] = self + "/contact_sheet.png";
+        // A finished shot whose preview could not be made (no ffmpeg) has none.
+        const json* written = has_summary && s.summary.contains("shot") && s.summary["shot"].is_object() &&
+                                      s.summary["shot"].contains("preview") && s.summary["shot"]["preview"].is_object()
+                                  ? &s.summary["shot"]["preview"]
+                                  : nullptr;
+        if (!(written && written->value("written", true) == false)) links["preview"] = self + "/preview.mp4";
     }
     return j;
 }

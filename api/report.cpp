@@ -110,6 +110,7 @@ json status_summary(const RenderReport& r) {
     json s = {{"timings", timings_json(r.timings)}, {"stats", stats_json(r)}, {"progress", progress_json(r)}};
     if (!r.nodes.empty()) s["nodes"] = nodes_json(r);
     if (r.recovered_samples > 0) s["recovered"] = recovered_json(r);
+    if (r.job.render.denoise) s["denoised"] = r.denoised;  // whether the status links to a denoised image
     return s;
 }
 

@@ -42,6 +42,7 @@ struct RenderReport {
     BuildReport scene_build;
     // What the render built and left out (film buffers, bounces, light paths).
     std::vector<std::string> render_built, render_left_out;
+    bool denoised = false;  // a denoised image was made (a denoising render that had two samples a pixel)
     ConvergenceCurve curve;
     double spp_min = 0, spp_max = 0;
     double mean_radiance = 0;  // of the linear image, over pixels and channels

@@ -61,6 +61,7 @@ function renderBody(container, first) {
       if (e.status === 409) showPlaceholder(job.state === 'queued' ? 'The image appears once the job runs.'
         : showDenoised ? 'The denoised image appears after the 4-spp pass.' : 'The image appears after the first pass.');
       else if (e.status === 410) showPlaceholder(job.state === 'succeeded' ? 'The results of this job were removed.' : 'This job ended without an image.');
+      else if (e.status === 404 && showDenoised) showPlaceholder('This job has no denoised image: its render ended before every pixel had the two samples the denoiser compares.');
       else if (e.status === 503) showPlaceholder('The server is busy encoding images for other clients; the next update tries again.');
       else showPlaceholder(`The image could not be loaded: ${e.message}`);
     },
@@ -146,7 +147,10 @@ function renderBody(container, first) {
 
   function drawDownloads() {
     const pass = hasPassImage();
-    const key = `${job.state}|${pass}|${gone}`;
+    // A denoising job whose render ended before two samples a pixel has no denoised image: its
+    // report's curve then has no denoised point (the server answers 404 not-denoised).
+    const denoisedMade = denoises && (report == null || (report.convergence?.points || []).some((p) => p.denoised_est_rel_mse != null));
+    const key = `${job.state}|${pass}|${gone}|${denoisedMade}`;
     if (key === downloadsKey) return;
     downloadsKey = key;
     const link = (elId, file, label, hint) => h('li', {}, downloadLink({ id: elId, path: jobPath(id, file), filename: `tessera-${id}-${file}`, label, hint }));
@@ -158,7 +162,7 @@ function renderBody(container, first) {
         link('download-report', 'report.json', 'Report (JSON)'),
         link('download-csv', 'convergence.csv', 'Convergence (CSV)'),
         link('download-svg', 'convergence.svg', 'Convergence plot (SVG)'),
-        ...(denoises ? [link('download-denoised', 'denoised.png', 'Denoised image (PNG, sRGB)'),
+        ...(denoisedMade ? [link('download-denoised', 'denoised.png', 'Denoised image (PNG, sRGB)'),
           link('download-denoised-exr', 'denoised.exr', 'Denoised image (OpenEXR, linear)')] : []),
         ...((first.settings.passes || []).length ? [link('download-passes', 'passes.exr', 'Passes (multilayer OpenEXR)')] : [])));
     } else if (pass) {

@@ -72,14 +72,6 @@ const oiio_module::Api& oiio() {
     return *api;
 }
 
-using Attributes = std::vector<std::pair<std::string, std::string>>;
-
-// The writer's own attributes, then the caller's.
-Attributes with(Attributes own, const Metadata& meta) {
-    own.insert(own.end(), meta.begin(), meta.end());
-    return own;
-}
-
 bool ends_with(const std::string& s, const std::string& suffix) {
     if (s.size() < suffix.size()) return false;
     return std::equal(suffix.rbegin(), suffix.rend(), s.rbegin(),

@@ -17,6 +17,12 @@ enum class ToneCurve {
 
 using Metadata = std::vector<std::pair<std::string, std::string>>;
 
+// `meta` then `more` (a writer's own attributes before the caller's).
+inline Metadata with(Metadata meta, const Metadata& more) {
+    meta.insert(meta.end(), more.begin(), more.end());
+    return meta;
+}
+
 // Each throws std::runtime_error naming the path when the file cannot be written.
 void write_png(const std::string& path, const Image& image, ToneCurve curve = ToneCurve::srgb, const Metadata& meta = {});
 void write_exr(const std::string& path, const Image& image, const Metadata& meta = {});

@@ -437,6 +437,7 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         fs::create_directories(dir);
         api::RunCallbacks cb;
         cb.stop = &running.stop;
+        cb.discard = &running.cancel;
         cb.progress = [&](const RenderProgress& p) {
             running.tiles_done = p.tiles_done;
             running.tiles_total = p.tiles_total;

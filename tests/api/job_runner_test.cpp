@@ -88,6 +88,19 @@ TEST_F(Runner, AStopWritesNothingButItsCheckpoint) {
     EXPECT_EQ(files, std::vector<std::string>{"checkpoint.tck"});
 }
 
+// A canceled job's stop writes nothing at all: its film is thrown away, and writing it would only
+// hold up the cancel.
+TEST_F(Runner, ACanceledStopWritesNotEvenItsCheckpoint) {
+    const RenderJob job = small_job();
+    std::atomic<bool> stop{true}, cancel{true};
+    RunCallbacks cb;
+    cb.stop = &stop;
+    cb.discard = &cancel;
+    const RunOutputs out = RunOutputs::in_directory(dir_.string());
+    EXPECT_TRUE(run_job(job, options_for(job), out, cb).stopped);
+    EXPECT_TRUE(fs::is_empty(dir_)) << "a checkpoint or a result was written";
+}
+
 // Stopped mid-render and run again: the job continues from its checkpoint, ends with the image
 // of a job never stopped, says what it recovered, and leaves no checkpoint behind.
 TEST_F(Runner, AStoppedJobRunAgainContinuesToTheSameImage) {

@@ -191,6 +191,24 @@ try {
   check(true, "a comparison job's plot is shown");
   await shot('comparison_job', true);
 
+  // A denoising job's page offers its denoised image, and none where its render ended before
+  // two samples a pixel (the server has none: 404).
+  const dn = (await api('POST', '/v1/jobs', {scene: 'cornell_box', width: 32, height: 24, spp: 8, denoise: true})).body.id;
+  await waitState(dn, ['succeeded']);  // one at a time: the server here queues one job
+  const dn0Post = await api('POST', '/v1/jobs', {scene: 'cornell_box', width: 64, height: 48, spp: 4096, max_depth: 200, denoise: true, time_limit_s: 0.001});
+  check(dn0Post.status === 202, `a job with a time limit of a millisecond is taken (${dn0Post.status} ${JSON.stringify(dn0Post.body).slice(0, 200)})`);
+  const dn0 = dn0Post.body.id;
+  await waitState(dn0, ['succeeded']);
+  await page.goto(`${base}/#/jobs/${dn}`);
+  await page.waitForSelector('#download-denoised', {timeout: 10000});
+  check(true, "a denoising job's page offers its denoised image");
+  await page.goto(`${base}/#/jobs/${dn0}`);
+  await page.waitForSelector('#download-report', {timeout: 10000});
+  // The report decides it, and it loads after the downloads are first drawn.
+  await page.waitForFunction(() => !document.querySelector('#download-denoised'), null, {timeout: 10000}).catch(() => {});
+  check((await api('GET', `/v1/jobs/${dn0}/denoised.png`)).status === 404 && !(await page.$('#download-denoised')),
+        'a denoising job that made no denoised image offers none');
+
   // 4. Cancel a second job from the queue while the first one runs.
   const blocker = (await api('POST', '/v1/jobs', {scene: 'cornell_spheres', width: 200, height: 150, spp: 4096, max_depth: 5})).body.id;
   const second = (await api('POST', '/v1/jobs', {scene: 'cornell_spheres', width: 200, height: 150, spp: 65536, max_depth: 5, seed: 7})).body.id;
