@@ -9,6 +9,7 @@
 // the same memory takes a few hundred, and traversal misses the TLB less. Embree allocates
 // its BVH the same way (its os_malloc advises huge pages on Linux).
 #include <cstddef>
+#include <cstdint>
 #include <cstdlib>
 #include <new>
 #include <type_traits>
@@ -68,5 +69,25 @@ struct LargeAllocator {
 
 template <class T>
 using LargeVector = std::vector<T, LargeAllocator<T>>;
+
+// A plain std::vector of n copies of `value` whose memory, when large, is advised
+// MADV_HUGEPAGE before it is first written: the film's per-pixel arrays, which other code
+// takes as std::vector. Reserved first (glibc maps a large block untouched), advised over the
+// whole 2 MiB pages inside it, then filled, so the fill faults it in 2 MiB at a time.
+template <class T>
+void assign_huge(std::vector<T>& v, size_t n, const T& value) {
+    v.clear();
+    v.shrink_to_fit();
+    v.reserve(n);
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    const size_t bytes = n * sizeof(T);
+    if (bytes >= 2 * kHugePageBytes) {
+        const uintptr_t begin = (reinterpret_cast<uintptr_t>(v.data()) + kHugePageBytes - 1) / kHugePageBytes * kHugePageBytes;
+        const uintptr_t end = (reinterpret_cast<uintptr_t>(v.data()) + bytes) / kHugePageBytes * kHugePageBytes;
+        if (end > begin) ::madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+    }
+#endif
+    v.assign(n, value);
+}
 
 }  // namespace tessera

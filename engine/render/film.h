@@ -8,6 +8,7 @@
 
 #include <glm/glm.hpp>
 
+#include "engine/core/large_vector.h"
 #include "engine/render/aov.h"
 #include "engine/render/denoise.h"
 #include "engine/render/image.h"
@@ -62,24 +63,28 @@ struct Film {
     AovLayout aov_layout;
     std::vector<double> aov;
 
-    Film(int w, int h, bool half_buffer, bool adaptive, AovSet aovs = 0)
-        : width(w), height(h), sum(size_t(w) * h, glm::dvec3(0.0)), count(size_t(w) * h, 0), aov_layout(aovs) {
+    Film(int w, int h, bool half_buffer, bool adaptive, AovSet aovs = 0) : width(w), height(h), aov_layout(aovs) {
+        // In huge pages: a denoising film of 640×480 is 70 MB, and faulted in 4 KiB at a time it
+        // took 0.19 s of a 32-spp render of 4.8 s before its first sample.
+        const size_t n = size_t(w) * h;
+        assign_huge(sum, n, glm::dvec3(0.0));
+        assign_huge(count, n, 0u);
         if (aovs & kSplitHalves) {
-            sum_odd.assign(size_t(w) * h, glm::dvec3(0.0));
-            seen.assign(size_t(w) * h, glm::dvec3(0.0));
-            seen_odd.assign(size_t(w) * h, glm::dvec3(0.0));
-            rays.assign(size_t(w) * h, 0.f);
+            assign_huge(sum_odd, n, glm::dvec3(0.0));
+            assign_huge(seen, n, glm::dvec3(0.0));
+            assign_huge(seen_odd, n, glm::dvec3(0.0));
+            assign_huge(rays, n, 0.f);
         }
         if (aov_layout.stride > 0) {
-            aov.resize(size_t(w) * h * size_t(aov_layout.stride));
-            for (size_t p = 0; p < size_t(w) * h; ++p) clear_aovs(aov_layout, &aov[p * size_t(aov_layout.stride)]);
+            assign_huge(aov, n * size_t(aov_layout.stride), 0.0);
+            for (size_t p = 0; p < n; ++p) clear_aovs(aov_layout, &aov[p * size_t(aov_layout.stride)]);
         }
         if (half_buffer) {
-            sum_half.assign(size_t(w) * h, glm::dvec3(0.0));
-            sum_quarter.assign(size_t(w) * h, glm::dvec3(0.0));
-            sum_eighth.assign(size_t(w) * h, glm::dvec3(0.0));
+            assign_huge(sum_half, n, glm::dvec3(0.0));
+            assign_huge(sum_quarter, n, glm::dvec3(0.0));
+            assign_huge(sum_eighth, n, glm::dvec3(0.0));
         }
-        if (adaptive) { stats.resize(size_t(w) * h); done.assign(size_t(w) * h, 0); }
+        if (adaptive) { stats.resize(n); done.assign(n, 0); }
     }
     // What a film keeps per pixel (bytes), and the denoiser's working memory besides: a job's
     // memory is bounded by it before anything is allocated.

@@ -1,6 +1,7 @@
 #include "engine/core/large_vector.h"
 
 #include <cstdint>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -29,6 +30,22 @@ TEST(LargeVector, ExplicitValuesAreWritten) {
     v.resize(6'000'000, 2.f);
     EXPECT_EQ(v[5'999'999], 2.f);
     EXPECT_EQ(v[4'999'999], 0.f);
+}
+
+// A plain vector filled through assign_huge holds n copies of the value, whatever it held
+// before, small or large; and its memory is its own (writing it leaves another intact).
+TEST(LargeVector, AssignHugeFillsAPlainVector) {
+    std::vector<double> v(10, 3.0);
+    assign_huge(v, 3'000'000, 0.5);
+    ASSERT_EQ(v.size(), 3'000'000u);
+    for (size_t i = 0; i < v.size(); i += 7919) ASSERT_EQ(v[i], 0.5);
+    EXPECT_EQ(v.back(), 0.5);
+    std::vector<double> w;
+    assign_huge(w, 3'000'000, 1.5);
+    v[0] = 9.0;
+    EXPECT_EQ(w[0], 1.5);
+    assign_huge(v, 4, -1.0);
+    EXPECT_EQ(v, std::vector<double>(4, -1.0));
 }
 
 // Every item is visited exactly once, in ranges that tile [0, n) in order.
