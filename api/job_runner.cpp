@@ -258,6 +258,7 @@ JobOutcome render_prepared(const RenderJob& job, const RenderSettings& render_se
     Image reference;
     RenderCallbacks rcb;
     rcb.cancel = cb.stop;
+    rcb.discard = cb.discard;
     std::atomic<size_t> tiles_done{0}, tiles_total{0};  // written by the render threads
     rcb.progress = [&](const RenderProgress& p) {
         tiles_done = p.tiles_done;
@@ -291,8 +292,8 @@ JobOutcome render_prepared(const RenderJob& job, const RenderSettings& render_se
         // One write at a time: a write slower than the interval skips the next checkpoint rather
         // than race it on the same file.
         rcb.on_checkpoint = [&, writing = std::make_shared<std::mutex>()](const RenderCheckpoint& c) {
-            // A canceled job's film is thrown away: writing it (hundreds of MB for a large
-            // job with passes) would only hold up the cancel.
+            // A canceled job's film is thrown away (the renderer skips the stop's checkpoint;
+            // a periodic one taken as the cancel came is not written either).
             if (cb.discard && cb.discard->load()) return;
             std::unique_lock<std::mutex> lock(*writing, std::try_to_lock);
             if (lock.owns_lock()) write_checkpoint(out.checkpoint, c);

@@ -98,6 +98,7 @@ std::optional<WrittenFrame> written_frame(const RunOutputs& out, const RenderJob
                {"seconds", report["timings"].value("total_s", 0.0)}, {"resumed", true}};
     w.samples = uint64_t(std::llround(report["stats"].value("spp_mean", 0.0) * double(job.render.width) * job.render.height));
     w.render_s = report["timings"].value("render_s", 0.0);
+    if (job.render.denoise) w.entry["denoised"] = !out.denoised_exr.empty() && std::filesystem::exists(out.denoised_exr);
     if (!out.exr.empty() && std::filesystem::exists(out.exr)) {
         try {
             w.image = std::make_shared<const Image>(read_image(out.exr));
@@ -320,6 +321,14 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
             tiles_total += p->value("tiles_total", uint64_t{0});
         }
     outcome.summary["progress"] = {{"fraction", 1.0}, {"tiles_done", tiles_done}, {"tiles_total", tiles_total}, {"samples_done", samples_done}};
+    // What the status links to: the preview where it was made, each frame's denoised image
+    // where every frame made one (a frame whose time ran out before two samples a pixel has none).
+    outcome.summary["shot"]["preview"] = preview;
+    if (job.render.denoise) {
+        bool every = true;
+        for (const json& e : entries) every = every && e.value("denoised", false);
+        outcome.summary["denoised"] = every;
+    }
     if (frames.size() <= kStatusFrameList) {
         json summary_frames = json::array();
         for (const json& e : entries)

@@ -148,8 +148,8 @@ function renderBody(container, first) {
   function drawDownloads() {
     const pass = hasPassImage();
     // A denoising job whose render ended before two samples a pixel has no denoised image: its
-    // report's curve then has no denoised point (the server answers 404 not-denoised).
-    const denoisedMade = denoises && (report == null || (report.convergence?.points || []).some((p) => p.denoised_est_rel_mse != null));
+    // status then links to none (the server answers 404 not-denoised).
+    const denoisedMade = denoises && job.links?.denoised_png != null;
     const key = `${job.state}|${pass}|${gone}|${denoisedMade}`;
     if (key === downloadsKey) return;
     downloadsKey = key;

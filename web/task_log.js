@@ -33,9 +33,12 @@ export function taskLog(id) {
     loading = true;
     last = Date.now();
     try {
-      // A page at a time (the server answers at most 1,000 tasks); Next-From is where the next starts.
-      for (let page = 0; page < 20; ++page) {
-        const res = await api.blob(jobPath(id, 'log', { from: read }));
+      // A page at a time (at most 1,000 tasks and about 4 MiB); Next-From is where the next
+      // starts. Read on until a page is empty: a finished job's log is not refreshed again.
+      let more = false;
+      for (let page = 0; ; ++page) {
+        if (page === 100) { more = true; break; }
+        const res = await api.blob(jobPath(id, 'log', { from: read, limit: 1000 }));
         const text = await res.blob.text();
         const tasks = text.split('\n').filter((l) => l).map((l) => JSON.parse(l));
         const header = res.headers.get('Next-From');
@@ -43,9 +46,10 @@ export function taskLog(id) {
         read = Number.isFinite(next) && next >= read ? next : read + tasks.length;
         shown += tasks.length;
         body.append(...tasks.map(row));
-        if (tasks.length < 1000) break;  // the last page (one cut at 4 MiB is read on at the next refresh)
+        if (!tasks.length) break;
       }
-      status.textContent = shown ? `${shown} task${shown === 1 ? '' : 's'}` : 'No task has ended yet.';
+      status.textContent = (shown ? `${shown} task${shown === 1 ? '' : 's'}` : 'No task has ended yet.') +
+        (more ? ' (more: close and open the log to read on)' : '');
     } catch (e) {
       status.textContent = `The log could not be read: ${e.message}`;
     } finally {

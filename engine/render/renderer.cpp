@@ -174,7 +174,7 @@ RenderResult render(const RenderScene& scene, const RenderSettings& settings, co
         if (abort_pass && !stop_cancel) stop_time = true;
         // Stopped by `cancel` (a job paused, a server shutting down): its state before the pass's
         // end, to be continued by running the pass again.
-        if (stop_cancel && callbacks.on_checkpoint) {
+        if (stop_cancel && callbacks.on_checkpoint && !(callbacks.discard && callbacks.discard->load())) {
             try {
                 callbacks.on_checkpoint(*snapshot());
             } catch (...) {  // the samples since the last checkpoint are rendered again

@@ -85,6 +85,9 @@ struct RenderCallbacks {
     // render thread, with the others rendering on; the copy is the callee's.
     std::function<void(const RenderCheckpoint&)> on_checkpoint;
     double checkpoint_seconds = 0;
+    // Set with `cancel` when the render's state is thrown away (a canceled job): no checkpoint
+    // is copied or handed over at the stop (a large film's copy would only hold the stop up).
+    const std::atomic<bool>* discard = nullptr;
 };
 
 struct RenderResult {

@@ -78,7 +78,7 @@ float exposure_param(const httplib::Request& req, const std::string& file) {
 size_t size_param(const httplib::Request& req, const char* name, size_t fallback, size_t lo, size_t hi) {
     if (!req.has_param(name)) return fallback;
     const std::string v = req.get_param_value(name);
-    if (v.empty() || v.size() > 9 || v.find_first_not_of("0123456789") != std::string::npos)
+    if (v.empty() || v.size() > 18 || v.find_first_not_of("0123456789") != std::string::npos)
         throw Problem(400, "invalid-parameter", "Invalid query parameter", std::string(name) + " must be a whole number").with_field(name);
     const size_t n = std::stoul(v);
     if (n < lo || n > hi)
@@ -357,6 +357,8 @@ HttpApi::HttpApi(JobQueue& queue, HttpLimits limits, std::string openapi_path)
     // Errors httplib raises itself (unknown route, body too large, a broken head, a read past a
     // budget) get a problem body too.
     server_->set_error_handler([this](const httplib::Request& req, httplib::Response& res) {
+        // A problem's body is never cut by a Range (one httplib could not read fills in part).
+        const_cast<httplib::Request&>(req).ranges.clear();
         contained("error handler", [&] {
             if (!res.body.empty()) return;
             const auto overrun = t_stream ? t_stream->overrun() : ConnectionStream::Overrun::none;
@@ -506,9 +508,9 @@ std::string HttpApi::probe_answer(const std::string& path) {
 // own: an eighth more than the route's bound (and a little) before the decoded size is checked
 // against the bound itself. The bytes are taken from the bound on all bodies in flight first.
 void HttpApi::begin_body(httplib::Request& req, ConnectionStream& strm) {
-    // httplib copies a response's body once per range asked for: `Range: bytes=0-,0-,...` would
-    // multiply any answer thousands of times. One range is served; several, the whole body.
-    if (req.ranges.size() > 1) req.ranges.clear();
+    // A Range is for result files alone (response_bytes.h); httplib would also copy a body once
+    // per range asked for (`Range: bytes=0-,0-,...`). One range is served; several, the whole body.
+    hold_range(req);
     // No route takes a form: httplib would parse a body sent as one (curl --data-binary's
     // default type) and refuse it past 8 KiB. Uploads are bytes, jobs are JSON.
     if (is_form_type(req.get_header_value("Content-Type"))) req.headers.erase("Content-Type");

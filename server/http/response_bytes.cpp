@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <optional>
 #include <stdexcept>
 
 #include "server/http/problem.h"
@@ -15,13 +16,15 @@ namespace {
 // accepts it); larger ones are streamed.
 constexpr uint64_t kInMemory = 256 << 10;
 
-// Fits the request's one range (if any) to a body of `size` bytes, as httplib does for a body it
-// holds: an open or overlong end is cut at the body's, a start at or past it is 416.
+// The Range hold_range took aside for this thread's request.
+thread_local std::optional<httplib::Range> t_range;
+
+// Fits the range held for this request (if any) to a body of `size` bytes and gives it back to
+// the request: an open or overlong end is cut at the body's, a start at or past it is 416.
 void fit_range(const httplib::Request& req, httplib::Response& res, uint64_t size) {
-    if (req.ranges.empty()) return;
-    // httplib's Request is not const where it is made; the handler sees it so.
-    httplib::Range& r = const_cast<httplib::Request&>(req).ranges.front();
-    int64_t first = r.first, last = r.second;
+    if (!t_range) return;
+    int64_t first = t_range->first, last = t_range->second;
+    t_range.reset();
     const int64_t n = int64_t(size);
     if (first < 0) {  // the last `last` bytes
         if (last <= 0) last = 0;
@@ -35,10 +38,17 @@ void fit_range(const httplib::Request& req, httplib::Response& res, uint64_t siz
         throw Problem(416, "range-not-satisfiable", "Range not satisfiable",
                       "the range asked for starts past the end of the " + std::to_string(size) + "-byte answer");
     }
-    r = {first, last};
+    // httplib's Request is not const where it is made; the handler sees it so.
+    const_cast<httplib::Request&>(req).ranges = {{first, last}};
 }
 
 }  // namespace
+
+void hold_range(httplib::Request& req) {
+    t_range.reset();
+    if (req.ranges.size() == 1 && !req.has_header("If-Range")) t_range = req.ranges.front();
+    req.ranges.clear();
+}
 
 void send_file(const httplib::Request& req, httplib::Response& res, const std::string& path, const std::string& content_type) {
     auto in = std::make_shared<std::ifstream>(path, std::ios::binary | std::ios::ate);
@@ -46,6 +56,7 @@ void send_file(const httplib::Request& req, httplib::Response& res, const std::s
     const std::streamoff end = in->tellg();
     if (end < 0) throw std::runtime_error(path + ": cannot be read");
     const uint64_t size = uint64_t(end);  // of the file opened, whatever the path names later
+    fit_range(req, res, size);
     if (size <= kInMemory) {
         std::string body(size, '\0');
         in->seekg(0);
@@ -54,7 +65,6 @@ void send_file(const httplib::Request& req, httplib::Response& res, const std::s
         res.set_content(std::move(body), content_type);
         return;
     }
-    fit_range(req, res, size);
     res.set_content_provider(size_t(size), content_type, [in, size](size_t offset, size_t length, httplib::DataSink& sink) {
         if (offset >= size) return false;
         char buf[64 << 10];
@@ -94,11 +104,11 @@ bool EncodedResponses::send(const httplib::Request& req, httplib::Response& res,
             state->held -= size;
         });
     }
+    fit_range(req, res, bytes->size());
     if (bytes->empty()) {
         res.set_content("", content_type);
         return true;
     }
-    fit_range(req, res, bytes->size());
     res.set_content_provider(bytes->size(), content_type, [bytes](size_t offset, size_t length, httplib::DataSink& sink) {
         if (offset >= bytes->size()) return false;
         const size_t n = std::min({length, bytes->size() - offset, size_t(1) << 20});

@@ -4,8 +4,8 @@
 // and read nothing took the server from 139 to 1,172 MiB (docs/reliability.md). An image encoded
 // on request (a running job's pass, another exposure) is held once per answer, and all of them
 // together are bounded: past the bound the server answers 503 with Retry-After rather than
-// encode another. httplib checks a Range only against a body it holds, so these answers fit the
-// one range they serve (begin_body keeps at most one) to their size themselves: 416 past it.
+// encode another. These answers fit the one range they serve to their size themselves (an open or
+// overlong end cut at theirs; 416 with a problem past it), whether held or streamed.
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -19,6 +19,13 @@ struct Response;
 }
 
 namespace tessera::server {
+
+// Takes the request's Range aside before it is routed. httplib applies a Range to any answer it
+// sends: a job's status came back cut to a few bytes under a 200, and a POST that queued a job
+// answered 416 with no body, so a client would submit it again. Only a result file served by
+// send_file or EncodedResponses puts it back, fitted to its size. Several ranges, or If-Range
+// (no validator of ours can match it), give the whole body.
+void hold_range(httplib::Request& req);
 
 // Streams the file at `path` (which exists: the caller resolved it) in 64 KiB reads; a small
 // file (a report, a curve) is answered from memory, so httplib may compress it.

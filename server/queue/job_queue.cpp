@@ -14,6 +14,7 @@
 #include "api/json_text.h"
 #include "engine/core/scene_error.h"
 #include "engine/scene/procedural.h"
+#include "server/loggable.h"
 #include "server/memory_return.h"
 #include "server/store/job_results.h"
 
@@ -38,7 +39,7 @@ bool valid_id(const std::string& id) {
 }
 
 QueueError no_such_job(const std::string& id) {
-    return QueueError(QueueErrorKind::not_found, "not-found", "No such job", "no job with id '" + id + "'");
+    return QueueError(QueueErrorKind::not_found, "not-found", "No such job", "no job with id '" + loggable(id, 64) + "'");
 }
 
 // The data directory, created if need be, after a write into it: a read-only or full disk

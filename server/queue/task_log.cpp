@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <fstream>
 #include <memory>
 #include <mutex>
@@ -74,21 +75,25 @@ void append_task_record(const std::string& path, const TaskRecord& r) {
     if (!ok) spdlog::warn("cannot append to the job log {}", path);
 }
 
-LogPage read_task_log(const std::string& path, size_t from, size_t limit) {
+LogPage read_task_log(const std::string& path, size_t from, size_t limit, size_t bytes) {
     std::ifstream in(path, std::ios::binary);
     LogPage page;
     std::string line;
     size_t n = 0, taken = 0;
     // The lines before `from` are read and dropped one by one: a reader holds a line, not the file.
     while (taken < limit && std::getline(in, line)) {
+        // A record is one write(2), but a reader may see part of one: without its newline it is
+        // not counted (Next-From stays before it), so the next page has it whole.
+        if (in.eof()) break;
         if (line.empty()) continue;
         if (n++ < from) continue;
-        if (taken > 0 && page.ndjson.size() + line.size() + 1 > kMaxLogPageBytes) break;
+        if (taken > 0 && page.ndjson.size() + line.size() + 1 > bytes) break;
         page.ndjson += line;
         page.ndjson += '\n';
         ++taken;
     }
-    page.next = from + taken;
+    // Past the end, the next line is the log's next: a reader that overshot is told where.
+    page.next = std::min(from, n) + taken;
     return page;
 }
 

@@ -52,7 +52,8 @@ struct LogPage {
     size_t next = 0;     // the `from` that reads on after them (where the next line will be)
 };
 
-// Lines `from` onwards of a log file (none when there is no file), read as they are sent.
-LogPage read_task_log(const std::string& path, size_t from, size_t limit);
+// Lines `from` onwards of a log file (none when there is no file), at most `limit` of them and
+// about `bytes`. A last line without its newline is being appended: it is left for later.
+LogPage read_task_log(const std::string& path, size_t from, size_t limit, size_t bytes = kMaxLogPageBytes);
 
 }  // namespace tessera::server

@@ -327,13 +327,24 @@ local start = from - (count - len)
 if start < 0 then
   from = from - start
   start = 0
+elseif start > len then  -- past the end: the next line is the log's next
+  from = count
+  start = len
 end
 local out = {from}
 local size = 0
-for _, line in ipairs(redis.call('LRANGE', KEYS[1], start, start + tonumber(ARGV[2]) - 1)) do
-  size = size + #line + 1
-  if #out > 1 and size > tonumber(ARGV[3]) then break end
-  out[#out + 1] = line
+local limit, bytes = tonumber(ARGV[2]), tonumber(ARGV[3])
+-- In batches, so that a page of large records is not all copied before the budget cuts it.
+while #out - 1 < limit do
+  local want = math.min(100, limit - (#out - 1))
+  local batch = redis.call('LRANGE', KEYS[1], start, start + want - 1)
+  for _, line in ipairs(batch) do
+    size = size + #line + 1
+    if #out > 1 and size > bytes then return out end
+    out[#out + 1] = line
+  end
+  if #batch < want then break end
+  start = start + want
 end
 return out
 )lua";

@@ -207,9 +207,10 @@ TEST_F(Hostile, CompressedBodiesAndManyRangesAreNotMultipliers) {
     for (int i = 0; i < 1000; ++i) ranges += ",0-";
     const std::string many = raw_exchange(port_, "GET /ui/app.js HTTP/1.1\r\nHost: x\r\nRange: " + ranges + "\r\nConnection: close\r\n\r\n");
     EXPECT_EQ(status_of(many), 200) << many.substr(0, 300);
+    // A Range is for result files alone (response_bytes.h): the page's script comes whole.
     const std::string one = raw_exchange(port_, "GET /ui/app.js HTTP/1.1\r\nHost: x\r\nRange: bytes=0-9\r\nConnection: close\r\n\r\n");
-    EXPECT_EQ(status_of(one), 206) << one.substr(0, 300);
-    EXPECT_EQ(body_of(one).size(), 10u);
+    EXPECT_EQ(status_of(one), 200) << one.substr(0, 300);
+    EXPECT_EQ(body_of(one).size(), body_of(many).size());
     // Two Content-Lengths: refused, whatever they say.
     const std::string two = raw_exchange(port_, "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
                                                 "Content-Length: 2\r\nContent-Length: 2\r\n\r\n{}");

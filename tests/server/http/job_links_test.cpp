@@ -1,9 +1,11 @@
 // A job's links name what it will have, and only that: every link of a finished job of each kind
 // (a still, a denoising still with passes, one that ended before it could denoise, a denoising
-// shot, a comparison) answers 200,
+// shot, one whose frames could not denoise and whose preview could not be made, a comparison)
+// answers 200, a canceled job links to itself alone,
 // and a shot's or a comparison's status names no still's image.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <string>
 
 #include "tests/server/server_fixture.h"
@@ -66,6 +68,29 @@ TEST_F(JobLinks, EveryLinkOfAFinishedJobIsThere) {
     EXPECT_FALSE(s["links"].contains("image_png")) << "a shot's images are per frame";
     EXPECT_TRUE(s["links"].contains("frame_denoised_png"));
     expect_every_link_answers(s, 24);
+
+    // A shot whose frames' time ran out before two samples a pixel has no denoised frames, and
+    // one rendered where ffmpeg cannot run has no preview: neither is linked.
+    ::setenv("TESSERA_FFMPEG", "/nonexistent/ffmpeg", 1);
+    const json hurried_shot = {{"scene", "cornell_shot"}, {"width", 320}, {"height", 240}, {"spp", 65536}, {"max_depth", 5},
+                               {"denoise", true}, {"time_limit_s", 0.001}, {"frames", {{"start", 0}, {"end", 24}, {"step", 24}}}};
+    const std::string hsid = submit(hurried_shot);
+    json hs = wait_state(hsid, {"succeeded", "failed"});
+    ::unsetenv("TESSERA_FFMPEG");
+    ASSERT_EQ(hs["state"], "succeeded") << hs.dump();
+    EXPECT_FALSE(hs["links"].contains("frame_denoised_png")) << hs.dump();
+    EXPECT_FALSE(hs["links"].contains("preview")) << hs.dump();
+    expect_every_link_answers(hs, 24);
+
+    // A canceled job keeps nothing: it links to itself alone.
+    json slow = kSmallJob;
+    slow["width"] = 200;
+    slow["height"] = 150;
+    slow["spp"] = 65536;
+    const std::string cid0 = submit(slow);
+    client_->Delete("/v1/jobs/" + cid0);
+    json canceled = wait_state(cid0, {"canceled"});
+    EXPECT_EQ(canceled["links"], json({{"self", "/v1/jobs/" + cid0}})) << canceled.dump();
 
     const json comparison = {{"scene", "builtin:cornell_box"}, {"width", 16}, {"height", 12}, {"seconds", 0.05}, {"reps", 1},
                              {"reference_spp", 16}, {"max_depth", 2},

@@ -164,8 +164,55 @@ TEST_F(Server, RangesOfStreamedAndEncodedAnswersStayInsideThem) {
         auto past = client_->Get(path, httplib::Headers{{"Range", "bytes=" + std::to_string(all.size()) + "-"}});
         ASSERT_TRUE(past) << path;
         EXPECT_EQ(past->status, 416) << path << ": " << past->body.substr(0, 200);
+        EXPECT_EQ(past->get_header_value_count("Content-Range"), 1u) << path;
+        EXPECT_EQ(past->get_header_value("Content-Range"), "bytes */" + std::to_string(all.size())) << path;
+        EXPECT_EQ(json::parse(past->body)["type"], "/problems/range-not-satisfiable") << path;
         EXPECT_EQ(client_->Get("/healthz")->status, 200);
     }
+    // A file answered from memory alike: its range's end cut at the file's, 416 past it.
+    auto png = client_->Get(base + "/image.png");
+    ASSERT_TRUE(png && png->status == 200);
+    const size_t n = png->body.size();
+    auto part = client_->Get(base + "/image.png", httplib::Headers{{"Range", "bytes=0-99999999"}});
+    ASSERT_TRUE(part);
+    EXPECT_EQ(part->status, 206);
+    EXPECT_EQ(part->get_header_value("Content-Range"), "bytes 0-" + std::to_string(n - 1) + "/" + std::to_string(n));
+    auto past = client_->Get(base + "/image.png", httplib::Headers{{"Range", "bytes=" + std::to_string(n) + "-"}});
+    ASSERT_TRUE(past);
+    EXPECT_EQ(past->status, 416);
+    EXPECT_EQ(past->get_header_value_count("Content-Range"), 1u);
+    EXPECT_EQ(json::parse(past->body)["type"], "/problems/range-not-satisfiable");
+    auto conditional = client_->Get(base + "/image.png", httplib::Headers{{"Range", "bytes=0-9"}, {"If-Range", "\"x\""}});
+    ASSERT_TRUE(conditional);
+    EXPECT_EQ(conditional->status, 200) << "If-Range: no validator of ours matches, so the whole file";
+    EXPECT_EQ(conditional->body.size(), n);
+}
+
+// A Range is for result files alone: a job's status, a problem and a POST's answer are never
+// cut by one, and a POST carrying one still says it queued the job (a 416 there had the client
+// submit it again).
+TEST_F(Server, ARangeTouchesNothingButResultFiles) {
+    start();
+    const httplib::Headers ranged{{"Range", "bytes=99999-"}};
+    auto posted = client_->Post("/v1/jobs", ranged, kSmallJob.dump(), "application/json");
+    ASSERT_TRUE(posted);
+    EXPECT_EQ(posted->status, 202) << posted->body.substr(0, 200);
+    EXPECT_FALSE(posted->has_header("Content-Range"));
+    const std::string id = json::parse(posted->body)["id"];
+    auto status = client_->Get("/v1/jobs/" + id, httplib::Headers{{"Range", "bytes=0-5"}});
+    ASSERT_TRUE(status);
+    EXPECT_EQ(status->status, 200);
+    EXPECT_FALSE(status->has_header("Content-Range"));
+    EXPECT_EQ(json::parse(status->body)["id"], id);
+    auto missing = client_->Get("/v1/jobs/ffffffffffffffff/image.png", httplib::Headers{{"Range", "bytes=0-5"}});
+    ASSERT_TRUE(missing);
+    EXPECT_EQ(missing->status, 404);
+    EXPECT_EQ(json::parse(missing->body)["status"], 404) << "the problem whole";
+    auto bad = client_->Get("/v1/jobs/" + id + "/log?from=abc", httplib::Headers{{"Range", "bytes=0-9"}});
+    ASSERT_TRUE(bad);
+    EXPECT_EQ(bad->status, 400);
+    EXPECT_EQ(json::parse(bad->body)["status"], 400);
+    wait_state(id, {"succeeded", "failed"});
 }
 
 TEST_F(Server, BadPassesAndDenoiseAreRefusedNamingTheField) {

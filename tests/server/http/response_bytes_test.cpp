@@ -57,16 +57,21 @@ TEST(ResponseBytes, AFileIsStreamedInSmallReadsNotHeldWhole) {
              {{7, 20}, {7, 20}}}) {
         httplib::Request ranged;
         ranged.ranges = {asked};
+        hold_range(ranged);
+        EXPECT_TRUE(ranged.ranges.empty()) << "taken aside until a file answers";
         httplib::Response r;
         send_file(ranged, r, path.string(), "image/x-exr");
+        ASSERT_EQ(ranged.ranges.size(), 1u);
         EXPECT_EQ(ranged.ranges.front(), fitted) << asked.first << "-" << asked.second;
     }
     for (const httplib::Range& past : {httplib::Range{ssize_t(n), -1}, httplib::Range{ssize_t(n) + 5, ssize_t(n) + 9}}) {
         httplib::Request ranged;
         ranged.ranges = {past};
+        hold_range(ranged);
         httplib::Response r;
         EXPECT_THROW(send_file(ranged, r, path.string(), "image/x-exr"), Problem);
         EXPECT_EQ(r.get_header_value("Content-Range"), "bytes */" + std::to_string(n));
+        EXPECT_TRUE(ranged.ranges.empty()) << "the 416's problem body is not cut by the range";
     }
     // Asked past the end all the same, the provider writes nothing outside the file.
     httplib::Response again;
@@ -80,6 +85,40 @@ TEST(ResponseBytes, AFileIsStreamedInSmallReadsNotHeldWhole) {
     fs::remove(path);
     httplib::Response missing;
     EXPECT_THROW(send_file(req, missing, path.string(), "image/x-exr"), std::runtime_error);
+    // Several ranges, or If-Range (no validator of ours can match it): the whole body.
+    httplib::Request several;
+    several.ranges = {{0, 9}, {20, 29}};
+    hold_range(several);
+    httplib::Request conditional;
+    conditional.ranges = {{0, 9}};
+    conditional.headers.emplace("If-Range", "\"x\"");
+    hold_range(conditional);
+    for (httplib::Request* whole : {&several, &conditional}) {
+        httplib::Response r;
+        std::ofstream(path, std::ios::binary) << std::string(100, 'w');
+        send_file(*whole, r, path.string(), "image/x-exr");
+        EXPECT_TRUE(whole->ranges.empty());
+        EXPECT_EQ(r.body, std::string(100, 'w'));
+    }
+    // A small file fits its range too (its end cut at the file's, 416 past it), as httplib
+    // would not: it answered `bytes 0-99999999/1000`.
+    {
+        std::ofstream(path, std::ios::binary) << std::string(1000, 's');
+        httplib::Request ranged;
+        ranged.ranges = {{0, 99'999'999}};
+        hold_range(ranged);
+        httplib::Response r;
+        send_file(ranged, r, path.string(), "image/png");
+        ASSERT_EQ(ranged.ranges.size(), 1u);
+        EXPECT_EQ(ranged.ranges.front(), (httplib::Range{0, 999}));
+        httplib::Request past;
+        past.ranges = {{1000, -1}};
+        hold_range(past);
+        httplib::Response p;
+        EXPECT_THROW(send_file(past, p, path.string(), "image/png"), Problem);
+        EXPECT_EQ(p.get_header_value("Content-Range"), "bytes */1000");
+        fs::remove(path);
+    }
     // A small file (a report, a curve) is answered from memory, so httplib may compress it;
     // an empty one too.
     for (const size_t size : {size_t(0), size_t(1000)}) {
@@ -124,6 +163,7 @@ TEST(ResponseBytes, EncodedImagesAreBoundedTogetherUntilTheirClientsHaveThem) {
     // A range is fitted to the encoded bytes; one past them is 416 and holds nothing after.
     httplib::Request ranged;
     ranged.ranges = {{100, 99'999'999}};
+    hold_range(ranged);
     httplib::Response r2;
     ASSERT_TRUE(e2.send(ranged, r2, 300, bytes(300), "image/png"));
     EXPECT_EQ(ranged.ranges.front(), (httplib::Range{100, 299}));
@@ -134,6 +174,7 @@ TEST(ResponseBytes, EncodedImagesAreBoundedTogetherUntilTheirClientsHaveThem) {
     EXPECT_TRUE(r2.content_provider_(290, 1'000'000, sink));
     EXPECT_EQ(written, 10u);
     ranged.ranges = {{300, -1}};
+    hold_range(ranged);
     httplib::Response r3;
     EXPECT_THROW(e2.send(ranged, r3, 300, bytes(300), "image/png"), Problem);
     EXPECT_EQ(e2.held(), 300u);  // r2's alone

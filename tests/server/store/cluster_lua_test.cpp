@@ -141,10 +141,23 @@ TEST_F(ClusterLua, ALogLinesIndexStaysItsOwnWhenTheOldestAreDropped) {
     EXPECT_EQ(from(8), (std::vector<std::string>{"8", "line 8", "line 9"}));
     EXPECT_EQ(from(0), (std::vector<std::string>{"6", "line 6", "line 7", "line 8", "line 9"})) << "the dropped ones skipped";
     EXPECT_EQ(from(10), (std::vector<std::string>{"10"}));
-    EXPECT_EQ(from(99), (std::vector<std::string>{"99"}));
+    EXPECT_EQ(from(99), (std::vector<std::string>{"10"})) << "past the end: where the log ends";
     EXPECT_EQ(from(6, 2), (std::vector<std::string>{"6", "line 6", "line 7"})) << "at most limit lines";
     EXPECT_EQ(from(6, 100, 10), (std::vector<std::string>{"6", "line 6"})) << "about the bytes asked (line and newline: 7)";
     EXPECT_EQ(from(6, 100, 1), (std::vector<std::string>{"6", "line 6"})) << "one line at least";
+
+    // Past one batch of the script's reads (100 lines): every line once, in order, to the limit.
+    const std::string id2 = "00000000000000a2";
+    const std::vector<std::string> ks2 = {keys::task_log(id2), keys::task_log_count(id2), keys::job(id2)};
+    r.command({"HSET", keys::job(id2), "state", "running"});
+    for (int i = 0; i < 250; ++i) r.eval(append, ks2, {"l" + std::to_string(i), "1000"});
+    auto read2 = [&](int n, int limit) { return r.eval(read, ks2, {std::to_string(n), std::to_string(limit), "1000000"}).items; };
+    const auto got = read2(5, 230);
+    ASSERT_EQ(got.size(), 231u);
+    EXPECT_EQ(got[0].as_int(), 5);
+    for (size_t i = 1; i < got.size(); ++i) ASSERT_EQ(got[i].text, "l" + std::to_string(4 + i));
+    EXPECT_EQ(read2(200, 1000).size(), 51u) << "the last 50, then the end";
+    EXPECT_EQ(read2(0, 100).size(), 101u) << "exactly one batch";
 }
 
 }  // namespace
