@@ -246,7 +246,7 @@ api::JobStatus LocalQueue::resume(const std::string& id) {
 
 LogPage LocalQueue::job_log(const std::string& id, size_t from, size_t limit) {
     status(id);  // not_found for unknown ids
-    return read_task_log((fs::path(job_dir(id)) / "log.jsonl").string(), from, limit);
+    return read_task_log((fs::path(job_dir(id)) / "log.jsonl").string(), from, limit, kMaxLogPageBytes, &log_index_);
 }
 
 std::map<int, size_t, std::greater<int>> LocalQueue::queued_by_priority() {

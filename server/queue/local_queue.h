@@ -91,6 +91,7 @@ private:
 
     // Prepared scenes kept between jobs (bounded by scene_cache_mb).
     SceneCache scenes_;
+    TaskLogIndex log_index_;  // where the pages of the jobs' logs start
     std::mutex mutex_;
     std::condition_variable cv_;        // a job was queued, or the queue stops
     std::condition_variable pause_cv_;  // the queue stops (ends a worker's pause before a retry)

@@ -1,6 +1,7 @@
 #include "server/queue/task_log.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -75,17 +76,82 @@ void append_task_record(const std::string& path, const TaskRecord& r) {
     if (!ok) spdlog::warn("cannot append to the job log {}", path);
 }
 
-LogPage read_task_log(const std::string& path, size_t from, size_t limit, size_t bytes) {
+TaskLogIndex::Mark TaskLogIndex::before(const std::string& path, uint64_t file, size_t line) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = marks_.find(path);
+    if (it == marks_.end() || it->second.file != file || it->second.at.empty()) return {};
+    const size_t k = std::min(line / kLogMarkStride, it->second.at.size() - 1);
+    return {k * kLogMarkStride, it->second.at[k]};
+}
+
+void TaskLogIndex::learn(const std::string& path, uint64_t file, size_t line, uint64_t offset) {
+    if (line % kLogMarkStride != 0) return;
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto [it, fresh] = marks_.try_emplace(path);
+    if (fresh) {
+        order_.push_back(path);
+        if (order_.size() > kLogIndexFiles) {
+            marks_.erase(order_.front());
+            order_.pop_front();
+        }
+    }
+    if (it->second.file != file) it->second = Marks{file, {}};
+    std::vector<uint64_t>& v = it->second.at;
+    if (v.empty()) v.push_back(0);  // line 0 starts the file
+    // Marks are learnt in order as a reader passes them; one out of order (a reader that
+    // started before a mark it skipped) waits for the reader that passes the gap.
+    if (line / kLogMarkStride == v.size()) v.push_back(offset);
+}
+
+void TaskLogIndex::forget(const std::string& path) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    marks_.erase(path);
+    order_.erase(std::remove(order_.begin(), order_.end(), path), order_.end());
+}
+
+namespace {
+
+// A mark is good where the byte before it ends a line (the file it was learnt in is still there).
+bool starts_a_line(std::ifstream& in, uint64_t offset) {
+    if (offset == 0) return true;
+    in.seekg(std::streamoff(offset - 1));
+    char c = 0;
+    return in.get(c) && c == '\n';
+}
+
+}  // namespace
+
+uint64_t log_file_id(const std::string& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) return 0;
+    return (uint64_t(st.st_dev) << 40) ^ uint64_t(st.st_ino);
+}
+
+LogPage read_task_log(const std::string& path, size_t from, size_t limit, size_t bytes, TaskLogIndex* index) {
+    const uint64_t file = index ? log_file_id(path) : 0;
     std::ifstream in(path, std::ios::binary);
     LogPage page;
+    if (!in) return page;
+    TaskLogIndex::Mark mark = index ? index->before(path, file, from) : TaskLogIndex::Mark{};
+    if (!starts_a_line(in, mark.offset)) {
+        index->forget(path);
+        mark = {};
+    }
+    in.clear();
+    in.seekg(std::streamoff(mark.offset));
     std::string line;
-    size_t n = 0, taken = 0;
-    // The lines before `from` are read and dropped one by one: a reader holds a line, not the file.
+    size_t n = mark.line, taken = 0;
+    uint64_t at = mark.offset;  // where the line read next starts
+    // The lines between the mark and `from` are read and dropped one by one: a reader holds a
+    // line, not the file.
     while (taken < limit && std::getline(in, line)) {
         // A record is one write(2), but a reader may see part of one: without its newline it is
         // not counted (Next-From stays before it), so the next page has it whole.
         if (in.eof()) break;
+        const uint64_t start = at;
+        at += line.size() + 1;
         if (line.empty()) continue;
+        if (index) index->learn(path, file, n, start);
         if (n++ < from) continue;
         if (taken > 0 && page.ndjson.size() + line.size() + 1 > bytes) break;
         page.ndjson += line;

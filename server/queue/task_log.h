@@ -4,8 +4,12 @@
 // which attempt, how it ended, and the lines the server logged while it ran it.
 // GET /v1/jobs/{id}/log serves it as JSON lines, one task a line, oldest first.
 #include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <mutex>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -52,8 +56,44 @@ struct LogPage {
     size_t next = 0;     // the `from` that reads on after them (where the next line will be)
 };
 
+// Where every kLogMarkStride-th line of a log file starts, learnt as its pages are read: a reader
+// paging through a long log starts near its page instead of reading every line before it, so
+// reading a log to its end is linear in its length, not quadratic. A log only grows, so what is
+// learnt stays true while the file is the same one (its device and inode); a file made anew, or
+// a mark that no longer falls after a newline, drops the marks. At most kLogIndexFiles files are
+// remembered, the oldest dropped.
+inline constexpr size_t kLogMarkStride = 256;
+inline constexpr size_t kLogIndexFiles = 512;
+class TaskLogIndex {
+public:
+    struct Mark {
+        size_t line = 0;      // counted as read_task_log counts (empty lines are not)
+        uint64_t offset = 0;  // where that line starts
+    };
+    // The last mark at or before `line` in the file `file` (its device and inode; the file's
+    // start when none is known).
+    Mark before(const std::string& path, uint64_t file, size_t line) const;
+    // Line `line` starts at `offset`; kept where `line` is a multiple of the stride.
+    void learn(const std::string& path, uint64_t file, size_t line, uint64_t offset);
+    void forget(const std::string& path);
+
+private:
+    struct Marks {
+        uint64_t file = 0;
+        std::vector<uint64_t> at;  // [k]: where line k·stride starts
+    };
+    mutable std::mutex mutex_;
+    std::unordered_map<std::string, Marks> marks_;
+    std::deque<std::string> order_;  // first learnt first
+};
+
+// Which file a path names now (its device and inode; 0 for none): what an index's marks belong to.
+uint64_t log_file_id(const std::string& path);
+
 // Lines `from` onwards of a log file (none when there is no file), at most `limit` of them and
-// about `bytes`. A last line without its newline is being appended: it is left for later.
-LogPage read_task_log(const std::string& path, size_t from, size_t limit, size_t bytes = kMaxLogPageBytes);
+// about `bytes`. A last line without its newline is being appended: it is left for later. With
+// an index, the read starts at its mark before `from` and teaches it the marks it passes.
+LogPage read_task_log(const std::string& path, size_t from, size_t limit, size_t bytes = kMaxLogPageBytes,
+                      TaskLogIndex* index = nullptr);
 
 }  // namespace tessera::server

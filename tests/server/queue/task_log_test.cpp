@@ -56,5 +56,49 @@ TEST_F(TaskLogFile, ALineBeingAppendedIsLeftForTheNextPage) {
     EXPECT_EQ(p.next, 3u);
 }
 
+// Paging through a long log with an index reads what paging without one reads, and starts each
+// page at a mark near it, not at the file's start; a file made anew is not read by old marks.
+TEST_F(TaskLogFile, AnIndexedReaderReadsWhatAPlainOneReadsFromNearItsPage) {
+    std::string text;
+    for (int i = 0; i < 2000; ++i) {
+        text += "{\"i\":" + std::to_string(i) + ",\"pad\":\"" + std::string(size_t(i % 37), 'x') + "\"}\n";
+        if (i % 301 == 0) text += "\n";  // empty lines are not counted, by either
+    }
+    write(text);
+    TaskLogIndex index;
+    std::string whole;
+    size_t from = 0;
+    for (int pages = 0; pages < 100; ++pages) {
+        const LogPage plain = read_task_log(path_, from, 97);
+        const LogPage fast = read_task_log(path_, from, 97, kMaxLogPageBytes, &index);
+        ASSERT_EQ(fast.ndjson, plain.ndjson) << "from " << from;
+        ASSERT_EQ(fast.next, plain.next);
+        if (fast.ndjson.empty()) break;
+        whole += fast.ndjson;
+        from = fast.next;
+    }
+    EXPECT_EQ(from, 2000u);
+    std::string expected = text;
+    for (size_t at; (at = expected.find("\n\n")) != std::string::npos;) expected.erase(at, 1);
+    EXPECT_EQ(whole, expected);
+    const TaskLogIndex::Mark mark = index.before(path_, log_file_id(path_), 1900);
+    EXPECT_EQ(mark.line, 1792u) << "the reader learnt every mark it passed";
+    EXPECT_EQ(text.compare(mark.offset, 9, "{\"i\":1792"), 0);
+    // Random reads after the index is full agree with plain ones.
+    for (size_t f : {0u, 1u, 255u, 256u, 257u, 1023u, 1999u, 2000u, 5000u}) {
+        EXPECT_EQ(read_task_log(path_, f, 3, kMaxLogPageBytes, &index).ndjson, read_task_log(path_, f, 3).ndjson) << f;
+        EXPECT_EQ(read_task_log(path_, f, 3, kMaxLogPageBytes, &index).next, read_task_log(path_, f, 3).next) << f;
+    }
+    // Rewritten in place with other lines (the same inode): the marks no longer fall after a
+    // newline and are dropped.
+    std::string other;
+    for (int i = 0; i < 2000; ++i) other += "{\"j\":" + std::to_string(i) + ",\"pad\":\"" + std::string(980, 'y') + "\"}\n";
+    ASSERT_NE(other[mark.offset - 1], '\n');
+    write(other);
+    const LogPage p = read_task_log(path_, 1900, 1, kMaxLogPageBytes, &index);
+    EXPECT_EQ(p.ndjson.substr(0, 12), "{\"j\":1900,\"p");
+    EXPECT_EQ(p.next, 1901u);
+}
+
 }  // namespace
 }  // namespace tessera::server
