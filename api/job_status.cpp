@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "api/result_files.h"
+
 namespace tessera::api {
 
 JobProgress job_progress(const Job& job, uint64_t samples, uint64_t tiles_done, uint64_t tiles_total) {
@@ -112,59 +114,23 @@ json to_json(const JobStatus& s) {
     // A farm's: tasks that failed and where, and why no node can take the job now.
     j["task_failures"] = s.task_failures ? to_json(*s.task_failures) : json(nullptr);
     j["unplaceable"] = s.unplaceable.empty() ? json(nullptr) : json(s.unplaceable);
-    // The links are to what the job will have: a shot's images are per frame, a comparison's
-    // result is its report and plot, and the denoised image and passes only where asked for.
+    // The links are to what the job will have (api/result_files.h, the rule the server serves by).
     const std::string self = "/v1/jobs/" + s.id;
-    const json* settings_frames = s.settings.is_object() && s.settings.contains("frames") ? &s.settings["frames"] : nullptr;
-    const bool shot = settings_frames && !settings_frames->is_null();
-    const bool comparison = s.settings.is_object() && s.settings.contains("kind") && s.settings["kind"] == "comparison";
-    // A denoising render that ended before two samples a pixel made no denoised image (its
-    // summary says; a shot's, unless every frame made one).
-    const bool denoise = s.settings.is_object() && s.settings.contains("denoise") && s.settings["denoise"] == true &&
-                         !(has_summary && s.summary.contains("denoised") && s.summary["denoised"] == false);
-    // A failed or canceled job keeps no results: its status links to itself alone.
-    const bool ended_without = s.state == JobState::failed || s.state == JobState::canceled;
-    const bool passes = s.settings.is_object() && s.settings.contains("passes") && s.settings["passes"].is_array() &&
-                        !s.settings["passes"].empty();
+    const ResultFiles results = ResultFiles::of(s.settings, has_summary ? s.summary : json(nullptr));
     j["links"] = {{"self", self}};
-    json& links = j["links"];
-    if (!ended_without) {
-        links["report"] = self + "/report.json";
-        if (comparison) {
-            links["convergence_svg"] = self + "/convergence.svg";
-        } else {
-            const std::string at = shot ? self + "/frames/{n}" : self;
-            const std::string prefix = shot ? "frame_" : "";
-            links[prefix + "image_png"] = at + "/image.png";
-            links[prefix + "image_exr"] = at + "/image.exr";
-            links[prefix + "rate_png"] = at + "/rate.png";
-            if (denoise) {
-                links[prefix + "denoised_png"] = at + "/denoised.png";
-                links[prefix + "denoised_exr"] = at + "/denoised.exr";
-            }
-            if (passes) links[prefix + "passes_exr"] = at + "/passes.exr";
-        }
-    }
+    // A failed or canceled job keeps no results: its status links to itself alone.
+    if (s.state != JobState::failed && s.state != JobState::canceled)
+        for (const auto& [name, file] : results.links()) j["links"][name] = self + "/" + file;
     // A shot: its frames' states, from the running job or, once finished, from its summary;
     // a still's is null. Its results are per frame, and a contact sheet.
     j["shot"] = nullptr;
-    if (shot) {
+    if (results.kind == ResultFiles::Kind::shot) {
         if (has_summary && s.summary.contains("shot")) {
             j["shot"] = s.summary["shot"];
             j["shot"]["current_frame"] = nullptr;
             j["shot"]["eta_s"] = 0.0;
         } else if (s.shot) {
             j["shot"] = to_json(*s.shot);
-        }
-        if (!ended_without) {
-            links["frame_exr"] = self + "/frames/{n}/image.exr";  // the name it had first, kept for clients that read it
-            links["contact_sheet"] = self + "/contact_sheet.png";
-            // A finished shot whose preview could not be made (no ffmpeg) has none.
-            const json* preview = has_summary && s.summary.contains("shot") && s.summary["shot"].is_object() &&
-                                          s.summary["shot"].contains("preview") && s.summary["shot"]["preview"].is_object()
-                                      ? &s.summary["shot"]["preview"]
-                                      : nullptr;
-            if (!(preview && preview->contains("written") && (*preview)["written"] == false)) links["preview"] = self + "/preview.mp4";
         }
     }
     return j;

@@ -12,6 +12,7 @@
 #include <spdlog/spdlog.h>
 
 #include "api/json_text.h"
+#include "api/result_files.h"
 #include "engine/core/scene_error.h"
 #include "engine/scene/procedural.h"
 #include "server/loggable.h"
@@ -397,21 +398,32 @@ void JobQueue::delete_results(const std::string& id) {
 
 namespace {
 
-// A denoised image or a pass the job did not ask for is not "gone" but never made: 404.
-void check_asked_for(const std::string& id, const nlohmann::json& settings, const std::string& file) {
-    if (!settings.is_object()) return;
-    if (file.starts_with("denoised.") && !(settings.contains("denoise") && settings["denoise"] == true))
+// What the job never has (api/result_files.h, the rule its links follow) is not "gone" but never
+// made: 404, whatever its state (not "poll" while it runs).
+void check_offered(const std::string& id, const nlohmann::json& settings, const std::string& file, bool frame) {
+    const std::string fetch = "/v1/jobs/" + id;
+    switch (api::ResultFiles::of(settings).unoffered(file, frame)) {
+    case api::Unoffered::none: return;
+    case api::Unoffered::not_a_shot:
+        throw QueueError(QueueErrorKind::not_found, "not-a-shot", "Not a shot",
+                         "job " + id + " is not a shot: it has no " + (frame ? "frames" : file) +
+                             (frame ? "; fetch " + fetch + "/" + file : ""));
+    case api::Unoffered::per_frame:
+        throw QueueError(QueueErrorKind::not_found, "per-frame-result", "A shot's images are per frame",
+                         "job " + id + " is a shot: fetch " + fetch + "/frames/{n}/" + file + ", or contact_sheet.png");
+    case api::Unoffered::not_a_render:
+        throw QueueError(QueueErrorKind::not_found, "not-a-render", "A comparison has no images",
+                         "job " + id + " is a comparison: its results are " + fetch + "/report.json and " + fetch +
+                             "/convergence.svg");
+    case api::Unoffered::not_denoised:
         throw QueueError(QueueErrorKind::not_found, "not-denoised", "The job does not denoise",
                          "job " + id + " was not asked to denoise (\"denoise\": true): it has no " + file);
-    if (file.starts_with("passes")) {
-        const nlohmann::json passes = settings.contains("passes") ? settings["passes"] : nlohmann::json::array();
+    case api::Unoffered::no_such_pass: {
         const std::string name = file == "passes.exr" ? "" : file.substr(7, file.size() - 7 - 4);  // passes/<name>.exr
-        const bool asked = passes.is_array() && !passes.empty() &&
-                           (name.empty() || std::find(passes.begin(), passes.end(), nlohmann::json(name)) != passes.end());
-        if (!asked)
-            throw QueueError(QueueErrorKind::not_found, "no-such-pass", "The job has no such pass",
-                             "job " + id + (name.empty() ? " asked for no passes" : " did not ask for the pass " + name) +
-                                 " (\"passes\": [...])");
+        throw QueueError(QueueErrorKind::not_found, "no-such-pass", "The job has no such pass",
+                         "job " + id + (name.empty() ? " asked for no passes" : " did not ask for the pass " + name) +
+                             " (\"passes\": [...])");
+    }
     }
 }
 
@@ -428,20 +440,12 @@ QueueError nothing_denoised(const std::string& what) {
 std::string JobQueue::result_path(const std::string& id, const std::string& file) {
     const api::JobStatus st = status(id);
     const JobState state = st.state;
-    const bool shot = st.settings.is_object() && st.settings.contains("frames") && !st.settings["frames"].is_null();
-    if (!shot && (file == "contact_sheet.png" || file == "preview.mp4"))
-        throw QueueError(QueueErrorKind::not_found, "not-a-shot", "Not a shot", "job " + id + " is a still: it has no " + file);
-    // What the job did not ask for is 404 whatever its state (not "poll" while it runs).
-    check_asked_for(id, st.settings, file);
+    check_offered(id, st.settings, file, false);
     // A running shot's image.png between passes is "not yet", as a still's before its first
     // (the web page shows the running shot's passes by it).
     if (!is_final(state))
         throw QueueError(QueueErrorKind::conflict, "not-finished", "The job is not finished",
                          "job " + id + " is " + to_string(state) + "; poll /v1/jobs/" + id);
-    if (shot && (file == "image.png" || file == "image.exr" || file == "rate.png" || file.starts_with("convergence.") ||
-                 file.starts_with("denoised.") || file.starts_with("passes")))
-        throw QueueError(QueueErrorKind::not_found, "per-frame-result", "A shot's images are per frame",
-                         "job " + id + " is a shot: fetch /v1/jobs/" + id + "/frames/{n}/" + file + ", or contact_sheet.png");
     const fs::path p = fs::path(job_dir(id)) / file;
     if (!fs::exists(p)) {
         if (file.starts_with("denoised.") && fs::exists(fs::path(job_dir(id)) / "image.exr")) throw nothing_denoised(id);
@@ -454,15 +458,12 @@ std::string JobQueue::result_path(const std::string& id, const std::string& file
 
 std::string JobQueue::frame_result_path(const std::string& id, int frame, const std::string& file) {
     const api::JobStatus st = status(id);
+    check_offered(id, st.settings, file, true);
     const api::Job job = api::job_from_json(st.settings);
     const auto* r = std::get_if<api::RenderJob>(&job);
-    if (!r || !r->frames)
-        throw QueueError(QueueErrorKind::not_found, "not-a-shot", "Not a shot",
-                         "job " + id + " is a still: fetch /v1/jobs/" + id + "/" + file);
-    if (!r->frames->contains(frame))
+    if (!r || !r->frames || !r->frames->contains(frame))
         throw QueueError(QueueErrorKind::not_found, "no-such-frame", "No such frame",
                          "job " + id + " does not render frame " + std::to_string(frame));
-    check_asked_for(id, st.settings, file);
     const fs::path dir = fs::path(job_dir(id)) / "frames" / std::to_string(frame);
     // report.json is a frame's last file: before it, the frame is not finished.
     if (!fs::exists(dir / "report.json")) {

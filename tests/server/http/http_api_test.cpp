@@ -539,7 +539,8 @@ TEST_F(Server, ComparisonInOneRequest) {
     auto svg = client_->Get("/v1/jobs/" + id + "/convergence.svg");
     ASSERT_TRUE(svg && svg->status == 200);
     EXPECT_NE(svg->body.find(">importance<"), std::string::npos);
-    expect_problem(client_->Get("/v1/jobs/" + id + "/image.png"), 410);
+    // A comparison never makes an image: not found, not gone.
+    expect_problem(client_->Get("/v1/jobs/" + id + "/image.png"), 404);
     expect_problem(client_->Post("/v1/comparisons", json{{"scene", "builtin:cornell_box"}, {"reps", 0}}.dump(), "application/json"), 400, "/reps");
     expect_problem(client_->Post("/v1/comparisons", json{{"scene", "builtin:cornell_box"}, {"configs", json::array({{{"label", "x"}, {"spp", 4}}})}}.dump(), "application/json"), 400, "/configs/0/spp");
     expect_problem(client_->Post("/v1/comparisons", json{{"scene", "builtin:cornell_box"}, {"configs", json::array({{{"label", "x"}, {"bvh", "kd"}}})}}.dump(), "application/json"), 400, "/configs/0/bvh");

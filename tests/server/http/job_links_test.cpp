@@ -49,6 +49,8 @@ TEST_F(JobLinks, EveryLinkOfAFinishedJobIsThere) {
     ASSERT_EQ(d["state"], "succeeded") << d.dump();
     EXPECT_TRUE(d["links"].contains("denoised_png"));
     EXPECT_TRUE(d["links"].contains("passes_exr"));
+    EXPECT_TRUE(d["links"].contains("pass_depth_exr")) << "each pass alone too";
+    EXPECT_TRUE(d["links"].contains("convergence_svg"));
     expect_every_link_answers(d, 0);
 
     // A denoising job whose time ran out before two samples a pixel made no denoised image.
