@@ -456,8 +456,8 @@ int HttpApi::bind(const std::string& host, int port) {
 void HttpApi::serve() { server_->listen_after_bind(); }
 
 void HttpApi::send_encoded(const httplib::Request& req, httplib::Response& res, uint64_t estimate, const std::string& content_type,
-                           const std::function<std::vector<unsigned char>()>& encode) {
-    if (!encoded_.send(req, res, estimate, encode, content_type))
+                           const std::function<std::vector<unsigned char>()>& encode, bool changing) {
+    if (!encoded_.send(req, res, estimate, encode, content_type, changing))
         throw Problem(503, "busy", "Too many images encoded at once",
                       "images encoded on request and not yet sent hold " + std::to_string(encoded_.held()) +
                           " bytes; with this one they would pass the bound of " + std::to_string(encoded_.budget()) +
@@ -712,7 +712,7 @@ void HttpApi::routes() {
                 send_encoded(req, res, pixels * (file.ends_with(".exr") ? 16 : 3), type, [&] {
                     return file.ends_with(".exr") ? exr_bytes(img)
                          : file == "rate.png" ? rate_png_bytes(img, live->max_spp) : png_bytes(img, exposure);
-                });
+                }, /*changing=*/true);
                 res.set_header("Cache-Control", "no-store");
                 res.set_header("X-Tessera-Pass", std::to_string(live->pass.index));
                 res.set_header("X-Tessera-Pass-Spp", std::to_string(live->pass.spp));

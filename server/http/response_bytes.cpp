@@ -2,7 +2,11 @@
 
 #include <httplib.h>
 
+#include <sys/stat.h>
+
 #include <algorithm>
+#include <cstdio>
+#include <ctime>
 #include <fstream>
 #include <optional>
 #include <stdexcept>
@@ -16,15 +20,92 @@ namespace {
 // accepts it); larger ones are streamed.
 constexpr uint64_t kInMemory = 256 << 10;
 
-// The Range hold_range took aside for this thread's request.
+// The Range hold_range took aside for this thread's request, and its If-Range.
 thread_local std::optional<httplib::Range> t_range;
+thread_local std::optional<std::string> t_if_range;
+
+// An answer's validators: an ETag always, a Last-Modified where the answer is a file.
+struct Validators {
+    std::string etag;
+    std::string last_modified;  // as sent (IMF-fixdate); empty for none
+    time_t modified = 0;
+};
+
+std::string http_date(time_t t) {
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    char buf[40];
+    std::strftime(buf, sizeof buf, "%a, %d %b %Y %H:%M:%S GMT", &tm);
+    return buf;
+}
+
+// An IMF-fixdate (the form servers send; the obsolete forms are not matched, which only costs
+// a whole answer).
+std::optional<time_t> parse_http_date(const std::string& s) {
+    std::tm tm{};
+    const char* end = strptime(s.c_str(), "%a, %d %b %Y %H:%M:%S GMT", &tm);
+    if (!end || *end != '\0') return std::nullopt;
+    return timegm(&tm);
+}
+
+std::string trim(std::string s) {
+    const size_t a = s.find_first_not_of(" \t");
+    if (a == std::string::npos) return "";
+    return s.substr(a, s.find_last_not_of(" \t") - a + 1);
+}
+
+// If-None-Match's list against our ETag, compared weakly (RFC 9110 13.1.2).
+bool none_match_hits(const std::string& header, const std::string& etag) {
+    auto opaque = [](std::string t) { return t.rfind("W/", 0) == 0 ? t.substr(2) : t; };
+    size_t at = 0;
+    while (at <= header.size()) {
+        const size_t comma = header.find(',', at);
+        const std::string tag = trim(header.substr(at, comma == std::string::npos ? std::string::npos : comma - at));
+        if (tag == "*" || (!tag.empty() && opaque(tag) == opaque(etag))) return true;
+        if (comma == std::string::npos) break;
+        at = comma + 1;
+    }
+    return false;
+}
+
+// Sets the validators and answers 304 where the request's conditions say the client has this
+// answer already; false where the body is to be sent.
+bool not_modified(const httplib::Request& req, httplib::Response& res, const Validators& v) {
+    res.set_header("ETag", v.etag);
+    if (!v.last_modified.empty()) res.set_header("Last-Modified", v.last_modified);
+    bool fresh = false;
+    if (req.has_header("If-None-Match")) {
+        fresh = none_match_hits(req.get_header_value("If-None-Match"), v.etag);
+    } else if (!v.last_modified.empty() && req.has_header("If-Modified-Since")) {
+        const auto since = parse_http_date(trim(req.get_header_value("If-Modified-Since")));
+        fresh = since && v.modified <= *since;
+    }
+    if (!fresh) return false;
+    t_range.reset();
+    t_if_range.reset();
+    res.status = 304;
+    return true;
+}
 
 // Fits the range held for this request (if any) to a body of `size` bytes and gives it back to
 // the request: an open or overlong end is cut at the body's, a start at or past it is 416.
-void fit_range(const httplib::Request& req, httplib::Response& res, uint64_t size) {
-    if (!t_range) return;
-    int64_t first = t_range->first, last = t_range->second;
+// Under If-Range the range holds only while the validator it names is this answer's (strongly:
+// a weak ETag never matches); `changing` answers serve a range under a matching If-Range alone.
+void fit_range(const httplib::Request& req, httplib::Response& res, uint64_t size, const Validators& v, bool changing = false) {
+    std::optional<httplib::Range> range = t_range;
+    const std::optional<std::string> if_range = t_if_range;
     t_range.reset();
+    t_if_range.reset();
+    if (!range) return;
+    if (if_range) {
+        const std::string tag = trim(*if_range);
+        const bool strong_tag = !tag.empty() && tag.front() == '"';
+        const bool same = strong_tag ? tag == v.etag : !v.last_modified.empty() && tag == v.last_modified;
+        if (!same) return;  // changed since the client's part: the whole answer
+    } else if (changing) {
+        return;
+    }
+    int64_t first = range->first, last = range->second;
     const int64_t n = int64_t(size);
     if (first < 0) {  // the last `last` bytes
         if (last <= 0) last = 0;
@@ -46,7 +127,11 @@ void fit_range(const httplib::Request& req, httplib::Response& res, uint64_t siz
 
 void hold_range(httplib::Request& req) {
     t_range.reset();
-    if (req.ranges.size() == 1 && !req.has_header("If-Range")) t_range = req.ranges.front();
+    t_if_range.reset();
+    if (req.ranges.size() == 1) {
+        t_range = req.ranges.front();
+        if (req.has_header("If-Range")) t_if_range = req.get_header_value("If-Range");
+    }
     req.ranges.clear();
 }
 
@@ -56,7 +141,21 @@ void send_file(const httplib::Request& req, httplib::Response& res, const std::s
     const std::streamoff end = in->tellg();
     if (end < 0) throw std::runtime_error(path + ": cannot be read");
     const uint64_t size = uint64_t(end);  // of the file opened, whatever the path names later
-    fit_range(req, res, size);
+    // Result files are written once, before the job or frame is seen finished; the validator is
+    // the file's as the path names it now, its size the opened file's.
+    struct stat st {};
+    Validators v;
+    if (::stat(path.c_str(), &st) == 0) {
+        const uint64_t ns = uint64_t(st.st_mtim.tv_sec) * 1'000'000'000u + uint64_t(st.st_mtim.tv_nsec);
+        char tag[64];
+        std::snprintf(tag, sizeof tag, "\"%llx-%llx-%llx\"", (unsigned long long)size, (unsigned long long)ns,
+                      (unsigned long long)st.st_ino);
+        v.etag = tag;
+        v.modified = st.st_mtim.tv_sec;
+        v.last_modified = http_date(v.modified);
+    }
+    if (!v.etag.empty() && not_modified(req, res, v)) return;
+    fit_range(req, res, size, v);
     if (size <= kInMemory) {
         std::string body(size, '\0');
         in->seekg(0);
@@ -78,7 +177,8 @@ void send_file(const httplib::Request& req, httplib::Response& res, const std::s
 }
 
 bool EncodedResponses::send(const httplib::Request& req, httplib::Response& res, uint64_t estimate,
-                            const std::function<std::vector<unsigned char>()>& encode, const std::string& content_type) {
+                            const std::function<std::vector<unsigned char>()>& encode, const std::string& content_type,
+                            bool changing) {
     const std::shared_ptr<State> state = state_;
     uint64_t now = state->held.load();
     do {
@@ -104,7 +204,15 @@ bool EncodedResponses::send(const httplib::Request& req, httplib::Response& res,
             state->held -= size;
         });
     }
-    fit_range(req, res, bytes->size());
+    // The bytes' own hash names them (FNV-1a, 64 bits): another pass or exposure is another tag.
+    uint64_t h = 1469598103934665603ull;
+    for (unsigned char b : *bytes) h = (h ^ b) * 1099511628211ull;
+    char tag[24];
+    std::snprintf(tag, sizeof tag, "\"%016llx\"", (unsigned long long)h);
+    Validators v;
+    v.etag = tag;
+    if (not_modified(req, res, v)) return true;
+    fit_range(req, res, bytes->size(), v, changing);
     if (bytes->empty()) {
         res.set_content("", content_type);
         return true;

@@ -180,5 +180,96 @@ TEST(ResponseBytes, EncodedImagesAreBoundedTogetherUntilTheirClientsHaveThem) {
     EXPECT_EQ(e2.held(), 300u);  // r2's alone
 }
 
+// A file names itself by its size, time and inode; an encoded image by its bytes. A client that
+// has the answer gets 304, and a range is served under If-Range only while the answer is the one
+// the client's part came from; an image that changes while its job runs needs that If-Range.
+TEST(ResponseBytes, ValidatorsAnswer304AndGuardResumedRanges) {
+    const fs::path path = fs::temp_directory_path() / ("tessera_validators_" + std::to_string(::getpid()) + ".bin");
+    std::ofstream(path, std::ios::binary) << std::string(300'000, 'v');
+    httplib::Request plain;
+    httplib::Response first;
+    send_file(plain, first, path.string(), "image/x-exr");
+    const std::string etag = first.get_header_value("ETag");
+    const std::string modified = first.get_header_value("Last-Modified");
+    ASSERT_EQ(etag.front(), '"');
+    ASSERT_FALSE(modified.empty());
+    for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{
+             {"If-None-Match", etag}, {"If-None-Match", "\"other\", W/" + etag}, {"If-None-Match", "*"}, {"If-Modified-Since", modified}}) {
+        httplib::Request cond;
+        cond.headers.emplace(name, value);
+        httplib::Response r;
+        send_file(cond, r, path.string(), "image/x-exr");
+        EXPECT_EQ(r.status, 304) << name << ": " << value;
+        EXPECT_FALSE(r.content_provider_);
+        EXPECT_TRUE(r.body.empty());
+    }
+    for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{
+             {"If-None-Match", "\"other\""}, {"If-Modified-Since", "Mon, 01 Jan 2001 00:00:00 GMT"}, {"If-Modified-Since", "garbage"}}) {
+        httplib::Request cond;
+        cond.headers.emplace(name, value);
+        httplib::Response r;
+        send_file(cond, r, path.string(), "image/x-exr");
+        EXPECT_NE(r.status, 304) << name << ": " << value;
+        EXPECT_EQ(r.content_length_, 300'000u);
+    }
+    // If-Range with this file's ETag or date: the range; with another's: the whole file.
+    for (const auto& [validator, ranged_answer] : std::vector<std::pair<std::string, bool>>{
+             {etag, true}, {modified, true}, {"\"other\"", false}, {"W/" + etag, false}}) {
+        httplib::Request req;
+        req.ranges = {{10, 19}};
+        req.headers.emplace("If-Range", validator);
+        hold_range(req);
+        httplib::Response r;
+        send_file(req, r, path.string(), "image/x-exr");
+        EXPECT_EQ(req.ranges.size(), ranged_answer ? 1u : 0u) << validator;
+    }
+    fs::remove(path);
+
+    // Encoded: the same bytes, the same tag; a changing answer's range needs If-Range.
+    EncodedResponses enc(1 << 20);
+    auto bytes = [] { return std::vector<unsigned char>(1000, 3); };
+    httplib::Response a, b;
+    ASSERT_TRUE(enc.send(plain, a, 1000, bytes, "image/png", true));
+    ASSERT_TRUE(enc.send(plain, b, 1000, bytes, "image/png", true));
+    EXPECT_EQ(a.get_header_value("ETag"), b.get_header_value("ETag"));
+    httplib::Response c;
+    ASSERT_TRUE(enc.send(plain, c, 1000, [] { return std::vector<unsigned char>(1000, 4); }, "image/png", true));
+    EXPECT_NE(c.get_header_value("ETag"), a.get_header_value("ETag"));
+    {
+        httplib::Request req;
+        req.ranges = {{100, 199}};
+        hold_range(req);
+        httplib::Response r;
+        ASSERT_TRUE(enc.send(req, r, 1000, bytes, "image/png", true));
+        EXPECT_TRUE(req.ranges.empty()) << "a running job's image: no range without If-Range";
+        httplib::Request still;
+        still.ranges = {{100, 199}};
+        hold_range(still);
+        ASSERT_TRUE(enc.send(still, r, 1000, bytes, "image/png", false));
+        EXPECT_EQ(still.ranges.size(), 1u) << "an answer that does not change serves its range";
+    }
+    {
+        httplib::Request req;
+        req.ranges = {{100, 199}};
+        req.headers.emplace("If-Range", a.get_header_value("ETag"));
+        hold_range(req);
+        httplib::Response r;
+        ASSERT_TRUE(enc.send(req, r, 1000, bytes, "image/png", true));
+        EXPECT_EQ(req.ranges.size(), 1u) << "the same pass: the range";
+        httplib::Request moved;
+        moved.ranges = {{100, 199}};
+        moved.headers.emplace("If-Range", a.get_header_value("ETag"));
+        hold_range(moved);
+        ASSERT_TRUE(enc.send(moved, r, 1000, [] { return std::vector<unsigned char>(1000, 4); }, "image/png", true));
+        EXPECT_TRUE(moved.ranges.empty()) << "another pass: the whole image";
+    }
+    httplib::Request cond;
+    cond.headers.emplace("If-None-Match", a.get_header_value("ETag"));
+    httplib::Response r;
+    ASSERT_TRUE(enc.send(cond, r, 1000, bytes, "image/png", true));
+    EXPECT_EQ(r.status, 304);
+    EXPECT_FALSE(r.content_provider_);
+}
+
 }  // namespace
 }  // namespace tessera::server
