@@ -5,7 +5,8 @@
 // process that linked it, whether or not it touched an image: each `tessera` command, each of
 // the test suites' processes (docs/benchmarks.md, "OpenImageIO, loaded when first used").
 // Plain standard types only: the module is built from the same compiler and flags as the
-// program, and kApiVersion guards against a stale one.
+// program, and kApiVersion, this header's hash (engine/CMakeLists.txt), guards against a
+// stale one.
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -13,7 +14,10 @@
 
 namespace tessera::oiio_module {
 
-inline constexpr int kApiVersion = 1;
+#ifndef TESSERA_OIIO_API
+#error "TESSERA_OIIO_API is defined by engine/CMakeLists.txt from this header's hash"
+#endif
+inline constexpr int kApiVersion = TESSERA_OIIO_API;
 
 struct Pixels {
     int width = 0, height = 0, channels = 0;
