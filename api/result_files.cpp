@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "engine/render/aov.h"
+
 namespace tessera::api {
 
 namespace {
@@ -59,6 +61,22 @@ Unoffered ResultFiles::unoffered(std::string_view file, bool frame) const {
     }
     if (kind == Kind::shot && !frame && is_render_file(file)) return Unoffered::per_frame;
     return Unoffered::none;
+}
+
+std::vector<std::string> ResultFiles::routed(bool frame) {
+    std::vector<std::string> f;
+    for (const RenderFile& r : kRenderFiles) f.emplace_back(r.file);
+    for (const char* name : {"report.json", "denoised.png", "denoised.exr", "passes.exr"}) f.emplace_back(name);
+    for (const AovInfo& i : kAovInfo) f.push_back("passes/" + std::string(i.name) + ".exr");
+    if (!frame) {
+        f.emplace_back("contact_sheet.png");
+        f.emplace_back("preview.mp4");
+    }
+    return f;
+}
+
+bool ResultFiles::live(std::string_view file) {
+    return file == "image.png" || file == "image.exr" || file == "rate.png" || file == "denoised.png" || file == "denoised.exr";
 }
 
 std::vector<std::pair<std::string, std::string>> ResultFiles::links() const {

@@ -36,6 +36,13 @@ struct ResultFiles {
 
     // What a status links to, name and path under the job ("frames/{n}/..." for a frame's).
     std::vector<std::pair<std::string, std::string>> links() const;
+
+    // Every name the API's routes take for a job's results (`frame`: under a frame's folder),
+    // whatever the job: what the server's routes are built from.
+    static std::vector<std::string> routed(bool frame);
+    // Whether `file` is an image a running render shows its latest pass by at the job's own URL
+    // (a running shot's current frame too, though its finished images are per frame).
+    static bool live(std::string_view file);
 };
 
 }  // namespace tessera::api

@@ -25,6 +25,7 @@
 
 #include "api/job_schema.h"
 #include "api/json_text.h"
+#include "api/result_files.h"
 #include "engine/io/image_io.h"
 #include "engine/render/aov.h"
 #include "server/http/connection_stream.h"
@@ -101,20 +102,25 @@ bool is_json_media_type(const std::string& header) {
     return t.rfind("application/", 0) == 0 && t.size() > 17 && t.compare(t.size() - 5, 5, "+json") == 0;
 }
 
-// A render's result files, a still's or a frame's (regex alternatives): the image, rate map and
-// curve, the denoised image, and the passes together and one by one.
-const std::string& render_files_re() {
-    static const std::string re = [] {
-        std::string passes;
-        for (const AovInfo& i : kAovInfo) passes += (passes.empty() ? "" : "|") + std::string(i.name);
-        return R"(image\.png|image\.exr|rate\.png|report\.json|convergence\.csv|convergence\.svg|denoised\.png|denoised\.exr|passes\.exr|passes/(?:)" +
-               passes + R"()\.exr)";
-    }();
+// The result files the routes take (regex alternatives), a still's or a frame's and a job's:
+// api::ResultFiles::routed's names, the list the status's links are checked against.
+std::string files_re(bool frame) {
+    std::string re;
+    for (const std::string& f : api::ResultFiles::routed(frame)) {
+        if (!re.empty()) re += '|';
+        for (char c : f) {
+            if (c == '.') re += '\\';
+            re += c;
+        }
+    }
     return re;
 }
-// ... and a job's: a shot's contact sheet and preview besides.
+const std::string& render_files_re() {
+    static const std::string re = files_re(true);
+    return re;
+}
 const std::string& job_files_re() {
-    static const std::string re = render_files_re() + R"(|contact_sheet\.png|preview\.mp4)";
+    static const std::string re = files_re(false);
     return re;
 }
 

@@ -2,13 +2,16 @@
 
 #include <httplib.h>
 
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <ctime>
-#include <fstream>
+#include <functional>
 #include <optional>
+#include <string_view>
 #include <stdexcept>
 
 #include "server/http/problem.h"
@@ -30,6 +33,12 @@ struct Validators {
     std::string last_modified;  // as sent (IMF-fixdate); empty for none
     time_t modified = 0;
 };
+
+// The types httplib 0.11 compresses (its can_compress_content_type).
+bool compressed_by_httplib(const std::string& type) {
+    return type.rfind("text/", 0) == 0 || type == "image/svg+xml" || type == "application/javascript" ||
+           type == "application/json" || type == "application/xml" || type == "application/xhtml+xml";
+}
 
 std::string http_date(time_t t) {
     std::tm tm{};
@@ -70,6 +79,9 @@ bool none_match_hits(const std::string& header, const std::string& etag) {
 
 // Sets the validators and answers 304 where the request's conditions say the client has this
 // answer already; false where the body is to be sent.
+// httplib frames a bodiless answer with `Content-Length: 0`, a 304 too, though RFC 9110 would
+// have the 200's length or none: httplib's own client waits for a body on a 304 without it
+// (cpp-httplib issue 1998), and every client ignores a 304's length, so it is left as it is.
 bool not_modified(const httplib::Request& req, httplib::Response& res, const Validators& v) {
     res.set_header("ETag", v.etag);
     if (!v.last_modified.empty()) res.set_header("Last-Modified", v.last_modified);
@@ -136,41 +148,47 @@ void hold_range(httplib::Request& req) {
 }
 
 void send_file(const httplib::Request& req, httplib::Response& res, const std::string& path, const std::string& content_type) {
-    auto in = std::make_shared<std::ifstream>(path, std::ios::binary | std::ios::ate);
-    if (!*in) throw std::runtime_error(path + ": cannot be read");
-    const std::streamoff end = in->tellg();
-    if (end < 0) throw std::runtime_error(path + ": cannot be read");
-    const uint64_t size = uint64_t(end);  // of the file opened, whatever the path names later
-    // Result files are written once, before the job or frame is seen finished; the validator is
-    // the file's as the path names it now, its size the opened file's.
+    // One descriptor for the validator and the bytes: a file renamed over the path meanwhile (a
+    // farm's later attempt) can never lend its tag to the other's bytes.
+    const int raw = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (raw < 0) throw std::runtime_error(path + ": cannot be read");
+    const auto fd = std::shared_ptr<int>(new int(raw), [](int* f) {
+        ::close(*f);
+        delete f;
+    });
     struct stat st {};
+    if (::fstat(*fd, &st) != 0 || !S_ISREG(st.st_mode)) throw std::runtime_error(path + ": cannot be read");
+    const uint64_t size = uint64_t(st.st_size);
+    const bool in_memory = size <= kInMemory;
     Validators v;
-    if (::stat(path.c_str(), &st) == 0) {
-        const uint64_t ns = uint64_t(st.st_mtim.tv_sec) * 1'000'000'000u + uint64_t(st.st_mtim.tv_nsec);
-        char tag[64];
-        std::snprintf(tag, sizeof tag, "\"%llx-%llx-%llx\"", (unsigned long long)size, (unsigned long long)ns,
-                      (unsigned long long)st.st_ino);
-        v.etag = tag;
-        v.modified = st.st_mtim.tv_sec;
-        v.last_modified = http_date(v.modified);
-    }
-    if (!v.etag.empty() && not_modified(req, res, v)) return;
+    const uint64_t ns = uint64_t(st.st_mtim.tv_sec) * 1'000'000'000u + uint64_t(st.st_mtim.tv_nsec);
+    char tag[72];
+    // httplib compresses a text answer held in memory where the client accepts it: its bytes
+    // then differ by encoding, so its tag is weak (no If-Range resumes it; 304 still does).
+    std::snprintf(tag, sizeof tag, "%s\"%llx-%llx-%llx\"", in_memory && compressed_by_httplib(content_type) ? "W/" : "",
+                  (unsigned long long)size, (unsigned long long)ns, (unsigned long long)st.st_ino);
+    v.etag = tag;
+    v.modified = st.st_mtim.tv_sec;
+    v.last_modified = http_date(v.modified);
+    if (not_modified(req, res, v)) return;
     fit_range(req, res, size, v);
-    if (size <= kInMemory) {
+    auto read_at = [fd, size](char* buf, uint64_t offset, uint64_t length) -> int64_t {
+        if (offset >= size) return 0;
+        const ssize_t got = ::pread(*fd, buf, size_t(std::min(length, size - offset)), off_t(offset));
+        return got < 0 ? -1 : int64_t(got);
+    };
+    if (in_memory) {
         std::string body(size, '\0');
-        in->seekg(0);
-        in->read(body.data(), std::streamsize(size));
-        body.resize(size_t(in->gcount()));
+        uint64_t have = 0;
+        for (int64_t got; have < size && (got = read_at(body.data() + have, have, size - have)) > 0;) have += uint64_t(got);
+        body.resize(size_t(have));
         res.set_content(std::move(body), content_type);
         return;
     }
-    res.set_content_provider(size_t(size), content_type, [in, size](size_t offset, size_t length, httplib::DataSink& sink) {
+    res.set_content_provider(size_t(size), content_type, [read_at, size](size_t offset, size_t length, httplib::DataSink& sink) {
         if (offset >= size) return false;
         char buf[64 << 10];
-        in->clear();
-        in->seekg(std::streamoff(offset));
-        in->read(buf, std::streamsize(std::min<uint64_t>({length, size - offset, sizeof buf})));
-        const std::streamsize got = in->gcount();
+        const int64_t got = read_at(buf, offset, std::min<uint64_t>(length, sizeof buf));
         // A file cut short under the answer (truncated in place) ends the connection.
         return got > 0 && sink.write(buf, size_t(got));
     });
@@ -204,11 +222,11 @@ bool EncodedResponses::send(const httplib::Request& req, httplib::Response& res,
             state->held -= size;
         });
     }
-    // The bytes' own hash names them (FNV-1a, 64 bits): another pass or exposure is another tag.
-    uint64_t h = 1469598103934665603ull;
-    for (unsigned char b : *bytes) h = (h ^ b) * 1099511628211ull;
+    // The bytes' own hash names them (libstdc++'s 64-bit Murmur hash, a few ms for a large
+    // EXR): another pass or exposure is another tag.
+    const uint64_t h = std::hash<std::string_view>{}(std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size()));
     char tag[24];
-    std::snprintf(tag, sizeof tag, "\"%016llx\"", (unsigned long long)h);
+    std::snprintf(tag, sizeof tag, "\"%016llx-%llx\"", (unsigned long long)h, (unsigned long long)bytes->size());
     Validators v;
     v.etag = tag;
     if (not_modified(req, res, v)) return true;

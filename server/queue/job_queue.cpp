@@ -400,15 +400,24 @@ namespace {
 
 // What the job never has (api/result_files.h, the rule its links follow) is not "gone" but never
 // made: 404, whatever its state (not "poll" while it runs).
-void check_offered(const std::string& id, const nlohmann::json& settings, const std::string& file, bool frame) {
+// A running shot shows its current frame's latest pass at the job's own image URLs (the web
+// page does): between passes those are "not yet" (409), as a still's before its first.
+void check_offered(const std::string& id, const nlohmann::json& settings, const std::string& file, bool frame,
+                   JobState state) {
     const std::string fetch = "/v1/jobs/" + id;
-    switch (api::ResultFiles::of(settings).unoffered(file, frame)) {
+    const api::ResultFiles results = api::ResultFiles::of(settings);
+    switch (results.unoffered(file, frame)) {
     case api::Unoffered::none: return;
     case api::Unoffered::not_a_shot:
         throw QueueError(QueueErrorKind::not_found, "not-a-shot", "Not a shot",
                          "job " + id + " is not a shot: it has no " + (frame ? "frames" : file) +
-                             (frame ? "; fetch " + fetch + "/" + file : ""));
+                             (!frame ? ""
+                              : results.kind == api::ResultFiles::Kind::comparison ? "; its results are " + fetch + "/report.json and " + fetch + "/convergence.svg"
+                                                                                   : "; fetch " + fetch + "/" + file));
     case api::Unoffered::per_frame:
+        if (!is_final(state) && api::ResultFiles::live(file))
+            throw QueueError(QueueErrorKind::conflict, "not-finished", "No pass to show yet",
+                             "job " + id + " is " + to_string(state) + ": its current frame's latest pass is shown here once it has one; poll " + fetch);
         throw QueueError(QueueErrorKind::not_found, "per-frame-result", "A shot's images are per frame",
                          "job " + id + " is a shot: fetch " + fetch + "/frames/{n}/" + file + ", or contact_sheet.png");
     case api::Unoffered::not_a_render:
@@ -440,9 +449,7 @@ QueueError nothing_denoised(const std::string& what) {
 std::string JobQueue::result_path(const std::string& id, const std::string& file) {
     const api::JobStatus st = status(id);
     const JobState state = st.state;
-    check_offered(id, st.settings, file, false);
-    // A running shot's image.png between passes is "not yet", as a still's before its first
-    // (the web page shows the running shot's passes by it).
+    check_offered(id, st.settings, file, false, state);
     if (!is_final(state))
         throw QueueError(QueueErrorKind::conflict, "not-finished", "The job is not finished",
                          "job " + id + " is " + to_string(state) + "; poll /v1/jobs/" + id);
@@ -458,7 +465,7 @@ std::string JobQueue::result_path(const std::string& id, const std::string& file
 
 std::string JobQueue::frame_result_path(const std::string& id, int frame, const std::string& file) {
     const api::JobStatus st = status(id);
-    check_offered(id, st.settings, file, true);
+    check_offered(id, st.settings, file, true, st.state);
     const api::Job job = api::job_from_json(st.settings);
     const auto* r = std::get_if<api::RenderJob>(&job);
     if (!r || !r->frames || !r->frames->contains(frame))

@@ -5,7 +5,9 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <fstream>
+#include <cstdio>
+#include <cstdlib>
+#include <string_view>
 #include <memory>
 #include <mutex>
 
@@ -81,10 +83,10 @@ TaskLogIndex::Mark TaskLogIndex::before(const std::string& path, uint64_t file, 
     const auto it = marks_.find(path);
     if (it == marks_.end() || it->second.file != file || it->second.at.empty()) return {};
     const size_t k = std::min(line / kLogMarkStride, it->second.at.size() - 1);
-    return {k * kLogMarkStride, it->second.at[k]};
+    return {k * kLogMarkStride, it->second.at[k].first, it->second.at[k].second};
 }
 
-void TaskLogIndex::learn(const std::string& path, uint64_t file, size_t line, uint64_t offset) {
+void TaskLogIndex::learn(const std::string& path, uint64_t file, size_t line, uint64_t offset, uint64_t hash) {
     if (line % kLogMarkStride != 0) return;
     std::lock_guard<std::mutex> lock(mutex_);
     auto [it, fresh] = marks_.try_emplace(path);
@@ -96,11 +98,10 @@ void TaskLogIndex::learn(const std::string& path, uint64_t file, size_t line, ui
         }
     }
     if (it->second.file != file) it->second = Marks{file, {}};
-    std::vector<uint64_t>& v = it->second.at;
-    if (v.empty()) v.push_back(0);  // line 0 starts the file
+    auto& v = it->second.at;
     // Marks are learnt in order as a reader passes them; one out of order (a reader that
     // started before a mark it skipped) waits for the reader that passes the gap.
-    if (line / kLogMarkStride == v.size()) v.push_back(offset);
+    if (line / kLogMarkStride == v.size()) v.emplace_back(offset, hash);
 }
 
 void TaskLogIndex::forget(const std::string& path) {
@@ -111,47 +112,67 @@ void TaskLogIndex::forget(const std::string& path) {
 
 namespace {
 
-// A mark is good where the byte before it ends a line (the file it was learnt in is still there).
-bool starts_a_line(std::ifstream& in, uint64_t offset) {
-    if (offset == 0) return true;
-    in.seekg(std::streamoff(offset - 1));
-    char c = 0;
-    return in.get(c) && c == '\n';
-}
+uint64_t id_of(const struct stat& st) { return (uint64_t(st.st_dev) << 40) ^ uint64_t(st.st_ino); }
+
+uint64_t line_hash(std::string_view line) { return std::hash<std::string_view>{}(line); }
 
 }  // namespace
 
 uint64_t log_file_id(const std::string& path) {
     struct stat st {};
-    if (::stat(path.c_str(), &st) != 0) return 0;
-    return (uint64_t(st.st_dev) << 40) ^ uint64_t(st.st_ino);
+    return ::stat(path.c_str(), &st) == 0 ? id_of(st) : 0;
 }
 
 LogPage read_task_log(const std::string& path, size_t from, size_t limit, size_t bytes, TaskLogIndex* index) {
-    const uint64_t file = index ? log_file_id(path) : 0;
-    std::ifstream in(path, std::ios::binary);
     LogPage page;
-    if (!in) return page;
-    TaskLogIndex::Mark mark = index ? index->before(path, file, from) : TaskLogIndex::Mark{};
-    if (!starts_a_line(in, mark.offset)) {
-        index->forget(path);
-        mark = {};
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return page;
+    FILE* f = ::fdopen(fd, "rb");
+    if (!f) {
+        ::close(fd);
+        return page;
     }
-    in.clear();
-    in.seekg(std::streamoff(mark.offset));
-    std::string line;
+    const std::unique_ptr<FILE, int (*)(FILE*)> closing(f, &std::fclose);
+    struct stat st {};
+    const uint64_t file = ::fstat(fd, &st) == 0 ? id_of(st) : 0;  // of the file opened, whatever the path names later
+    TaskLogIndex::Mark mark = index && file ? index->before(path, file, from) : TaskLogIndex::Mark{};
+    char* buf = nullptr;
+    size_t cap = 0;
+    struct FreeLine {
+        char*& p;
+        ~FreeLine() { std::free(p); }
+    } free_line{buf};
+    auto next_line = [&](std::string_view& line) {
+        const ssize_t got = ::getline(&buf, &cap, f);
+        // A record is one write(2), but a reader may see part of one: without its newline it is
+        // not counted (Next-From stays before it), so the next page has it whole.
+        if (got <= 0 || buf[got - 1] != '\n') return false;
+        line = std::string_view(buf, size_t(got - 1));
+        return true;
+    };
+    std::string_view line;
+    bool have = false;  // `line` holds the mark's line, read to check it
+    if (mark.line > 0) {
+        // A mark holds while the line found there is the one learnt (a file rewritten in place
+        // has other lines there); else the file is read from its start and learnt anew.
+        if (::fseeko(f, off_t(mark.offset), SEEK_SET) == 0 && next_line(line) && line_hash(line) == mark.hash) {
+            have = true;
+        } else {
+            index->forget(path);
+            mark = {};
+            ::fseeko(f, 0, SEEK_SET);
+        }
+    }
     size_t n = mark.line, taken = 0;
     uint64_t at = mark.offset;  // where the line read next starts
     // The lines between the mark and `from` are read and dropped one by one: a reader holds a
     // line, not the file.
-    while (taken < limit && std::getline(in, line)) {
-        // A record is one write(2), but a reader may see part of one: without its newline it is
-        // not counted (Next-From stays before it), so the next page has it whole.
-        if (in.eof()) break;
+    while (taken < limit && (have || next_line(line))) {
+        have = false;
         const uint64_t start = at;
         at += line.size() + 1;
         if (line.empty()) continue;
-        if (index) index->learn(path, file, n, start);
+        if (index && file) index->learn(path, file, n, start, line_hash(line));
         if (n++ < from) continue;
         if (taken > 0 && page.ndjson.size() + line.size() + 1 > bytes) break;
         page.ndjson += line;

@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -59,9 +60,9 @@ struct LogPage {
 // Where every kLogMarkStride-th line of a log file starts, learnt as its pages are read: a reader
 // paging through a long log starts near its page instead of reading every line before it, so
 // reading a log to its end is linear in its length, not quadratic. A log only grows, so what is
-// learnt stays true while the file is the same one (its device and inode); a file made anew, or
-// a mark that no longer falls after a newline, drops the marks. At most kLogIndexFiles files are
-// remembered, the oldest dropped.
+// learnt stays true while the file is the same one: its device and inode, and the line found at
+// a mark the one learnt there (its hash); anything else drops the file's marks. At most
+// kLogIndexFiles files are remembered, the oldest dropped.
 inline constexpr size_t kLogMarkStride = 256;
 inline constexpr size_t kLogIndexFiles = 512;
 class TaskLogIndex {
@@ -69,18 +70,20 @@ public:
     struct Mark {
         size_t line = 0;      // counted as read_task_log counts (empty lines are not)
         uint64_t offset = 0;  // where that line starts
+        uint64_t hash = 0;    // of that line, without its newline
     };
     // The last mark at or before `line` in the file `file` (its device and inode; the file's
     // start when none is known).
     Mark before(const std::string& path, uint64_t file, size_t line) const;
-    // Line `line` starts at `offset`; kept where `line` is a multiple of the stride.
-    void learn(const std::string& path, uint64_t file, size_t line, uint64_t offset);
+    // Line `line`, whose hash is `hash`, starts at `offset`; kept where `line` is a multiple of
+    // the stride.
+    void learn(const std::string& path, uint64_t file, size_t line, uint64_t offset, uint64_t hash);
     void forget(const std::string& path);
 
 private:
     struct Marks {
         uint64_t file = 0;
-        std::vector<uint64_t> at;  // [k]: where line k·stride starts
+        std::vector<std::pair<uint64_t, uint64_t>> at;  // [k]: where line k·stride starts, its hash
     };
     mutable std::mutex mutex_;
     std::unordered_map<std::string, Marks> marks_;

@@ -1,5 +1,6 @@
 // What a job's status links to and what the server serves follow one rule: every file a job may
-// be asked for through the API's routes is served exactly where its status links to it.
+// be asked for through the API's routes (ResultFiles::routed, what server/http builds them from)
+// is served exactly where its status links to it.
 #include "api/result_files.h"
 
 #include <gtest/gtest.h>
@@ -8,20 +9,11 @@
 #include <string>
 #include <vector>
 
-#include "engine/render/aov.h"
 
 namespace tessera::api {
 namespace {
 
 using nlohmann::json;
-
-// Every name the routes take: a still's and a frame's files, and a job's besides.
-std::vector<std::string> routed_files() {
-    std::vector<std::string> f{"image.png", "image.exr", "rate.png", "report.json", "convergence.csv", "convergence.svg",
-                               "denoised.png", "denoised.exr", "passes.exr", "contact_sheet.png", "preview.mp4"};
-    for (const AovInfo& i : kAovInfo) f.push_back("passes/" + std::string(i.name) + ".exr");
-    return f;
-}
 
 std::vector<std::string> linked(const ResultFiles& r, bool frame) {
     std::vector<std::string> out;
@@ -41,14 +33,14 @@ TEST(ResultFiles, WhatIsServedIsWhatIsLinked) {
         const ResultFiles r = ResultFiles::of(settings);
         for (bool frame : {false, true}) {
             const std::vector<std::string> links = linked(r, frame);
-            for (const std::string& f : routed_files()) {
+            for (const std::string& f : ResultFiles::routed(frame)) {
                 const bool served = r.unoffered(f, frame) == Unoffered::none;
                 const bool is_linked = std::find(links.begin(), links.end(), f) != links.end();
                 EXPECT_EQ(served, is_linked) << settings.dump() << (frame ? " frame " : " ") << f;
             }
+            const std::vector<std::string> routed = ResultFiles::routed(frame);
             for (const std::string& f : links)
-                EXPECT_NE(std::find(routed_files().begin(), routed_files().end(), f), routed_files().end())
-                    << "a link no route serves: " << f;
+                EXPECT_NE(std::find(routed.begin(), routed.end(), f), routed.end()) << "a link no route serves: " << f;
         }
     }
 }

@@ -63,12 +63,14 @@ TEST_F(JobLinks, EveryLinkOfAFinishedJobIsThere) {
     expect_every_link_answers(h, 0);
 
     const json shot = {{"scene", "cornell_shot"}, {"width", 16}, {"height", 12}, {"spp", 4}, {"max_depth", 1}, {"denoise", true},
-                       {"frames", {{"start", 0}, {"end", 24}, {"step", 24}}}};
+                       {"passes", {"normal"}}, {"frames", {{"start", 0}, {"end", 24}, {"step", 24}}}};
     const std::string sid = submit(shot);
     json s = wait_state(sid, {"succeeded", "failed"});
     ASSERT_EQ(s["state"], "succeeded") << s.dump();
     EXPECT_FALSE(s["links"].contains("image_png")) << "a shot's images are per frame";
     EXPECT_TRUE(s["links"].contains("frame_denoised_png"));
+    EXPECT_TRUE(s["links"].contains("frame_pass_normal_exr"));
+    EXPECT_TRUE(s["links"].contains("frame_report"));
     expect_every_link_answers(s, 24);
 
     // A shot whose frames' time ran out before two samples a pixel has no denoised frames, and

@@ -200,6 +200,8 @@ TEST(ResponseBytes, ValidatorsAnswer304AndGuardResumedRanges) {
         httplib::Response r;
         send_file(cond, r, path.string(), "image/x-exr");
         EXPECT_EQ(r.status, 304) << name << ": " << value;
+        EXPECT_EQ(r.get_header_value("ETag"), etag) << "a 304 names what the client has";
+        EXPECT_EQ(r.get_header_value("Last-Modified"), modified);
         EXPECT_FALSE(r.content_provider_);
         EXPECT_TRUE(r.body.empty());
     }
@@ -223,6 +225,28 @@ TEST(ResponseBytes, ValidatorsAnswer304AndGuardResumedRanges) {
         send_file(req, r, path.string(), "image/x-exr");
         EXPECT_EQ(req.ranges.size(), ranged_answer ? 1u : 0u) << validator;
     }
+    // A small text file, which httplib may compress: a weak tag, good for 304 and never for a range.
+    std::ofstream(path, std::ios::binary | std::ios::trunc) << "{\"a\": 1}";
+    httplib::Response small;
+    send_file(plain, small, path.string(), "application/json");
+    const std::string weak = small.get_header_value("ETag");
+    EXPECT_EQ(weak.rfind("W/\"", 0), 0u) << weak;
+    {
+        httplib::Request cond;
+        cond.headers.emplace("If-None-Match", weak);
+        httplib::Response r;
+        send_file(cond, r, path.string(), "application/json");
+        EXPECT_EQ(r.status, 304);
+        httplib::Request ranged;
+        ranged.ranges = {{1, 3}};
+        ranged.headers.emplace("If-Range", weak);
+        hold_range(ranged);
+        send_file(ranged, r, path.string(), "application/json");
+        EXPECT_TRUE(ranged.ranges.empty()) << "a weak tag never resumes a range";
+    }
+    httplib::Response png;
+    send_file(plain, png, path.string(), "image/png");
+    EXPECT_EQ(png.get_header_value("ETag").front(), '"') << "an image is never compressed: a strong tag";
     fs::remove(path);
 
     // Encoded: the same bytes, the same tag; a changing answer's range needs If-Range.

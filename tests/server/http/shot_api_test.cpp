@@ -295,10 +295,19 @@ TEST_F(ShotApi, FramesAreServedWhileTheShotRuns) {
     expect_problem_type(base + "/frames/999/image.exr", 409, "not-finished");
     expect_problem_type(base + "/contact_sheet.png", 409, "not-finished");
     expect_problem_type(base + "/report.json", 409, "not-finished");
+    // A running shot's curve is per frame whatever its state; its image at the job's URL is its
+    // current frame's latest pass, or "not yet" (never 404 while it runs).
+    expect_problem_type(base + "/convergence.csv", 404, "per-frame-result");
 
     json s;
     const auto t0 = std::chrono::steady_clock::now();
     for (;;) {
+        auto live = client_->Get(base + "/image.png");
+        ASSERT_TRUE(live);
+        s = status(id);
+        if (s["state"] == "queued" || s["state"] == "running") {
+            EXPECT_TRUE(live->status == 200 || live->status == 409) << live->status << ": " << live->body.substr(0, 300);
+        }
         auto f = client_->Get(base + "/frames/0/report.json");
         ASSERT_TRUE(f);
         ASSERT_TRUE(f->status == 200 || f->status == 409) << f->status << ": " << f->body;

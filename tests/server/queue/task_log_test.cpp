@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -82,6 +83,7 @@ TEST_F(TaskLogFile, AnIndexedReaderReadsWhatAPlainOneReadsFromNearItsPage) {
     for (size_t at; (at = expected.find("\n\n")) != std::string::npos;) expected.erase(at, 1);
     EXPECT_EQ(whole, expected);
     const TaskLogIndex::Mark mark = index.before(path_, log_file_id(path_), 1900);
+    EXPECT_NE(mark.hash, 0u);
     EXPECT_EQ(mark.line, 1792u) << "the reader learnt every mark it passed";
     EXPECT_EQ(text.compare(mark.offset, 9, "{\"i\":1792"), 0);
     // Random reads after the index is full agree with plain ones.
@@ -89,8 +91,14 @@ TEST_F(TaskLogFile, AnIndexedReaderReadsWhatAPlainOneReadsFromNearItsPage) {
         EXPECT_EQ(read_task_log(path_, f, 3, kMaxLogPageBytes, &index).ndjson, read_task_log(path_, f, 3).ndjson) << f;
         EXPECT_EQ(read_task_log(path_, f, 3, kMaxLogPageBytes, &index).next, read_task_log(path_, f, 3).next) << f;
     }
-    // Rewritten in place with other lines (the same inode): the marks no longer fall after a
-    // newline and are dropped.
+    // Rewritten in place (the same inode) with lines of the same lengths: every mark still falls
+    // after a newline, but its line is not the one learnt, so the marks are learnt anew.
+    std::string same_shape = text;
+    std::replace(same_shape.begin(), same_shape.end(), 'x', 'y');
+    write(same_shape);
+    EXPECT_EQ(read_task_log(path_, 1900, 2, kMaxLogPageBytes, &index).ndjson, read_task_log(path_, 1900, 2).ndjson);
+    EXPECT_NE(index.before(path_, log_file_id(path_), 1900).hash, mark.hash) << "learnt anew";
+    // ... and with other lines altogether: the marks fall inside lines.
     std::string other;
     for (int i = 0; i < 2000; ++i) other += "{\"j\":" + std::to_string(i) + ",\"pad\":\"" + std::string(980, 'y') + "\"}\n";
     ASSERT_NE(other[mark.offset - 1], '\n');
