@@ -342,6 +342,7 @@ HttpApi::HttpApi(JobQueue& queue, HttpLimits limits, std::string openapi_path)
     });
     server_->set_post_routing_handler([this](const httplib::Request&, httplib::Response& res) {
         contained("post-routing", [&] {
+            stamp(res);
             if (res.get_header_value("Content-Type") == "text/event-stream") guard_->response_streaming(limits_.event_keep_alive_s);
             // A streamed answer holds no body: its length is the provider's.
             else guard_->response_started(res.body.empty() ? res.content_length_ : res.body.size());
@@ -355,6 +356,7 @@ HttpApi::HttpApi(JobQueue& queue, HttpLimits limits, std::string openapi_path)
             const double ms = timed ? std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - request_start).count() : 0;
             spdlog::info("{} {} {} {}", loggable(req.method, 16), loggable(req.path, 512), res.status, timed ? fmt::format("{:.2f} ms", ms) : "-");
             request_start = {};
+            end_answer();
             guard_->response_sent();
             std::lock_guard<std::mutex> lock(status_mutex_);
             ++responses_by_status_[res.status];
@@ -366,6 +368,7 @@ HttpApi::HttpApi(JobQueue& queue, HttpLimits limits, std::string openapi_path)
         // A problem's body is never cut by a Range (one httplib could not read fills in part).
         const_cast<httplib::Request&>(req).ranges.clear();
         contained("error handler", [&] {
+            stamp(res);
             if (!res.body.empty()) return;
             const auto overrun = t_stream ? t_stream->overrun() : ConnectionStream::Overrun::none;
             if (overrun != ConnectionStream::Overrun::none) {
@@ -401,8 +404,16 @@ HttpApi::HttpApi(JobQueue& queue, HttpLimits limits, std::string openapi_path)
             // httplib refused the request before it was read whole (a broken request line or
             // header, a bad Range, a broken multipart body): what is left of it must not be
             // parsed as the next request.
-            const char* title = res.status == 413 ? "Payload too large" : res.status == 414 ? "URI too long"
-                              : res.status == 416 ? "Range not satisfiable" : "Request error";
+            if (res.status == 416) {
+                // httplib 0.11 refuses a Range it cannot read (a unit other than bytes, a range
+                // backwards) on any route, before routing: nothing was done.
+                answer_and_close(res, Problem(416, "invalid-range", "Unreadable Range header",
+                                              "the Range header is not bytes=first-last (or bytes=-suffix): the request was refused "
+                                              "before it was routed, and nothing was done (a POST queued no job); send it without "
+                                              "the Range"));
+                return;
+            }
+            const char* title = res.status == 413 ? "Payload too large" : res.status == 414 ? "URI too long" : "Request error";
             answer_and_close(res, Problem(res.status, "request-error", title, "the request was refused with status " + std::to_string(res.status)));
         }, [&](const Problem& p) { answer_and_close(res, p); });
     });
@@ -462,8 +473,8 @@ int HttpApi::bind(const std::string& host, int port) {
 void HttpApi::serve() { server_->listen_after_bind(); }
 
 void HttpApi::send_encoded(const httplib::Request& req, httplib::Response& res, uint64_t estimate, const std::string& content_type,
-                           const std::function<std::vector<unsigned char>()>& encode, bool changing) {
-    if (!encoded_.send(req, res, estimate, encode, content_type, changing))
+                           const std::function<std::vector<unsigned char>()>& encode, const std::string& live) {
+    if (!encoded_.send(req, res, estimate, encode, content_type, live))
         throw Problem(503, "busy", "Too many images encoded at once",
                       "images encoded on request and not yet sent hold " + std::to_string(encoded_.held()) +
                           " bytes; with this one they would pass the bound of " + std::to_string(encoded_.budget()) +
@@ -718,7 +729,10 @@ void HttpApi::routes() {
                 send_encoded(req, res, pixels * (file.ends_with(".exr") ? 16 : 3), type, [&] {
                     return file.ends_with(".exr") ? exr_bytes(img)
                          : file == "rate.png" ? rate_png_bytes(img, live->max_spp) : png_bytes(img, exposure);
-                }, /*changing=*/true);
+                }, // The pass: its index, target, time and mean count tell a shot's frames and a
+                   // job's restarts apart, and the image's address the same pass shown anew.
+                   fmt::format("{} {} {} {} {:.17g} {:.17g} {} {}", id, file, live->pass.index, live->pass.spp, live->pass.seconds,
+                               live->pass.spp_mean, static_cast<const void*>(&img), exposure));
                 res.set_header("Cache-Control", "no-store");
                 res.set_header("X-Tessera-Pass", std::to_string(live->pass.index));
                 res.set_header("X-Tessera-Pass-Spp", std::to_string(live->pass.spp));

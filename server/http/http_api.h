@@ -93,10 +93,10 @@ private:
     std::unique_ptr<httplib::Server> server_;
     std::atomic<uint64_t> bodies_in_flight_{0};
     EncodedResponses encoded_{limits_.max_encoded};
-    // Answers with `encode`'s bytes, or throws 503 busy past limits_.max_encoded; `changing`
-    // as EncodedResponses::send.
+    // Answers with `encode`'s bytes, or throws 503 busy past limits_.max_encoded; `live` as
+    // EncodedResponses::send.
     void send_encoded(const httplib::Request& req, httplib::Response& res, uint64_t estimate, const std::string& content_type,
-                      const std::function<std::vector<unsigned char>()>& encode, bool changing = false);
+                      const std::function<std::vector<unsigned char>()>& encode, const std::string& live = "");
     std::mutex probe_mutex_;  // readiness as the refusing thread last asked it
     std::chrono::steady_clock::time_point probe_at_;
     std::string probe_reason_;

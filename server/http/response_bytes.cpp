@@ -26,6 +26,8 @@ constexpr uint64_t kInMemory = 256 << 10;
 // The Range hold_range took aside for this thread's request, and its If-Range.
 thread_local std::optional<httplib::Range> t_range;
 thread_local std::optional<std::string> t_if_range;
+// Whether this thread's answer takes ranges (a result file, an image that does not change).
+thread_local bool t_takes_ranges = false;
 
 // An answer's validators: an ETag always, a Last-Modified where the answer is a file.
 struct Validators {
@@ -40,21 +42,15 @@ bool compressed_by_httplib(const std::string& type) {
            type == "application/json" || type == "application/xml" || type == "application/xhtml+xml";
 }
 
-std::string http_date(time_t t) {
-    std::tm tm{};
-    gmtime_r(&t, &tm);
-    char buf[40];
-    std::strftime(buf, sizeof buf, "%a, %d %b %Y %H:%M:%S GMT", &tm);
-    return buf;
-}
 
-// An IMF-fixdate (the form servers send; the obsolete forms are not matched, which only costs
-// a whole answer).
+// An HTTP date in any of its three forms (RFC 9110 5.6.7): IMF-fixdate, RFC 850, asctime.
 std::optional<time_t> parse_http_date(const std::string& s) {
-    std::tm tm{};
-    const char* end = strptime(s.c_str(), "%a, %d %b %Y %H:%M:%S GMT", &tm);
-    if (!end || *end != '\0') return std::nullopt;
-    return timegm(&tm);
+    for (const char* form : {"%a, %d %b %Y %H:%M:%S GMT", "%A, %d-%b-%y %H:%M:%S GMT", "%a %b %e %H:%M:%S %Y"}) {
+        std::tm tm{};
+        const char* end = strptime(s.c_str(), form, &tm);
+        if (end && *end == '\0') return timegm(&tm);
+    }
+    return std::nullopt;
 }
 
 std::string trim(std::string s) {
@@ -63,34 +59,64 @@ std::string trim(std::string s) {
     return s.substr(a, s.find_last_not_of(" \t") - a + 1);
 }
 
-// If-None-Match's list against our ETag, compared weakly (RFC 9110 13.1.2).
-bool none_match_hits(const std::string& header, const std::string& etag) {
-    auto opaque = [](std::string t) { return t.rfind("W/", 0) == 0 ? t.substr(2) : t; };
+// A header's values over all its lines, as one comma-separated list (RFC 9110 5.3).
+std::string joined(const httplib::Request& req, const char* name) {
+    std::string all;
+    const size_t n = req.get_header_value_count(name);
+    for (size_t i = 0; i < n; ++i) all += (i ? "," : "") + req.get_header_value(name, i);
+    return all;
+}
+
+// A date header's one value; several (or none) are no date (RFC 9110 13.1.3).
+std::optional<time_t> one_date(const httplib::Request& req, const char* name) {
+    if (req.get_header_value_count(name) != 1) return std::nullopt;
+    return parse_http_date(trim(req.get_header_value(name)));
+}
+
+bool weak(const std::string& tag) { return tag.rfind("W/", 0) == 0; }
+
+// An If-Match or If-None-Match list against our ETag: weakly (the opaque parts alike) for
+// If-None-Match, strongly (both strong and alike) for If-Match (RFC 9110 8.8.3.2).
+bool list_hits(const std::string& header, const std::string& etag, bool strong) {
+    auto opaque = [](const std::string& t) { return weak(t) ? t.substr(2) : t; };
     size_t at = 0;
     while (at <= header.size()) {
         const size_t comma = header.find(',', at);
         const std::string tag = trim(header.substr(at, comma == std::string::npos ? std::string::npos : comma - at));
-        if (tag == "*" || (!tag.empty() && opaque(tag) == opaque(etag))) return true;
+        if (tag == "*") return true;
+        if (!tag.empty() && (strong ? !weak(tag) && !weak(etag) && tag == etag : opaque(tag) == opaque(etag))) return true;
         if (comma == std::string::npos) break;
         at = comma + 1;
     }
     return false;
 }
 
-// Sets the validators and answers 304 where the request's conditions say the client has this
-// answer already; false where the body is to be sent.
+// Sets the validators and evaluates the request's preconditions in RFC 9110's order (13.2.2):
+// If-Match, else If-Unmodified-Since (412 where they fail), then If-None-Match, else
+// If-Modified-Since (304 where the client has this answer). True where the answer is decided
+// (412 thrown, or 304 set); false where the body is to be sent.
 // httplib frames a bodiless answer with `Content-Length: 0`, a 304 too, though RFC 9110 would
 // have the 200's length or none: httplib's own client waits for a body on a 304 without it
 // (cpp-httplib issue 1998), and every client ignores a 304's length, so it is left as it is.
 bool not_modified(const httplib::Request& req, httplib::Response& res, const Validators& v) {
     res.set_header("ETag", v.etag);
     if (!v.last_modified.empty()) res.set_header("Last-Modified", v.last_modified);
+    auto failed = [&](const char* header) {
+        t_range.reset();
+        t_if_range.reset();
+        throw Problem(412, "precondition-failed", "Precondition failed",
+                      std::string(header) + " does not hold for this answer (its ETag is " + v.etag + ")");
+    };
+    if (req.has_header("If-Match")) {
+        if (!list_hits(joined(req, "If-Match"), v.etag, true)) failed("If-Match");
+    } else if (const auto since = one_date(req, "If-Unmodified-Since"); since && !v.last_modified.empty()) {
+        if (v.modified > *since) failed("If-Unmodified-Since");
+    }
     bool fresh = false;
     if (req.has_header("If-None-Match")) {
-        fresh = none_match_hits(req.get_header_value("If-None-Match"), v.etag);
-    } else if (!v.last_modified.empty() && req.has_header("If-Modified-Since")) {
-        const auto since = parse_http_date(trim(req.get_header_value("If-Modified-Since")));
-        fresh = since && v.modified <= *since;
+        fresh = list_hits(joined(req, "If-None-Match"), v.etag, false);
+    } else if (const auto since = one_date(req, "If-Modified-Since"); since && !v.last_modified.empty()) {
+        fresh = v.modified <= *since;
     }
     if (!fresh) return false;
     t_range.reset();
@@ -101,9 +127,10 @@ bool not_modified(const httplib::Request& req, httplib::Response& res, const Val
 
 // Fits the range held for this request (if any) to a body of `size` bytes and gives it back to
 // the request: an open or overlong end is cut at the body's, a start at or past it is 416.
-// Under If-Range the range holds only while the validator it names is this answer's (strongly:
-// a weak ETag never matches); `changing` answers serve a range under a matching If-Range alone.
-void fit_range(const httplib::Request& req, httplib::Response& res, uint64_t size, const Validators& v, bool changing = false) {
+// Under If-Range the range holds only while the validator it names is this answer's: a strong
+// ETag alike, or the Last-Modified date of an answer whose tag is strong and which is a second
+// or more older than now (a date within its second is weak, RFC 9110 8.8.2.2).
+void fit_range(const httplib::Request& req, httplib::Response& res, uint64_t size, const Validators& v) {
     std::optional<httplib::Range> range = t_range;
     const std::optional<std::string> if_range = t_if_range;
     t_range.reset();
@@ -112,10 +139,9 @@ void fit_range(const httplib::Request& req, httplib::Response& res, uint64_t siz
     if (if_range) {
         const std::string tag = trim(*if_range);
         const bool strong_tag = !tag.empty() && tag.front() == '"';
-        const bool same = strong_tag ? tag == v.etag : !v.last_modified.empty() && tag == v.last_modified;
+        const bool date_strong = !weak(v.etag) && !v.last_modified.empty() && std::time(nullptr) - v.modified >= 1;
+        const bool same = strong_tag ? !weak(v.etag) && tag == v.etag : date_strong && tag == v.last_modified;
         if (!same) return;  // changed since the client's part: the whole answer
-    } else if (changing) {
-        return;
     }
     int64_t first = range->first, last = range->second;
     const int64_t n = int64_t(size);
@@ -137,10 +163,34 @@ void fit_range(const httplib::Request& req, httplib::Response& res, uint64_t siz
 
 }  // namespace
 
+std::string http_date(time_t t) {
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    char buf[40];
+    std::strftime(buf, sizeof buf, "%a, %d %b %Y %H:%M:%S GMT", &tm);
+    return buf;
+}
+
+void stamp(httplib::Response& res) {
+    res.headers.erase("Date");
+    res.set_header("Date", http_date(std::time(nullptr)));
+    // httplib says `bytes` on every HEAD before routing: the answer's own word replaces it.
+    res.headers.erase("Accept-Ranges");
+    res.set_header("Accept-Ranges", t_takes_ranges ? "bytes" : "none");
+}
+
+void end_answer() {
+    t_range.reset();
+    t_if_range.reset();
+    t_takes_ranges = false;
+}
+
 void hold_range(httplib::Request& req) {
     t_range.reset();
     t_if_range.reset();
-    if (req.ranges.size() == 1) {
+    t_takes_ranges = false;
+    // One range in one Range line (httplib reads the first line alone); anything else, the whole.
+    if (req.ranges.size() == 1 && req.get_header_value_count("Range") <= 1 && req.get_header_value_count("If-Range") <= 1) {
         t_range = req.ranges.front();
         if (req.has_header("If-Range")) t_if_range = req.get_header_value("If-Range");
     }
@@ -162,7 +212,7 @@ void send_file(const httplib::Request& req, httplib::Response& res, const std::s
     const bool in_memory = size <= kInMemory;
     Validators v;
     const uint64_t ns = uint64_t(st.st_mtim.tv_sec) * 1'000'000'000u + uint64_t(st.st_mtim.tv_nsec);
-    char tag[72];
+    char tag[80];
     // httplib compresses a text answer held in memory where the client accepts it: its bytes
     // then differ by encoding, so its tag is weak (no If-Range resumes it; 304 still does).
     std::snprintf(tag, sizeof tag, "%s\"%llx-%llx-%llx\"", in_memory && compressed_by_httplib(content_type) ? "W/" : "",
@@ -171,6 +221,7 @@ void send_file(const httplib::Request& req, httplib::Response& res, const std::s
     v.modified = st.st_mtim.tv_sec;
     v.last_modified = http_date(v.modified);
     if (not_modified(req, res, v)) return;
+    t_takes_ranges = true;
     fit_range(req, res, size, v);
     auto read_at = [fd, size](char* buf, uint64_t offset, uint64_t length) -> int64_t {
         if (offset >= size) return 0;
@@ -196,7 +247,7 @@ void send_file(const httplib::Request& req, httplib::Response& res, const std::s
 
 bool EncodedResponses::send(const httplib::Request& req, httplib::Response& res, uint64_t estimate,
                             const std::function<std::vector<unsigned char>()>& encode, const std::string& content_type,
-                            bool changing) {
+                            const std::string& live) {
     const std::shared_ptr<State> state = state_;
     uint64_t now = state->held.load();
     do {
@@ -222,15 +273,25 @@ bool EncodedResponses::send(const httplib::Request& req, httplib::Response& res,
             state->held -= size;
         });
     }
-    // The bytes' own hash names them (libstdc++'s 64-bit Murmur hash, a few ms for a large
-    // EXR): another pass or exposure is another tag.
-    const uint64_t h = std::hash<std::string_view>{}(std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size()));
-    char tag[24];
-    std::snprintf(tag, sizeof tag, "\"%016llx-%llx\"", (unsigned long long)h, (unsigned long long)bytes->size());
+    // Weak tags: an encoder may write the time into its bytes (OpenEXR's capDate), so two
+    // encodings of one image are alike in meaning, not byte for byte. A live pass is named by
+    // what the caller says it is; anything else by its bytes' hash (libstdc++'s 64-bit Murmur).
+    const uint64_t h = live.empty() ? std::hash<std::string_view>{}(std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size()))
+                                    : std::hash<std::string>{}(live);
+    char tag[48];
+    std::snprintf(tag, sizeof tag, "W/\"%016llx-%llx\"", (unsigned long long)h, (unsigned long long)bytes->size());
     Validators v;
     v.etag = tag;
     if (not_modified(req, res, v)) return true;
-    fit_range(req, res, bytes->size(), v, changing);
+    if (live.empty()) {
+        t_takes_ranges = true;
+        fit_range(req, res, bytes->size(), v);
+    } else {
+        // Its bytes change pass by pass under one URL: no range, so that a resumed download
+        // never joins two passes.
+        t_range.reset();
+        t_if_range.reset();
+    }
     if (bytes->empty()) {
         res.set_content("", content_type);
         return true;

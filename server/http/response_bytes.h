@@ -7,14 +7,16 @@
 // encode another. These answers fit the one range they serve to their size themselves (an open or
 // overlong end cut at theirs; 416 with a problem past it), whether held or streamed.
 //
-// Both carry a validator: a file its ETag (its size, modification time and inode) and
-// Last-Modified, an encoded image the ETag of its bytes. If-None-Match (or, without it,
-// If-Modified-Since) that matches is answered 304, and a range is served under If-Range only
-// while the validator it names is still the answer's. An image that changes while its job runs
-// (a running job's latest pass) serves a range under a matching If-Range alone, so that a
-// resumed download never joins two passes.
+// Both carry a validator: a file its ETag (its size, modification time and inode; weak for a
+// text answer httplib may compress) and Last-Modified, an encoded image a weak ETag of its
+// bytes. Preconditions are evaluated as RFC 9110 orders them: If-Match and If-Unmodified-Since
+// that fail are 412, If-None-Match (or, without it, If-Modified-Since) that matches is 304, and
+// a range is served under If-Range only while the strong validator it names is the answer's.
+// An image that changes while its job runs (a running job's latest pass) serves no range, so
+// that a resumed download never joins two passes.
 #include <atomic>
 #include <cstdint>
+#include <ctime>
 #include <functional>
 #include <memory>
 #include <string>
@@ -34,6 +36,15 @@ namespace tessera::server {
 // body; If-Range is kept for the answer to compare with its validator.
 void hold_range(httplib::Request& req);
 
+// An HTTP date (IMF-fixdate) of a time.
+std::string http_date(time_t t);
+// What every answer carries: its Date, and `Accept-Ranges: none` unless a result file said it
+// takes ranges (httplib would say `bytes` on a HEAD of any route).
+void stamp(httplib::Response& res);
+// Forgets what this thread held for its last answer, once it is sent: a request httplib refuses
+// before routing starts from nothing.
+void end_answer();
+
 // Streams the file at `path` (which exists: the caller resolved it) in 64 KiB reads; a small
 // file (a report, a curve) is answered from memory, so httplib may compress it.
 void send_file(const httplib::Request& req, httplib::Response& res, const std::string& path, const std::string& content_type);
@@ -45,11 +56,12 @@ public:
     // Encodes with `encode` and answers with its bytes, unless responses encoded before and
     // still being sent hold `estimate` bytes too many of the budget (one is always allowed):
     // then it returns false and has sent nothing.
-    // `changing`: the same URL answers other bytes later (a running job's pass), so a range
-    // is served only under an If-Range naming these bytes.
+    // `live` names what a URL that answers other bytes later shows now (a running job's pass):
+    // its weak tag, and no range. Otherwise the tag is the bytes' (weak: an encoder may write
+    // the time into them) and a range is served.
     bool send(const httplib::Request& req, httplib::Response& res, uint64_t estimate,
               const std::function<std::vector<unsigned char>()>& encode, const std::string& content_type,
-              bool changing = false);
+              const std::string& live = "");
     uint64_t held() const { return state_->held.load(); }
     uint64_t budget() const { return state_->budget; }
 

@@ -213,6 +213,27 @@ TEST_F(Server, ARangeTouchesNothingButResultFiles) {
     EXPECT_EQ(bad->status, 400);
     EXPECT_EQ(json::parse(bad->body)["status"], 400);
     wait_state(id, {"succeeded", "failed"});
+    // Only result files say they take ranges, on GET and HEAD alike (httplib said `bytes` on a
+    // HEAD of any route); every answer has its Date.
+    for (const std::string& path : {std::string("/healthz"), "/v1/jobs/" + id}) {
+        auto got = client_->Get(path);
+        auto head = client_->Head(path);
+        ASSERT_TRUE(got && head) << path;
+        EXPECT_EQ(got->get_header_value("Accept-Ranges"), "none") << path;
+        EXPECT_EQ(head->get_header_value("Accept-Ranges"), "none") << path;
+        EXPECT_EQ(got->get_header_value_count("Date"), 1u) << path;
+    }
+    auto file = client_->Head("/v1/jobs/" + id + "/image.exr");
+    ASSERT_TRUE(file);
+    EXPECT_EQ(file->get_header_value("Accept-Ranges"), "bytes");
+    // A Range httplib cannot read is refused before routing, on any route: a problem that says
+    // nothing was done, and the server serves on.
+    httplib::Client other("127.0.0.1", port_);
+    auto unreadable = other.Post("/v1/jobs", httplib::Headers{{"Range", "items=0-9"}}, kSmallJob.dump(), "application/json");
+    ASSERT_TRUE(unreadable);
+    EXPECT_EQ(unreadable->status, 416);
+    EXPECT_EQ(json::parse(unreadable->body)["type"], "/problems/invalid-range");
+    EXPECT_EQ(client_->Get("/healthz")->status, 200);
 }
 
 TEST_F(Server, BadPassesAndDenoiseAreRefusedNamingTheField) {

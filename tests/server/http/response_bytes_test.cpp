@@ -9,11 +9,13 @@
 #include <httplib.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -180,12 +182,15 @@ TEST(ResponseBytes, EncodedImagesAreBoundedTogetherUntilTheirClientsHaveThem) {
     EXPECT_EQ(e2.held(), 300u);  // r2's alone
 }
 
-// A file names itself by its size, time and inode; an encoded image by its bytes. A client that
-// has the answer gets 304, and a range is served under If-Range only while the answer is the one
-// the client's part came from; an image that changes while its job runs needs that If-Range.
+// A file names itself by its size, time and inode; an encoded image by its bytes or, while its
+// job runs, by its pass. Preconditions as RFC 9110 orders them: 412 where If-Match or
+// If-Unmodified-Since fail, 304 where the client has the answer, and a range under If-Range
+// only while the answer is the one the client's part came from; a running job's image none.
 TEST(ResponseBytes, ValidatorsAnswer304AndGuardResumedRanges) {
     const fs::path path = fs::temp_directory_path() / ("tessera_validators_" + std::to_string(::getpid()) + ".bin");
     std::ofstream(path, std::ios::binary) << std::string(300'000, 'v');
+    // An hour old: its Last-Modified is a strong validator (a date within its second is not).
+    fs::last_write_time(path, fs::file_time_type::clock::now() - std::chrono::hours(1));
     httplib::Request plain;
     httplib::Response first;
     send_file(plain, first, path.string(), "image/x-exr");
@@ -194,7 +199,8 @@ TEST(ResponseBytes, ValidatorsAnswer304AndGuardResumedRanges) {
     ASSERT_EQ(etag.front(), '"');
     ASSERT_FALSE(modified.empty());
     for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{
-             {"If-None-Match", etag}, {"If-None-Match", "\"other\", W/" + etag}, {"If-None-Match", "*"}, {"If-Modified-Since", modified}}) {
+             {"If-None-Match", etag}, {"If-None-Match", "\"other\", W/" + etag}, {"If-None-Match", "*"}, {"If-Modified-Since", modified},
+             {"If-Modified-Since", "Sunday, 06-Nov-44 08:49:37 GMT"}, {"If-Modified-Since", "Sun Nov  6 08:49:37 2044"}}) {
         httplib::Request cond;
         cond.headers.emplace(name, value);
         httplib::Response r;
@@ -213,6 +219,40 @@ TEST(ResponseBytes, ValidatorsAnswer304AndGuardResumedRanges) {
         send_file(cond, r, path.string(), "image/x-exr");
         EXPECT_NE(r.status, 304) << name << ": " << value;
         EXPECT_EQ(r.content_length_, 300'000u);
+    }
+    // A list over several lines is one list; a date given twice is no date.
+    {
+        httplib::Request cond;
+        cond.headers.emplace("If-None-Match", "\"a\"");
+        cond.headers.emplace("If-None-Match", etag);
+        httplib::Response r;
+        send_file(cond, r, path.string(), "image/x-exr");
+        EXPECT_EQ(r.status, 304);
+        httplib::Request twice;
+        twice.headers.emplace("If-Modified-Since", modified);
+        twice.headers.emplace("If-Modified-Since", modified);
+        httplib::Response r2;
+        send_file(twice, r2, path.string(), "image/x-exr");
+        EXPECT_NE(r2.status, 304);
+    }
+    // If-Match and If-Unmodified-Since: 412 where they fail, the answer where they hold.
+    for (const auto& [name, value, holds] : std::vector<std::tuple<std::string, std::string, bool>>{
+             {"If-Match", etag, true}, {"If-Match", "*", true}, {"If-Match", "\"other\"", false}, {"If-Match", "W/" + etag, false},
+             {"If-Unmodified-Since", modified, true}, {"If-Unmodified-Since", "Mon, 01 Jan 2001 00:00:00 GMT", false}}) {
+        httplib::Request cond;
+        cond.headers.emplace(name, value);
+        httplib::Response r;
+        if (holds) {
+            send_file(cond, r, path.string(), "image/x-exr");
+            EXPECT_EQ(r.content_length_, 300'000u) << name << ": " << value;
+        } else {
+            try {
+                send_file(cond, r, path.string(), "image/x-exr");
+                ADD_FAILURE() << name << ": " << value << " should fail";
+            } catch (const Problem& p) {
+                EXPECT_EQ(p.status, 412) << name << ": " << value;
+            }
+        }
     }
     // If-Range with this file's ETag or date: the range; with another's: the whole file.
     for (const auto& [validator, ranged_answer] : std::vector<std::pair<std::string, bool>>{
@@ -249,35 +289,44 @@ TEST(ResponseBytes, ValidatorsAnswer304AndGuardResumedRanges) {
     EXPECT_EQ(png.get_header_value("ETag").front(), '"') << "an image is never compressed: a strong tag";
     fs::remove(path);
 
-    // Encoded: the same bytes, the same tag; a changing answer's range needs If-Range.
+    // Encoded: the same bytes, the same weak tag (an encoder may write the time into them); a
+    // range without If-Range, or under one (a weak tag never matches it: the whole answer).
     EncodedResponses enc(1 << 20);
-    auto bytes = [] { return std::vector<unsigned char>(1000, 3); };
-    httplib::Response a, b;
-    ASSERT_TRUE(enc.send(plain, a, 1000, bytes, "image/png", true));
-    ASSERT_TRUE(enc.send(plain, b, 1000, bytes, "image/png", true));
+    auto bytes = [](unsigned char fill) { return [fill] { return std::vector<unsigned char>(1000, fill); }; };
+    httplib::Response a, b, c;
+    ASSERT_TRUE(enc.send(plain, a, 1000, bytes(3), "image/png"));
+    ASSERT_TRUE(enc.send(plain, b, 1000, bytes(3), "image/png"));
+    ASSERT_TRUE(enc.send(plain, c, 1000, bytes(4), "image/png"));
     EXPECT_EQ(a.get_header_value("ETag"), b.get_header_value("ETag"));
-    httplib::Response c;
-    ASSERT_TRUE(enc.send(plain, c, 1000, [] { return std::vector<unsigned char>(1000, 4); }, "image/png", true));
     EXPECT_NE(c.get_header_value("ETag"), a.get_header_value("ETag"));
-    // Whether a range asked for bytes 100-199 (under If-Range `validator`, where not empty) is served.
-    auto range_kept = [&](const std::string& validator, unsigned char fill, bool changing) {
+    EXPECT_EQ(a.get_header_value("ETag").rfind("W/\"", 0), 0u);
+    // Whether bytes 100-199 asked for (under If-Range `validator`, where not empty) are served.
+    auto range_kept = [&](const std::string& validator, unsigned char fill, const std::string& live) {
         httplib::Request req;
         req.ranges = {{100, 199}};
         if (!validator.empty()) req.headers.emplace("If-Range", validator);
         hold_range(req);
         httplib::Response r;
-        EXPECT_TRUE(enc.send(req, r, 1000, [fill] { return std::vector<unsigned char>(1000, fill); }, "image/png", changing));
+        EXPECT_TRUE(enc.send(req, r, 1000, bytes(fill), "image/png", live));
+        stamp(r);
+        EXPECT_EQ(r.get_header_value("Accept-Ranges"), live.empty() ? "bytes" : "none");
         return req.ranges.size() == 1;
     };
-    const std::string first_pass = a.get_header_value("ETag");
-    EXPECT_FALSE(range_kept("", 3, true)) << "a running job's image: no range without If-Range";
-    EXPECT_TRUE(range_kept("", 3, false)) << "an answer that does not change serves its range";
-    EXPECT_TRUE(range_kept(first_pass, 3, true)) << "the same pass: the range";
-    EXPECT_FALSE(range_kept(first_pass, 4, true)) << "another pass: the whole image";
+    EXPECT_TRUE(range_kept("", 3, "")) << "an answer that does not change serves its range";
+    EXPECT_FALSE(range_kept(a.get_header_value("ETag"), 3, "")) << "a weak tag never resumes one";
+    EXPECT_FALSE(range_kept("", 3, "job pass 1")) << "a running job's image: no range";
+    // A live pass is named by what it is, whatever its bytes: its tag holds from one encoding
+    // of the pass to the next (304), and another pass is another tag.
+    httplib::Response p1, p1again, p2;
+    ASSERT_TRUE(enc.send(plain, p1, 1000, bytes(5), "image/x-exr", "job pass 1"));
+    ASSERT_TRUE(enc.send(plain, p1again, 1000, bytes(6), "image/x-exr", "job pass 1"));
+    ASSERT_TRUE(enc.send(plain, p2, 1000, bytes(5), "image/x-exr", "job pass 2"));
+    EXPECT_EQ(p1.get_header_value("ETag"), p1again.get_header_value("ETag"));
+    EXPECT_NE(p1.get_header_value("ETag"), p2.get_header_value("ETag"));
     httplib::Request cond;
-    cond.headers.emplace("If-None-Match", a.get_header_value("ETag"));
+    cond.headers.emplace("If-None-Match", p1.get_header_value("ETag"));
     httplib::Response r;
-    ASSERT_TRUE(enc.send(cond, r, 1000, bytes, "image/png", true));
+    ASSERT_TRUE(enc.send(cond, r, 1000, bytes(6), "image/x-exr", "job pass 1"));
     EXPECT_EQ(r.status, 304);
     EXPECT_FALSE(r.content_provider_);
 }
