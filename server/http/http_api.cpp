@@ -424,7 +424,13 @@ HttpApi::HttpApi(JobQueue& queue, HttpLimits limits, std::string openapi_path)
             } catch (const Problem& p) {
                 send_problem(res, p);
             } catch (const QueueError& e) {
-                send_problem(res, problem(e));
+                // A scene's file is named by its place in the catalog, not in the server's disk.
+                Problem p = problem(e);
+                Problem shown(p.status, p.slug, p.title, queue_.catalog().redact(p.what()));
+                shown.field = p.field;
+                shown.location = queue_.catalog().redact(p.location);
+                shown.retry_after = p.retry_after;
+                send_problem(res, shown);
             } catch (const StoreError& e) {
                 spdlog::error("job store: {}", loggable(e.what(), 400));
                 send_problem(res, store_problem(e));
@@ -699,7 +705,8 @@ void HttpApi::routes() {
         const size_t limit = size_param(req, "limit", 1000, 1, 10'000);
         const LogPage page = queue_.job_log(req.matches[1], from, limit);
         res.set_header("Next-From", std::to_string(page.next));
-        res.set_content(page.ndjson, "application/x-ndjson");
+        // A scene's file is named by its place in the catalog, not in the server's disk.
+        res.set_content(queue_.catalog().redact(page.ndjson), "application/x-ndjson");
     });
     s.Get("/v1/nodes", [this](const httplib::Request&, httplib::Response& res) {
         send_json(res, 200, {{"nodes", queue_.node_report()}});
@@ -765,7 +772,7 @@ void HttpApi::routes() {
                 const json details = queue_.catalog().describe(e, queue_.config().load_limits);
                 for (auto& [k, v] : details.items()) j[k] = v;
             } catch (const SceneError& err) {
-                j["error"] = err.what();
+                j["error"] = queue_.catalog().redact(err.what());
             }
             scenes.push_back(j);
         }

@@ -48,6 +48,23 @@ SceneCatalog::SceneCatalog(std::string project_dir, std::vector<std::string> dir
     refresh();
 }
 
+std::string SceneCatalog::redact(std::string text) const {
+    std::vector<std::string> roots{project_dir_, upload_dir_};
+    roots.insert(roots.end(), dirs_.begin(), dirs_.end());
+    for (std::string root : roots) {
+        if (root.empty()) continue;
+        std::error_code ec;
+        // As the catalog's paths spell it, and as the file system does.
+        for (std::string form : {root, std::filesystem::weakly_canonical(root, ec).string()}) {
+            while (form.size() > 1 && form.back() == '/') form.pop_back();
+            if (form.empty() || form == "/") continue;
+            form += '/';
+            for (size_t at; (at = text.find(form)) != std::string::npos;) text.erase(at, form.size());
+        }
+    }
+    return text;
+}
+
 void SceneCatalog::refresh() {
     std::lock_guard<std::mutex> lock(mutex_);
     scan_locked();

@@ -30,6 +30,9 @@ public:
     // An environment map (.exr, .hdr) in the same folders, named like a scene.
     std::optional<CatalogEntry> find_environment(const std::string& name);
     std::vector<CatalogEntry> entries();
+    // `text` with the catalog's folders taken out of every path in it: what the server tells a
+    // client about a scene's file names it by its place in the catalog, not in the server's disk.
+    std::string redact(std::string text) const;
     // Counts and bounds of a scene, loading it once (cached by path and modification time).
     // Throws SceneError for a broken file.
     nlohmann::json describe(const CatalogEntry& e, const LoadLimits& limits);

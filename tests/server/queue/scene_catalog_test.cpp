@@ -73,6 +73,20 @@ TEST_F(SceneCatalogTest, NamesComeFromTheFoldersAndNeverActAsPaths) {
     EXPECT_FALSE(c.find_environment("box"));
 }
 
+// What the server says about a scene's file names it by its place in the catalog: the folders
+// of the server's disk are taken out of every path in the text, in any spelling of them.
+TEST_F(SceneCatalogTest, RedactTakesTheServersFoldersOutOfPaths) {
+    SceneCatalog c = catalog();
+    const std::string project = (dir_ / "project").string(), more = (dir_ / "more").string();
+    EXPECT_EQ(c.redact("scene: " + project + "/sub/deep.gltf#/animations: no animation 'x'"),
+              "scene: sub/deep.gltf#/animations: no animation 'x'");
+    EXPECT_EQ(c.redact(more + "/other.gltf and " + project + "/box.gltf"), "other.gltf and box.gltf");
+    EXPECT_EQ(c.redact((dir_ / "uploads").string() + "/up.glb: broken"), "up.glb: broken");
+    EXPECT_EQ(c.redact((dir_ / "project" / ".." / "project").string() + "/box.gltf").find(dir_.string()), std::string::npos)
+        << "a spelling through ..";
+    EXPECT_EQ(c.redact("/etc/passwd stays"), "/etc/passwd stays");
+}
+
 TEST_F(SceneCatalogTest, AFileAddedLaterIsFound) {
     SceneCatalog c = catalog();
     EXPECT_FALSE(c.find("late"));
