@@ -1,4 +1,6 @@
 #include "server/http/connection_guard.h"
+
+#include "server/http/response_bytes.h"
 #include "server/http/connection_stream.h"
 
 #include <fcntl.h>
@@ -310,6 +312,7 @@ void ConnectionGuard::refuse(int fd) {
                              "\"detail\":\"the server holds " + std::to_string(limits_.max_connections) +
                              " open connections, its bound (tessera serve --max-connections); retry shortly\"}";
     const std::string response = "HTTP/1.1 503 Service Unavailable\r\nContent-Type: application/problem+json\r\n"
+                                 "Date: " + http_date(std::time(nullptr)) + "\r\n"
                                  "Retry-After: 1\r\nConnection: close\r\nContent-Length: " + std::to_string(body.size()) +
                                  "\r\n\r\n" + body;
     // A refused client must read the answer, not a reset: send it, end our side, and read what

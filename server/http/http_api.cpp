@@ -522,9 +522,9 @@ std::string HttpApi::probe_answer(const std::string& path) {
     } else {
         return "";
     }
-    return fmt::format("HTTP/1.1 {} {}\r\nContent-Type: {}\r\nConnection: close\r\nContent-Length: {}\r\n\r\n{}", status,
+    return fmt::format("HTTP/1.1 {} {}\r\nContent-Type: {}\r\nDate: {}\r\nConnection: close\r\nContent-Length: {}\r\n\r\n{}", status,
                        status == 200 ? "OK" : "Service Unavailable", status == 200 ? "application/json" : "application/problem+json",
-                       body.size(), body);
+                       http_date(std::time(nullptr)), body.size(), body);
 }
 
 // What the body may take, set before anything of it is read. Chunked framing costs bytes of its
@@ -562,6 +562,7 @@ void HttpApi::begin_body(httplib::Request& req, ConnectionStream& strm) {
 }
 
 void HttpApi::end_request() {
+    end_answer();  // also where the logger was skipped (a content provider that threw)
     bodies_in_flight_ -= t_body_held;
     t_body_held = 0;
     t_body_refused = false;

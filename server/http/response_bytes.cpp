@@ -220,8 +220,8 @@ void send_file(const httplib::Request& req, httplib::Response& res, const std::s
     v.etag = tag;
     v.modified = st.st_mtim.tv_sec;
     v.last_modified = http_date(v.modified);
+    t_takes_ranges = true;  // a 304 says so too: a cache copies its headers onto what it kept
     if (not_modified(req, res, v)) return;
-    t_takes_ranges = true;
     fit_range(req, res, size, v);
     auto read_at = [fd, size](char* buf, uint64_t offset, uint64_t length) -> int64_t {
         if (offset >= size) return 0;
@@ -248,6 +248,15 @@ void send_file(const httplib::Request& req, httplib::Response& res, const std::s
 bool EncodedResponses::send(const httplib::Request& req, httplib::Response& res, uint64_t estimate,
                             const std::function<std::vector<unsigned char>()>& encode, const std::string& content_type,
                             const std::string& live) {
+    // A live pass is named before it is encoded: a poller that has it gets its 304 without an
+    // encoding, and without a place in the budget.
+    Validators v;
+    if (!live.empty()) {
+        char tag[40];
+        std::snprintf(tag, sizeof tag, "W/\"%016llx\"", (unsigned long long)std::hash<std::string>{}(live));
+        v.etag = tag;
+        if (not_modified(req, res, v)) return true;
+    }
     const std::shared_ptr<State> state = state_;
     uint64_t now = state->held.load();
     do {
@@ -275,16 +284,15 @@ bool EncodedResponses::send(const httplib::Request& req, httplib::Response& res,
     }
     // Weak tags: an encoder may write the time into its bytes (OpenEXR's capDate), so two
     // encodings of one image are alike in meaning, not byte for byte. A live pass is named by
-    // what the caller says it is; anything else by its bytes' hash (libstdc++'s 64-bit Murmur).
-    const uint64_t h = live.empty() ? std::hash<std::string_view>{}(std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size()))
-                                    : std::hash<std::string>{}(live);
-    char tag[48];
-    std::snprintf(tag, sizeof tag, "W/\"%016llx-%llx\"", (unsigned long long)h, (unsigned long long)bytes->size());
-    Validators v;
-    v.etag = tag;
-    if (not_modified(req, res, v)) return true;
+    // what the caller says it is (above); anything else by its bytes' hash (libstdc++'s 64-bit
+    // Murmur).
     if (live.empty()) {
+        const uint64_t h = std::hash<std::string_view>{}(std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size()));
+        char tag[48];
+        std::snprintf(tag, sizeof tag, "W/\"%016llx-%llx\"", (unsigned long long)h, (unsigned long long)bytes->size());
+        v.etag = tag;
         t_takes_ranges = true;
+        if (not_modified(req, res, v)) return true;
         fit_range(req, res, bytes->size(), v);
     } else {
         // Its bytes change pass by pass under one URL: no range, so that a resumed download

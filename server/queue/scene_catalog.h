@@ -45,6 +45,9 @@ private:
     std::string project_dir_;
     std::vector<std::string> dirs_;
     std::string upload_dir_;
+    // Every spelling of the folders above that redact() takes out (absolute, as given and as
+    // the file system resolves it), each ending in '/', the longest first: found once.
+    std::vector<std::string> roots_;
     std::mutex mutex_;
     std::map<std::string, CatalogEntry> entries_;
     std::map<std::string, CatalogEntry> environments_;

@@ -208,6 +208,9 @@ TEST(ResponseBytes, ValidatorsAnswer304AndGuardResumedRanges) {
         EXPECT_EQ(r.status, 304) << name << ": " << value;
         EXPECT_EQ(r.get_header_value("ETag"), etag) << "a 304 names what the client has";
         EXPECT_EQ(r.get_header_value("Last-Modified"), modified);
+        stamp(r);
+        EXPECT_EQ(r.get_header_value("Accept-Ranges"), "bytes") << "a cache copies a 304's headers onto what it kept";
+        end_answer();
         EXPECT_FALSE(r.content_provider_);
         EXPECT_TRUE(r.body.empty());
     }
@@ -253,6 +256,19 @@ TEST(ResponseBytes, ValidatorsAnswer304AndGuardResumedRanges) {
                 EXPECT_EQ(p.status, 412) << name << ": " << value;
             }
         }
+    }
+    // Each pair decided by its first: If-Match holding, If-Unmodified-Since is not read; If-None-
+    // Match missing, If-Modified-Since is not read.
+    for (const auto& [first, second] : std::vector<std::pair<std::pair<std::string, std::string>, std::pair<std::string, std::string>>>{
+             {{"If-Match", etag}, {"If-Unmodified-Since", "Mon, 01 Jan 2001 00:00:00 GMT"}},
+             {{"If-None-Match", "\"other\""}, {"If-Modified-Since", modified}}}) {
+        httplib::Request cond;
+        cond.headers.emplace(first.first, first.second);
+        cond.headers.emplace(second.first, second.second);
+        httplib::Response r;
+        EXPECT_NO_THROW(send_file(cond, r, path.string(), "image/x-exr")) << first.first;
+        EXPECT_NE(r.status, 304) << first.first;
+        EXPECT_EQ(r.content_length_, 300'000u) << first.first;
     }
     // If-Range with this file's ETag or date: the range; with another's: the whole file.
     for (const auto& [validator, ranged_answer] : std::vector<std::pair<std::string, bool>>{
@@ -326,9 +342,11 @@ TEST(ResponseBytes, ValidatorsAnswer304AndGuardResumedRanges) {
     httplib::Request cond;
     cond.headers.emplace("If-None-Match", p1.get_header_value("ETag"));
     httplib::Response r;
-    ASSERT_TRUE(enc.send(cond, r, 1000, bytes(6), "image/x-exr", "job pass 1"));
+    bool encoded = false;
+    ASSERT_TRUE(enc.send(cond, r, 1000, [&] { encoded = true; return std::vector<unsigned char>(1000, 6); }, "image/x-exr", "job pass 1"));
     EXPECT_EQ(r.status, 304);
     EXPECT_FALSE(r.content_provider_);
+    EXPECT_FALSE(encoded) << "a live pass's 304 costs no encoding";
 }
 
 }  // namespace
