@@ -729,7 +729,7 @@ void HttpApi::routes() {
         // A running job's images are its latest finished pass, said so in the headers (the
         // denoised image from the kDenoiseFrom pass on, engine/render/passes.h).
         const bool denoised = file == "denoised.png" || file == "denoised.exr";
-        if (file == "image.png" || file == "image.exr" || file == "rate.png" || denoised) {
+        if (api::ResultFiles::live(file)) {
             const auto live = queue_.live_pass(id);
             if (live && (!denoised || live->denoised)) {
                 const Image& img = denoised ? *live->denoised : *live->image;

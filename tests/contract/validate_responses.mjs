@@ -298,6 +298,14 @@ expect(await call('GET', `/v1/jobs/${job.id}/image.png?exposure=1.5`), 200, 'ano
 expect(await call('GET', `/v1/jobs/${job.id}/image.png?exposure=99`), 400, 'an exposure out of range');
 expect(await call('GET', `/v1/jobs/${job.id}/image.exr?exposure=1`), 400, 'exposure on the EXR');
 expect(await call('GET', `/v1/jobs/${job.id}/rate.png?exposure=1`), 400, 'exposure on the rate map');
+// Conditional requests on a finished job's files: 304 for the tag the client has, 412 where its
+// If-Match fails, for a streamed image and a text file alike.
+for (const f of ['image.exr', 'report.json']) {
+  const tag = expect(await call('GET', `/v1/jobs/${job.id}/${f}`), 200, f).headers.get('etag');
+  if (!tag) { fail(`${f}: no ETag`); continue; }
+  expect(await call('GET', `/v1/jobs/${job.id}/${f}`, {headers: {'If-None-Match': tag}}), 304, `${f} under its own If-None-Match`);
+  expect(await call('GET', `/v1/jobs/${job.id}/${f}`, {headers: {'If-Match': '"not-it"'}}), 412, `${f} under a failing If-Match`);
+}
 // Passes and the denoised image: served for a job that asked for them, 404 for one that did not.
 {
   const dn = json(expect(await call('POST', '/v1/jobs', {body: {...small, passes: ['albedo', 'depth'], denoise: true}}), 202, 'a job with passes and denoising'));
