@@ -136,6 +136,28 @@ constexpr int kRefitGroup = 8;
 int refit_anchor(int frame) { return frame >= 0 ? frame - frame % kRefitGroup : -((-frame + kRefitGroup - 1) / kRefitGroup) * kRefitGroup; }
 }  // namespace
 
+namespace {
+
+// A shot's `animation` the scene read whole does not have: the job's input, final, not a scene
+// that failed to read (which a run may retry: a file being replaced). The engine's reader
+// chooses the same way (a name, or an index written in digits).
+void check_animation(const std::string& name, const std::vector<AnimationSummary>& list) {
+    if (name.empty()) return;
+    for (const AnimationSummary& a : list)
+        if (a.name == name) return;
+    if (name.size() < 10 && std::all_of(name.begin(), name.end(), [](char c) { return c >= '0' && c <= '9'; }) &&
+        std::stoul(name) < list.size())
+        return;
+    std::string names;
+    for (size_t i = 0; i < list.size() && i < 20; ++i)
+        names += (i ? ", " : "") + (list[i].name.empty() ? "#" + std::to_string(i) : "'" + list[i].name + "'");
+    if (list.size() > 20) names += ", …";
+    throw InvalidJob("/animation", "the scene has no animation '" + name.substr(0, 80) + "': it has " +
+                                       (list.empty() ? std::string("none") : std::to_string(list.size()) + " (" + names + ")"));
+}
+
+}  // namespace
+
 JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutputs& out, const RunCallbacks& cb) {
     const auto t_start = Clock::now();
     const std::vector<int> frames = job.frames->frames();
@@ -143,8 +165,7 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
         opt.scene_file ? opt.scene_file : std::make_shared<const SceneFile>(opt.scene_source, opt.load_limits);
     const SceneFile& file = *opened;
     const double open_s = seconds_between(t_start, Clock::now());
-    if (!job.animation.empty() && file.animations().empty())
-        throw SceneError(SourceLocation{opt.scene_source, 0, ""}, "the job plays animation '" + job.animation + "', but the scene has none");
+    check_animation(job.animation, file.animations());
 
     // A scene without a camera is framed once, at rest, and seen from there in every frame: a
     // camera re-framed per frame would follow the bounds of a moving model and jump.

@@ -411,15 +411,21 @@ struct RenderNode::Impl {
                 throw;
             } catch (const JobFailure& e) {
                 failed = true;
-                log.errors.push_back(e.what());
-                fail_job(r, t.job, e.what());
+                log.errors.push_back(cache.as_published(e.what()));
+                fail_job(r, t.job, log.errors.back());
+            } catch (const api::InvalidJob& e) {
+                // The job's own input against a scene every node reads alike (an animation the
+                // scene lacks): no other node and no retry does better.
+                failed = true;
+                log.errors.push_back(cache.as_published(e.what()));
+                fail_job(r, t.job, log.errors.back());
             } catch (const SceneError& e) {
                 // A node's own limits or files may refuse what another takes.
                 failed = true;
-                retry = std::string("scene: ") + e.what();
+                retry = cache.as_published(std::string("scene: ") + e.what());
             } catch (const std::exception& e) {
                 failed = true;
-                retry = e.what();
+                retry = cache.as_published(e.what());
             }
             if (!retry.empty()) {
                 log.errors.push_back(retry);

@@ -10,6 +10,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <unordered_map>
 
 #include "api/job_runner.h"
 #include "engine/io/scene_loader.h"
@@ -30,6 +31,10 @@ public:
     std::shared_ptr<const PreparedScene> get(Redis& redis, const SceneRef& ref, const RenderSceneOptions& options);
     // The job's scene as a file on this node (a built-in's name as is); throws std::runtime_error.
     std::string file_for(Redis& redis, const SceneRef& ref);
+    // `text` (an error) with this node's copies of scenes named as their jobs named them: the
+    // file's path on the API node, which that node's catalog then shows by its place. A node's
+    // own folders are not its clients' business.
+    std::string as_published(std::string text) const;
     // A scene this process reads itself: a file path (keyed by its identity, so an edited or
     // replaced file is a new scene) or builtin:NAME[?params]. Throws SceneError. The second
     // value says whether it was prepared before.
@@ -51,6 +56,8 @@ private:
     int64_t max_bytes_;
     std::chrono::steady_clock::duration idle_;
     LoadLimits limits_;
+    mutable std::mutex names_mu_;
+    std::unordered_map<std::string, std::string> published_;  // a copy's file name → its SceneRef::source
     std::mutex mu_;
     std::list<Entry> lru_;  // most recent first
     std::atomic<uint64_t> hits_{0}, misses_{0};  // read by /metrics without the lock

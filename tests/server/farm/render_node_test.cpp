@@ -579,6 +579,25 @@ TEST_F(RenderNodeFarm, ATaskFailingEverywhereFailsItsJobAfterMaxRetriesWithEvery
     ASSERT_TRUE(st.task_failures);
     EXPECT_EQ(st.task_failures->failures, 2);
     EXPECT_TRUE(st.task_failures->blocklisted.empty());
+    // The scene is named by its place in the catalog, not by the node's copy of it.
+    EXPECT_NE(st.error.find("scene: broken_box.gltf#/scenes/0/nodes/0: "), std::string::npos) << st.error;
+    EXPECT_EQ(st.error.find("tessera-node-"), std::string::npos) << st.error;
+    for (const std::string& reason : st.task_failures->latest) {
+        EXPECT_NE(reason.find("broken_box.gltf#"), std::string::npos) << reason;
+        EXPECT_EQ(reason.find("tessera-node-"), std::string::npos) << reason;
+    }
+}
+
+// A shot playing an animation its scene lacks fails on the node that starts it, once, naming the
+// scene's animations: every node reads the scene alike, so no retry and no other node does better.
+TEST_F(RenderNodeFarm, AShotOfAnAnimationTheSceneLacksFailsOnceNamingItsAnimations) {
+    const json body = {{"scene", "cornell_shot"}, {"width", 16}, {"height", 12}, {"spp", 1}, {"frames", json::array({0})},
+                       {"animation", "Walk"}};
+    const api::JobStatus st = wait_final(service_->submit(body).id);
+    ASSERT_EQ(st.state, api::JobState::failed) << api::to_json(st).dump();
+    for (const char* name : {"'Walk'", "'Cube'", "'Dolly'"}) EXPECT_NE(st.error.find(name), std::string::npos) << name << " in " << st.error;
+    EXPECT_EQ(st.error.find("max_retries"), std::string::npos) << "not retried: " << st.error;
+    EXPECT_FALSE(st.task_failures) << api::to_json(st).dump();
 }
 
 // Where every live node is blocklisted for a job, it fails saying so, with the reasons.

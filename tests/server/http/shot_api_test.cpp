@@ -237,6 +237,8 @@ TEST_F(ShotApi, AnUnknownAnimationFailsTheJobNamingTheFilesAnimations) {
     ASSERT_EQ(failed["state"], "failed") << failed.dump();
     const std::string error = failed["error"];
     for (const char* name : {"'Walk'", "'Cube'", "'Dolly'"}) EXPECT_NE(error.find(name), std::string::npos) << name << " in " << error;
+    // The job's input, not a scene that failed to read: it is not run again.
+    EXPECT_EQ(failed["attempts"], 1) << failed.dump();
     // One the file has plays, by name or by index.
     for (const json& which : {json("Dolly"), json(1)}) {
         json ok = shot_job(json::array({0}));
@@ -251,6 +253,7 @@ TEST_F(ShotApi, AnUnknownAnimationFailsTheJobNamingTheFilesAnimations) {
     json f = wait_state(submit(none), {"succeeded", "failed"});
     ASSERT_EQ(f["state"], "failed") << f.dump();
     EXPECT_NE(f["error"].get<std::string>().find("none"), std::string::npos) << f.dump();
+    EXPECT_EQ(f["attempts"], 1) << f.dump();
     auto health = client_->Get("/healthz");
     ASSERT_TRUE(health);
     EXPECT_EQ(health->status, 200);
