@@ -128,8 +128,8 @@ bool not_modified(const httplib::Request& req, httplib::Response& res, const Val
 // Fits the range held for this request (if any) to a body of `size` bytes and gives it back to
 // the request: an open or overlong end is cut at the body's, a start at or past it is 416.
 // Under If-Range the range holds only while the validator it names is this answer's: a strong
-// ETag alike, or the Last-Modified date of an answer whose tag is strong and which is a second
-// or more older than now (a date within its second is weak, RFC 9110 8.8.2.2).
+// ETag alike, or the Last-Modified date of an answer whose tag is strong (a date is sent only
+// for a file a second old then, so the one the client holds was strong when it was sent).
 void fit_range(const httplib::Request& req, httplib::Response& res, uint64_t size, const Validators& v) {
     std::optional<httplib::Range> range = t_range;
     const std::optional<std::string> if_range = t_if_range;
@@ -139,7 +139,7 @@ void fit_range(const httplib::Request& req, httplib::Response& res, uint64_t siz
     if (if_range) {
         const std::string tag = trim(*if_range);
         const bool strong_tag = !tag.empty() && tag.front() == '"';
-        const bool date_strong = !weak(v.etag) && !v.last_modified.empty() && std::time(nullptr) - v.modified >= 1;
+        const bool date_strong = !weak(v.etag) && !v.last_modified.empty();
         const bool same = strong_tag ? !weak(v.etag) && tag == v.etag : date_strong && tag == v.last_modified;
         if (!same) return;  // changed since the client's part: the whole answer
     }
@@ -219,7 +219,13 @@ void send_file(const httplib::Request& req, httplib::Response& res, const std::s
                   (unsigned long long)size, (unsigned long long)ns, (unsigned long long)st.st_ino);
     v.etag = tag;
     v.modified = st.st_mtim.tv_sec;
-    v.last_modified = http_date(v.modified);
+    // A date is a validator only for a file a second or more old when it is sent: a file
+    // replaced within that second (a shot's frame written again) would carry the same date. A
+    // date sent so is strong from then on (RFC 9110 8.8.2.2), as a later file is a second apart.
+    timespec now{};
+    ::clock_gettime(CLOCK_REALTIME, &now);
+    const int64_t now_ns = int64_t(now.tv_sec) * 1'000'000'000 + now.tv_nsec;
+    if (now_ns - int64_t(ns) >= 1'000'000'000) v.last_modified = http_date(v.modified);
     t_takes_ranges = true;  // a 304 says so too: a cache copies its headers onto what it kept
     if (not_modified(req, res, v)) return;
     fit_range(req, res, size, v);

@@ -281,6 +281,30 @@ TEST(ResponseBytes, ValidatorsAnswer304AndGuardResumedRanges) {
         send_file(req, r, path.string(), "image/x-exr");
         EXPECT_EQ(req.ranges.size(), ranged_answer ? 1u : 0u) << validator;
     }
+    // A file written within the second: no date (another file written in the same second would
+    // carry it too), and a date for it in If-Range resumes nothing; its ETag still does.
+    {
+        std::ofstream(path, std::ios::binary | std::ios::trunc) << std::string(300'000, 'w');
+        httplib::Response fresh;
+        send_file(plain, fresh, path.string(), "image/x-exr");
+        EXPECT_EQ(fresh.get_header_value("Last-Modified"), "") << "a file younger than a second has no date";
+        const std::string fresh_tag = fresh.get_header_value("ETag");
+        const auto mtime = std::chrono::system_clock::to_time_t(std::chrono::file_clock::to_sys(fs::last_write_time(path)));
+        for (const auto& [validator, ranged_answer] : std::vector<std::pair<std::string, bool>>{{http_date(mtime), false}, {fresh_tag, true}}) {
+            httplib::Request req;
+            req.ranges = {{10, 19}};
+            req.headers.emplace("If-Range", validator);
+            hold_range(req);
+            httplib::Response r;
+            send_file(req, r, path.string(), "image/x-exr");
+            EXPECT_EQ(req.ranges.size(), ranged_answer ? 1u : 0u) << validator;
+        }
+        httplib::Request since;
+        since.headers.emplace("If-Modified-Since", http_date(mtime));
+        httplib::Response r;
+        send_file(since, r, path.string(), "image/x-exr");
+        EXPECT_NE(r.status, 304) << "no date, no 304 by date";
+    }
     // A small text file, which httplib may compress: a weak tag, good for 304 and never for a range.
     std::ofstream(path, std::ios::binary | std::ios::trunc) << "{\"a\": 1}";
     httplib::Response small;
