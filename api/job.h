@@ -99,6 +99,7 @@ struct RenderJob {
     std::optional<FrameSet> frames;
     double fps = 24;
     std::string animation;
+    bool animation_index = false;  // given as a number: an index, never a name (a name may be "1")
     int chunk = 0;  // frames per task on a farm; 0: chosen from the measured open and frame times
     // A shot's motion blur: the shutter's opening and closing in frames around each frame
     // (e.g. -0.25 and 0.25); absent: none (each frame an instant).

@@ -411,15 +411,21 @@ void set_bool(Job& j, const json& v, const ParseContext&) {
     at<Path...>(j) = v.get<bool>();
 }
 
-// "animation": a name, an index (a number or its digits), or null for every animation at once.
+// "animation": a name (or, where no animation has that name, the index its digits spell), an
+// index given as a number (never a name: a file may name an animation "1"), or null for every
+// animation at once.
 void set_animation(RenderJob& j, const json& v, const ParseContext& ctx) {
+    j.animation_index = false;
     if (v.is_null()) j.animation.clear();
-    else if (v.is_number_integer() && v.get<int64_t>() >= 0 && v.get<int64_t>() < 1'000'000) j.animation = std::to_string(v.get<int64_t>());
+    else if (v.is_number_integer() && v.get<int64_t>() >= 0 && v.get<int64_t>() < 1'000'000) j.animation = std::to_string(v.get<int64_t>()), j.animation_index = true;
     else if (v.is_string() && !v.get<std::string>().empty() && v.get<std::string>().size() <= 256) j.animation = v.get<std::string>();
     else throw InvalidJob(ctx.pointer, ctx.pointer + " must be an animation's name (1 to 256 characters), its index, or null (every animation)");
 }
 
-json get_animation(const RenderJob& j) { return j.animation.empty() ? json(nullptr) : json(j.animation); }
+json get_animation(const RenderJob& j) {
+    if (j.animation.empty()) return nullptr;
+    return j.animation_index ? json(std::stoll(j.animation)) : json(j.animation);
+}
 
 // "shutter": null (none) or {"open", "close"} in frames around each frame, -1 <= open < close <= 1.
 void set_shutter(RenderJob& j, const json& v, const ParseContext& ctx) {
@@ -607,7 +613,8 @@ const Field<RenderJob> kRenderFields[] = {
     [] {
         Field<RenderJob> f = field<RenderJob>(
             "animation", FieldKind::object,
-            "Which of the file's animations a shot plays: a name or an index; null: every animation at once, as viewers play them.",
+            "Which of the file's animations a shot plays: a name (a string; digits no animation is named are an index) or an index "
+            "(a number, never a name); null: every animation at once, as viewers play them.",
             "null");
         f.cli = "--animation";
         f.nullable = true;

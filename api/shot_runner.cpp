@@ -139,20 +139,15 @@ int refit_anchor(int frame) { return frame >= 0 ? frame - frame % kRefitGroup : 
 namespace {
 
 // A shot's `animation` the scene read whole does not have: the job's input, final, not a scene
-// that failed to read (which a run may retry: a file being replaced). The engine's reader
-// chooses the same way (a name, or an index written in digits).
-void check_animation(const std::string& name, const std::vector<AnimationSummary>& list) {
-    if (name.empty()) return;
-    for (const AnimationSummary& a : list)
-        if (a.name == name) return;
-    if (name.size() < 10 && std::all_of(name.begin(), name.end(), [](char c) { return c >= '0' && c <= '9'; }) &&
-        std::stoul(name) < list.size())
-        return;
+// that failed to read (which a run may retry: a file being replaced).
+void check_animation(const std::string& name, bool by_index, const std::vector<AnimationSummary>& list) {
+    if (name.empty() || chosen_animation(list, name, by_index)) return;
     std::string names;
     for (size_t i = 0; i < list.size() && i < 20; ++i)
         names += (i ? ", " : "") + (list[i].name.empty() ? "#" + std::to_string(i) : "'" + list[i].name + "'");
     if (list.size() > 20) names += ", …";
-    throw InvalidJob("/animation", "the scene has no animation '" + name.substr(0, 80) + "': it has " +
+    const std::string asked = by_index ? "at index " + name : "'" + name.substr(0, 80) + "'";
+    throw InvalidJob("/animation", "the scene has no animation " + asked + ": it has " +
                                        (list.empty() ? std::string("none") : std::to_string(list.size()) + " (" + names + ")"));
 }
 
@@ -165,7 +160,7 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
         opt.scene_file ? opt.scene_file : std::make_shared<const SceneFile>(opt.scene_source, opt.load_limits);
     const SceneFile& file = *opened;
     const double open_s = seconds_between(t_start, Clock::now());
-    check_animation(job.animation, file.animations());
+    check_animation(job.animation, job.animation_index, file.animations());
 
     // A scene without a camera is framed once, at rest, and seen from there in every frame: a
     // camera re-framed per frame would follow the bounds of a moving model and jump.
@@ -187,14 +182,23 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
         SceneDescription desc;
         std::optional<SceneDescription> closing;
     };
+    // The file was read whole: a pose it cannot make (an animation it cannot play, a rotation
+    // interpolated to nothing) it never will, so the job fails once, not as a read to retry.
+    auto at = [&](double time_s) {
+        try {
+            return file.at(ScenePose{time_s, job.animation, job.animation_index});
+        } catch (const SceneError& e) {
+            throw InvalidJob("/animation", std::string("scene: ") + e.what());
+        }
+    };
     auto pose = [&](int n) {
         Posed p;
         if (job.shutter) {
-            p.desc = file.at(ScenePose{(double(n) + job.shutter->first) / job.fps, job.animation});
-            p.closing = file.at(ScenePose{(double(n) + job.shutter->second) / job.fps, job.animation});
+            p.desc = at((double(n) + job.shutter->first) / job.fps);
+            p.closing = at((double(n) + job.shutter->second) / job.fps);
             if (!p.closing->camera && held_camera) p.closing->camera = held_camera;
         } else {
-            p.desc = file.at(ScenePose{double(n) / job.fps, job.animation});
+            p.desc = at(double(n) / job.fps);
         }
         if (!p.desc.camera && held_camera) p.desc.camera = held_camera;
         return p;
@@ -322,7 +326,7 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
                  {"frames_total", frames.size()},
                  {"frames_done", frames.size()},
                  {"fps", job.fps},
-                 {"animation", job.animation.empty() ? json(nullptr) : json(job.animation)},
+                 {"animation", job.animation.empty() ? json(nullptr) : job.animation_index ? json(std::stoll(job.animation)) : json(job.animation)},
                  {"animations", animations},
                  {"preview", preview},
                  {"timings", {{"open_s", open_s}, {"render_s", render_s}, {"frames_s", frames_s}, {"total_s", total_s},

@@ -14,18 +14,13 @@ size_t morph_target_count(const tinygltf::Mesh& mesh) {
 }
 
 // Which animations `name` chooses: "" every one; else the one of that name, or of that index.
-std::vector<size_t> choose_animations(const Ctx& c, const std::vector<Animation>& list, const std::string& name) {
+std::vector<size_t> choose_animations(const Ctx& c, const std::vector<Animation>& list, const std::string& name, bool by_index) {
     std::vector<size_t> chosen;
     if (name.empty()) {
         for (size_t i = 0; i < list.size(); ++i) chosen.push_back(i);
         return chosen;
     }
-    for (size_t i = 0; i < list.size(); ++i)
-        if (list[i].name == name) return {i};
-    if (!name.empty() && name.size() < 10 && std::all_of(name.begin(), name.end(), [](char ch) { return ch >= '0' && ch <= '9'; })) {
-        const size_t i = std::stoul(name);
-        if (i < list.size()) return {i};
-    }
+    if (const auto i = chosen_animation(list, name, by_index)) return {*i};
     std::string names;
     for (size_t i = 0; i < list.size() && i < 20; ++i) names += (i ? ", " : "") + (list[i].name.empty() ? "#" + str(i) : "'" + list[i].name + "'");
     fail(c, "/animations", "no animation '" + clip(name, 80) + "': the file has " +
@@ -116,6 +111,13 @@ ReadAnimations read_animations(Ctx& c) {
                     if (!std::isfinite(v)) fail(c, "/accessors/" + std::to_string(sm.output), "value " + str(k) + " is not finite");
                     o.values[k * size_t(per_element) + size_t(j)] = v;
                 }
+            // A key's rotation of zero length names no rotation (its tangents may be zero).
+            if (o.property == AnimatedProperty::rotation)
+                for (size_t k = 0; k < in.count; ++k) {
+                    const float* q = &o.values[(k * per_key + (per_key == 3 ? 1 : 0)) * 4];
+                    if (!(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] + double(q[3]) * q[3] > 1e-24))
+                        fail(c, "/accessors/" + std::to_string(sm.output), "key " + str(k) + "'s rotation quaternion has zero length");
+                }
             keys_left = left(keys_left, in.count + outv.count);
             start = std::min(start, double(o.times.front()));
             end = std::max(end, double(o.times.back()));
@@ -133,7 +135,7 @@ std::vector<NodeState> pose_nodes(const Ctx& c, const ReadAnimations& anims, con
     std::vector<NodeState> state(c.m.nodes.size());
     if (!std::isfinite(pose.time_s)) fail(c, "", "the pose's time is not finite");
     std::vector<float> v;
-    for (size_t ai : choose_animations(c, anims.list, pose.animation)) {
+    for (size_t ai : choose_animations(c, anims.list, pose.animation, pose.by_index)) {
         if (!anims.refusal[ai].empty()) fail(c, "/animations/" + str(ai), "cannot be played: " + anims.refusal[ai]);
         for (const AnimationChannel& ch : anims.list[ai].channels) {
             v.assign(size_t(ch.width), 0.f);

@@ -114,7 +114,8 @@ struct CameraDesc {
 // glTF viewers play them; otherwise one animation's name, or its index in decimal).
 struct ScenePose {
     double time_s = 0;
-    std::string animation;
+    std::string animation;  // a name, else the index its digits spell; empty: every animation
+    bool by_index = false;  // `animation` is an index's digits, never a name
 };
 
 // What a file animates, as a job's frames and the scene summary need to know it.
@@ -123,6 +124,21 @@ struct AnimationSummary {
     double start_s = 0, end_s = 0;  // the first and last key
     int channels = 0;
 };
+
+// Which of `list` (items with a `name`) a pose's one animation is: the one of that name, unless
+// `by_index`; else the one at the index its digits spell. nullopt: none. One rule for the
+// reader that plays it and the runner that refuses a job before its first frame.
+template <class List>
+std::optional<size_t> chosen_animation(const List& list, const std::string& animation, bool by_index) {
+    if (!by_index)
+        for (size_t i = 0; i < list.size(); ++i)
+            if (list[i].name == animation) return i;
+    if (animation.empty() || animation.size() >= 10) return std::nullopt;
+    for (const char ch : animation)
+        if (ch < '0' || ch > '9') return std::nullopt;
+    const size_t i = std::stoul(animation);
+    return i < list.size() ? std::optional<size_t>(i) : std::nullopt;
+}
 
 struct SceneDescription {
     std::string source;                  // path or name it was loaded from

@@ -130,6 +130,28 @@ const char* content_type(const std::string& file) {
          : ends(".svg") ? "image/svg+xml" : ends(".mp4") ? "video/mp4" : "image/png";
 }
 
+namespace {
+
+// Whether `path` is a result file's, whose answers carry an ETag and decide If-Match themselves.
+bool takes_etags(const std::string& path) {
+    static const std::regex job_file("/v1/jobs/[^/]+/(" + job_files_re() + ")");
+    static const std::regex frame_file("/v1/jobs/[^/]+/frames/-?[0-9]{1,8}/(" + render_files_re() + ")");
+    return std::regex_match(path, job_file) || std::regex_match(path, frame_file);
+}
+
+// An If-Match of "*" alone, on every line: any current answer matches it.
+bool only_any(const httplib::Request& req) {
+    const size_t n = req.get_header_value_count("If-Match");
+    for (size_t i = 0; i < n; ++i) {
+        const std::string v = req.get_header_value("If-Match", i);
+        const size_t a = v.find_first_not_of(" \t"), b = v.find_last_not_of(" \t");
+        if (a == std::string::npos || v.substr(a, b - a + 1) != "*") return false;
+    }
+    return true;
+}
+
+}  // namespace
+
 std::string allowed_methods(const std::string& path) {
     // As routes() registers them; httplib answers HEAD with a GET route.
     static const std::vector<std::pair<std::regex, std::string>> table = {
@@ -626,6 +648,12 @@ bool HttpApi::refuse_before_body(const httplib::Request& req, httplib::Response&
         res.set_header("Allow", allow);
         refusal = Problem(405, "method-not-allowed", "Method not allowed",
                           loggable(req.path, 200) + " takes " + allow + ", not " + loggable(req.method, 16));
+    } else if (req.has_header("If-Match") && !takes_etags(req.path) && !only_any(req)) {
+        // RFC 9110 13.1.1: evaluated before the method. These answers have no ETag, so a tag
+        // never matches: a DELETE or a pause under a tag the client expects does nothing.
+        refusal = Problem(412, "precondition-failed", "Precondition failed",
+                          "If-Match names a tag, and " + loggable(req.path, 200) +
+                              " has none (only result files carry an ETag); the request was not carried out");
     } else if (t_body_refused) {
         refusal = Problem(503, "busy", "Too many request bodies at once",
                           "the server is reading request bodies of up to " + std::to_string(bodies_in_flight_.load()) +

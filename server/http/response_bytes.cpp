@@ -34,6 +34,7 @@ struct Validators {
     std::string etag;
     std::string last_modified;  // as sent (IMF-fixdate); empty for none
     time_t modified = 0;
+    std::optional<int64_t> modified_ns;  // a file's time, whether its date is sent or not
 };
 
 // The types httplib 0.11 compresses (its can_compress_content_type).
@@ -109,8 +110,11 @@ bool not_modified(const httplib::Request& req, httplib::Response& res, const Val
     };
     if (req.has_header("If-Match")) {
         if (!list_hits(joined(req, "If-Match"), v.etag, true)) failed("If-Match");
-    } else if (const auto since = one_date(req, "If-Unmodified-Since"); since && !v.last_modified.empty()) {
-        if (v.modified > *since) failed("If-Unmodified-Since");
+    } else if (const auto since = one_date(req, "If-Unmodified-Since"); since && v.modified_ns) {
+        // A file within its first second (no date sent) by its time to the nanosecond: a date in
+        // its own second may be another file's, written there before it.
+        if (v.last_modified.empty() ? *v.modified_ns >= int64_t(*since) * 1'000'000'000 : v.modified > *since)
+            failed("If-Unmodified-Since");
     }
     bool fresh = false;
     if (req.has_header("If-None-Match")) {
@@ -219,6 +223,7 @@ void send_file(const httplib::Request& req, httplib::Response& res, const std::s
                   (unsigned long long)size, (unsigned long long)ns, (unsigned long long)st.st_ino);
     v.etag = tag;
     v.modified = st.st_mtim.tv_sec;
+    v.modified_ns = int64_t(ns);
     // A date is a validator only for a file a second or more old when it is sent: a file
     // replaced within that second (a shot's frame written again) would carry the same date. A
     // date sent so is strong from then on (RFC 9110 8.8.2.2), as a later file is a second apart.

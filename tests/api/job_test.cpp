@@ -295,17 +295,21 @@ TEST(RenderJob, RoundTripsEveryField) {
     EXPECT_EQ(to_json(std::get<RenderJob>(job_from_json(back))), back);
 }
 
-// A shot's fields survive to_json and back in both forms of `frames`; an index given as a
-// number is kept as its digits.
+// A shot's fields survive to_json and back in both forms of `frames`, and `animation` as a name
+// or as an index.
 TEST(RenderJob, ShotFieldsRoundTrip) {
     for (const char* text : {R"({"scene":"x.gltf","frames":{"start":-3,"end":9,"step":4},"fps":30,"animation":"Walk"})",
-                             R"({"scene":"x.gltf","frames":[7,1,4],"fps":12.5,"animation":"2"})"}) {
+                             R"({"scene":"x.gltf","frames":[7,1,4],"fps":12.5,"animation":"2"})",
+                             R"({"scene":"x.gltf","frames":[7],"fps":24.0,"animation":2})"}) {
         const json body = json::parse(text);
         const json back = to_json(parse_render_job(body));
         for (const char* k : {"frames", "fps", "animation"}) EXPECT_EQ(back[k], body[k]) << k << " of " << text;
         EXPECT_EQ(to_json(std::get<RenderJob>(job_from_json(back))), back);
     }
-    EXPECT_EQ(to_json(parse_render_job(json::parse(R"({"scene":"x","frames":[1],"animation":3})")))["animation"], "3");
+    // A number is an index, and stays one (a file may name an animation "3").
+    EXPECT_EQ(to_json(parse_render_job(json::parse(R"({"scene":"x","frames":[1],"animation":3})")))["animation"], 3);
+    EXPECT_TRUE(parse_render_job(json::parse(R"({"scene":"x","frames":[1],"animation":3})")).animation_index);
+    EXPECT_FALSE(parse_render_job(json::parse(R"({"scene":"x","frames":[1],"animation":"3"})")).animation_index);
     const RenderJob range = parse_render_job(json::parse(R"({"scene":"x","frames":{"start":-3,"end":9,"step":4}})"));
     EXPECT_EQ(range.frames->frames(), (std::vector<int>{-3, 1, 5, 9}));
     EXPECT_EQ(range.frames->count(), 4u);

@@ -17,6 +17,7 @@
 #include "build_paths.h"
 #include "engine/io/image_io.h"
 #include "engine/render/image.h"
+#include "tests/engine/io/gltf_test_files.h"
 #include "tests/scratch_dir.h"
 #include "tests/test_paths.h"
 
@@ -160,12 +161,34 @@ TEST_F(Shot, ResultsContactSheetAndReport) {
     EXPECT_FALSE(fs::exists(dir_ / "s" / "image.exr"));  // a shot's images are per frame
 }
 
+// The job's input, not a scene that failed to read: InvalidJob, which no queue runs again.
 TEST_F(Shot, AnUnknownAnimationFailsNamingTheFilesAnimations) {
+    for (const json& which : {json("Jump"), json(2)}) {
+        try {
+            run(job(json::array({0}), {{"animation", which}}), "x");
+            ADD_FAILURE() << "no InvalidJob for " << which;
+        } catch (const InvalidJob& e) {
+            EXPECT_EQ(e.pointer(), "/animation");
+            EXPECT_NE(std::string(e.what()).find("'Cube', 'Dolly'"), std::string::npos) << e.what();
+        }
+    }
+}
+
+// An animation the file cannot play (a channel on a path Tessera does not animate) fails the
+// job as its input does: the file was read whole, so no run of it would do better.
+TEST_F(Shot, AnAnimationTheFileCannotPlayFailsAsTheJobsInput) {
+    const fs::path file = dir_ / "pointer.gltf";
+    fs::create_directories(dir_);
+    std::ofstream(file) << test::gltf::triangle_file(R"([{"mesh":0}])", R"("animations":[{"name":"odd",
+        "channels":[{"sampler":0,"target":{"node":0,"path":"pointer"}}],"samplers":[{"input":0,"output":0}]}])");
+    RenderJob j = job(json::array({0}));
+    j.scene = file.string();
     try {
-        run(job(json::array({0}), {{"animation", "Jump"}}), "x");
-        FAIL() << "no SceneError";
-    } catch (const SceneError& e) {
-        EXPECT_NE(std::string(e.what()).find("'Cube', 'Dolly'"), std::string::npos) << e.what();
+        run(j, "pointer");
+        ADD_FAILURE() << "no InvalidJob";
+    } catch (const InvalidJob& e) {
+        EXPECT_NE(std::string(e.what()).find("cannot be played"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("'pointer'"), std::string::npos) << e.what();
     }
 }
 
@@ -179,7 +202,7 @@ TEST_F(Shot, AStillSceneRendersAtRestAndSaysSo) {
     ASSERT_TRUE(report["shot"].contains("warnings"));
     EXPECT_NE(report["shot"]["warnings"][0].get<std::string>().find("no animation"), std::string::npos);
     j.animation = "Walk";
-    EXPECT_THROW(run(j, "still2"), SceneError);
+    EXPECT_THROW(run(j, "still2"), InvalidJob);
 }
 
 TEST_F(Shot, AStopEndsTheShotWritingNoReport) {

@@ -60,8 +60,8 @@ std::shared_ptr<const GltfDocument> document(const std::string& json) { return G
 
 // In world space: a mesh two nodes place is an instance (instancing_test.cpp); here only where
 // each vertex lands matters.
-SceneDescription posed(const std::shared_ptr<const GltfDocument>& d, double t, const std::string& animation = "") {
-    SceneDescription s = d->pose(ScenePose{t, animation});
+SceneDescription posed(const std::shared_ptr<const GltfDocument>& d, double t, const std::string& animation = "", bool by_index = false) {
+    SceneDescription s = d->pose(ScenePose{t, animation, by_index});
     flatten_instances(s);
     return s;
 }
@@ -205,6 +205,25 @@ TEST(GltfAnimation, AJobChoosesAnAnimationByNameOrIndex) {
     error_of([&] { posed(d, NAN); });
 }
 
+// A file may name an animation "1": a job's name "1" plays it, its index 1 (a number in the
+// job) plays the animation at index 1, whatever it is named.
+TEST(GltfAnimation, AnIndexIsNeverTakenForAName) {
+    FileBuilder b;
+    const int times = b.floats({0, 1}, "SCALAR");
+    const int walk = b.floats({0, 0, 0, 1, 0, 0}, "VEC3");
+    const int run = b.floats({0, 0, 0, 0, 0, 3}, "VEC3");
+    const auto d = document(b.file(R"("scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+        "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"animations":[)" +
+                                   animation(channel(0, 0, "translation"), sampler(times, walk), "1") + "," +
+                                   animation(channel(0, 0, "translation"), sampler(times, run), "0") + "]"));
+    auto at_end = [&](const std::string& which, bool by_index) { return posed(d, 1.0, which, by_index).meshes[0].positions[0]; };
+    expect_near(at_end("1", false), {1, 0, 0});  // the animation named "1", at index 0
+    expect_near(at_end("1", true), {0, 0, 3});   // index 1
+    expect_near(at_end("0", true), {1, 0, 0});   // index 0
+    expect_near(at_end("0", false), {0, 0, 3});  // named "0"
+    error_of([&] { posed(d, 0, "2", true); });
+}
+
 // An animation that animates something Tessera cannot play is refused when played, naming the
 // channel; the still of the same file renders.
 TEST(GltfAnimation, AnUnplayableChannelIsRefusedByName) {
@@ -236,6 +255,20 @@ TEST(GltfAnimation, MalformedKeysFailNamingTheAccessor) {
               "/animations/0/samplers/0/output");
     EXPECT_EQ(error_of([&] { document(file_with({0, 1}, {0, 0, 0, 1, 1, 1}, "BOUNCE")); }).where().pointer,
               "/animations/0/samplers/0/interpolation");
+    // A rotation key of zero length names no rotation: refused where the file is read, naming
+    // its accessor, not where a frame is posed. A CUBICSPLINE key's tangents may be zero.
+    auto rotations = [](std::initializer_list<float> values, const char* interpolation) {
+        FileBuilder b;
+        const int t = b.floats({0, 1}, "SCALAR");
+        const int v = b.floats(values, "VEC4");
+        return b.file(R"("scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+            "animations":[)" + animation(channel(0, 0, "rotation"), sampler(t, v, interpolation)) + "]");
+    };
+    const SceneError zero = error_of([&] { document(rotations({0, 0, 0, 1, 0, 0, 0, 0}, "LINEAR")); });
+    EXPECT_EQ(zero.where().pointer, "/accessors/2");
+    EXPECT_NE(std::string(zero.what()).find("key 1's rotation quaternion has zero length"), std::string::npos) << zero.what();
+    EXPECT_NO_THROW(document(rotations({0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0}, "CUBICSPLINE")));
+    EXPECT_THROW(document(rotations({0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0}, "CUBICSPLINE")), SceneError);
 }
 
 // Every Khronos animated sample poses over its whole range: finite geometry at the first key,

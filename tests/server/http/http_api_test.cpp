@@ -58,6 +58,19 @@ TEST_F(Server, JobLifecycleAndResults) {
     auto report = client_->Get(base + "/report.json");
     ASSERT_TRUE(report && report->status == 200);
     EXPECT_TRUE(json::parse(report->body).contains("timings"));
+    // Under If-Match with a tag, a route without ETags does nothing: 412, the files kept (RFC
+    // 9110 13.1.1); "*" alone holds.
+    for (const char* path : {"/results", ":pause", ""}) {
+        const httplib::Headers tagged = {{"If-Match", "\"bogus\""}};
+        auto refused = std::string(path) == ":pause" ? client_->Post(base + path, tagged, "", "application/json")
+                       : *path ? client_->Delete(base + path, tagged) : client_->Get(base, tagged);
+        expect_problem(refused, 412);
+    }
+    auto still = client_->Get(base + "/image.png");
+    ASSERT_TRUE(still && still->status == 200) << "nothing was deleted";
+    auto any = client_->Get(base, {{"If-Match", "*"}});
+    ASSERT_TRUE(any);
+    EXPECT_EQ(any->status, 200);
     // Deleting the files: 204, then 410 for the results; the record stays.
     auto del = client_->Delete(base + "/results");
     ASSERT_TRUE(del);

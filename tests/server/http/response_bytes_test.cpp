@@ -304,6 +304,20 @@ TEST(ResponseBytes, ValidatorsAnswer304AndGuardResumedRanges) {
         httplib::Response r;
         send_file(since, r, path.string(), "image/x-exr");
         EXPECT_NE(r.status, 304) << "no date, no 304 by date";
+        // If-Unmodified-Since still holds it to its time: a date before or within its second
+        // fails, one after it holds.
+        for (const auto& [date, holds] : std::vector<std::pair<time_t, bool>>{{mtime - 3600, false}, {mtime, false}, {mtime + 3600, true}}) {
+            httplib::Request unmodified;
+            unmodified.headers.emplace("If-Unmodified-Since", http_date(date));
+            httplib::Response u;
+            try {
+                send_file(unmodified, u, path.string(), "image/x-exr");
+                EXPECT_TRUE(holds) << http_date(date);
+            } catch (const Problem& p) {
+                EXPECT_FALSE(holds) << http_date(date);
+                EXPECT_EQ(p.status, 412);
+            }
+        }
     }
     // A small text file, which httplib may compress: a weak tag, good for 304 and never for a range.
     std::ofstream(path, std::ios::binary | std::ios::trunc) << "{\"a\": 1}";
