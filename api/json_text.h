@@ -28,6 +28,11 @@ struct JsonTooDeep : std::runtime_error {
     explicit JsonTooDeep(int max_depth);
     int max_depth;
 };
+// Throws JsonDuplicateKey where one object holds a key twice: a parser keeps the last, another
+// (a proxy that checked the job) the first, and the two would read different jobs.
+struct JsonDuplicateKey : std::runtime_error {
+    explicit JsonDuplicateKey(const std::string& key);
+};
 std::optional<nlohmann::json> parse_json(std::string_view text, int max_depth);
 
 }  // namespace tessera::api

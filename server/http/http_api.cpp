@@ -187,6 +187,8 @@ json parse_body(const httplib::Request& req, int max_depth) {
         body = api::parse_json(req.body, max_depth);
     } catch (const api::JsonTooDeep& e) {
         throw Problem(400, "json-too-deep", "JSON nested too deeply", std::string(e.what()) + " (tessera serve --max-json-depth)").with_field("");
+    } catch (const api::JsonDuplicateKey& e) {
+        throw Problem(400, "duplicate-key", "A key given twice", e.what()).with_field("");
     }
     if (!body) throw Problem(400, "malformed-json", "Malformed JSON", "the request body is not valid JSON").with_field("");
     return std::move(*body);
@@ -446,11 +448,16 @@ HttpApi::HttpApi(JobQueue& queue, HttpLimits limits, std::string openapi_path)
             } catch (const Problem& p) {
                 send_problem(res, p);
             } catch (const QueueError& e) {
-                // A scene's file is named by its place in the catalog, not in the server's disk.
+                // A scene's file is named by its place in the catalog, not in the server's disk,
+                // where the server wrote the text (a file that does not load or cannot be read
+                // now). The other kinds quote the client's own words, which are not cut: cut,
+                // they would tell a client which folders are the server's.
                 Problem p = problem(e);
-                Problem shown(p.status, p.slug, p.title, queue_.catalog().redact(p.what()));
+                const bool server_text = e.kind == QueueErrorKind::broken_file || e.kind == QueueErrorKind::unavailable ||
+                                         e.kind == QueueErrorKind::store_full;
+                Problem shown(p.status, p.slug, p.title, server_text ? queue_.catalog().redact(p.what()) : std::string(p.what()));
                 shown.field = p.field;
-                shown.location = queue_.catalog().redact(p.location);
+                shown.location = server_text ? queue_.catalog().redact(p.location) : p.location;
                 shown.retry_after = p.retry_after;
                 send_problem(res, shown);
             } catch (const StoreError& e) {

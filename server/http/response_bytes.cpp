@@ -49,7 +49,14 @@ std::optional<time_t> parse_http_date(const std::string& s) {
     for (const char* form : {"%a, %d %b %Y %H:%M:%S GMT", "%A, %d-%b-%y %H:%M:%S GMT", "%a %b %e %H:%M:%S %Y"}) {
         std::tm tm{};
         const char* end = strptime(s.c_str(), form, &tm);
-        if (end && *end == '\0') return timegm(&tm);
+        if (!end || *end != '\0') continue;
+        // A day the month lacks (30 Feb) is no date: timegm would carry it into the next month.
+        std::tm back = tm;
+        const time_t t = timegm(&back);
+        if (back.tm_mday != tm.tm_mday || back.tm_mon != tm.tm_mon || back.tm_hour != tm.tm_hour || back.tm_min != tm.tm_min ||
+            back.tm_sec != tm.tm_sec)
+            return std::nullopt;
+        return t;
     }
     return std::nullopt;
 }

@@ -136,6 +136,19 @@ TEST(ParseJson, TheBoundIsInclusive) {
     EXPECT_THROW(parse_json(R"({"a":{"b":[{}]}})", 3), JsonTooDeep);
 }
 
+// A key twice in one object is refused, at any depth; the same key in two objects is not.
+TEST(ParseJson, AKeyTwiceInOneObjectIsRefused) {
+    EXPECT_THROW(parse_json(R"({"spp":1,"spp":4096})", 8), JsonDuplicateKey);
+    EXPECT_THROW(parse_json(R"({"a":[{"b":1},{"c":{"d":1,"d":2}}]})", 8), JsonDuplicateKey);
+    EXPECT_TRUE(parse_json(R"({"a":{"k":1},"b":{"k":2},"k":[{"k":3},{"k":4}]})", 8).has_value());
+    try {
+        parse_json(R"({"scene":"x","spp":1,"spp":2})", 8);
+        ADD_FAILURE() << "no JsonDuplicateKey";
+    } catch (const JsonDuplicateKey& e) {
+        EXPECT_NE(std::string(e.what()).find("\"spp\""), std::string::npos) << e.what();
+    }
+}
+
 TEST(ParseJson, TooDeepSaysItsBound) {
     try {
         parse_json("[[[[[[[[[[]]]]]]]]]]", 7);

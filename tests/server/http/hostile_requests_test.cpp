@@ -97,6 +97,18 @@ TEST_F(Hostile, InvalidUtf8InUploadsIsRefusedNotFatal) {
     expect_alive();
 }
 
+// A key given twice in one object is refused (a proxy that checked the first would pass a job
+// that runs the last), at the top and inside a field.
+TEST_F(Hostile, AKeyGivenTwiceIsRefused) {
+    start();
+    for (const std::string body : {R"({"scene":"builtin:cornell_box","spp":1,"spp":4096})",
+                                   R"({"scene":"builtin:cornell_box","adaptive":{"batch":8,"batch":16}})"}) {
+        const std::string answer = raw_exchange(port_, post("/v1/jobs", "application/json", body));
+        EXPECT_EQ(status_of(answer), 400) << answer.substr(0, 300);
+        EXPECT_NE(body_of(answer).find("/problems/duplicate-key"), std::string::npos) << answer.substr(0, 400);
+    }
+}
+
 // Nesting is refused before anything walks it, inside a field as at the top, in a job, a
 // comparison and a glTF upload; a job nested within the bound is judged on its fields.
 TEST_F(Hostile, DeepNestingIsRefusedByItsBound) {

@@ -88,6 +88,13 @@ TEST_F(Server, ErrorsAreProblemJsonNamingTheField) {
     expect_problem(post_job({{"scene", "cornell_box"}, {"width", 100000}}), 400, "/width");
     expect_problem(post_job({{"scene", "../../etc/passwd"}}), 404, "/scene");
     expect_problem(post_job({{"scene", "no_such_scene"}}), 404, "/scene");
+    // The client's words are quoted as sent, the server's folders in them too: cut, they would
+    // tell the client which folders are the server's.
+    for (const std::string& guess : {std::string(TESSERA_PROJECT_SCENES) + "/nothing", std::string("/etc/nothing")}) {
+        auto r = post_job({{"scene", guess}});
+        expect_problem(r, 404, "/scene");
+        EXPECT_NE(json::parse(r->body)["detail"].get<std::string>().find("'" + guess + "'"), std::string::npos) << r->body;
+    }
     expect_problem(client_->Post("/v1/jobs", kSmallJob.dump(), "text/plain"), 415);
     expect_problem(client_->Post("/v1/jobs", std::string(8000, ' ') + "{}", "application/json"), 413);
     expect_problem(client_->Get("/v1/jobs/0123456789abcdef"), 404);

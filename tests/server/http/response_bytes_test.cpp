@@ -215,7 +215,8 @@ TEST(ResponseBytes, ValidatorsAnswer304AndGuardResumedRanges) {
         EXPECT_TRUE(r.body.empty());
     }
     for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{
-             {"If-None-Match", "\"other\""}, {"If-Modified-Since", "Mon, 01 Jan 2001 00:00:00 GMT"}, {"If-Modified-Since", "garbage"}}) {
+             {"If-None-Match", "\"other\""}, {"If-Modified-Since", "Mon, 01 Jan 2001 00:00:00 GMT"}, {"If-Modified-Since", "garbage"},
+             {"If-Modified-Since", "Tue, 30 Feb 2044 00:00:00 GMT"}, {"If-Modified-Since", "Sun, 06 Nov 2044 24:00:00 GMT"}}) {
         httplib::Request cond;
         cond.headers.emplace(name, value);
         httplib::Response r;
@@ -270,35 +271,33 @@ TEST(ResponseBytes, ValidatorsAnswer304AndGuardResumedRanges) {
         EXPECT_NE(r.status, 304) << first.first;
         EXPECT_EQ(r.content_length_, 300'000u) << first.first;
     }
-    // If-Range with this file's ETag or date: the range; with another's: the whole file.
-    for (const auto& [validator, ranged_answer] : std::vector<std::pair<std::string, bool>>{
-             {etag, true}, {modified, true}, {"\"other\"", false}, {"W/" + etag, false}}) {
+    // Whether bytes 10-19 asked for under If-Range `validator` are served.
+    auto file_range_kept = [&](const std::string& validator) {
         httplib::Request req;
         req.ranges = {{10, 19}};
         req.headers.emplace("If-Range", validator);
         hold_range(req);
         httplib::Response r;
         send_file(req, r, path.string(), "image/x-exr");
-        EXPECT_EQ(req.ranges.size(), ranged_answer ? 1u : 0u) << validator;
-    }
+        return req.ranges.size() == 1;
+    };
+    // If-Range with this file's ETag or date: the range; with another's: the whole file.
+    for (const auto& [validator, ranged_answer] : std::vector<std::pair<std::string, bool>>{
+             {etag, true}, {modified, true}, {"\"other\"", false}, {"W/" + etag, false}})
+        EXPECT_EQ(file_range_kept(validator), ranged_answer) << validator;
     // A file written within the second: no date (another file written in the same second would
     // carry it too), and a date for it in If-Range resumes nothing; its ETag still does.
     {
         std::ofstream(path, std::ios::binary | std::ios::trunc) << std::string(300'000, 'w');
+        // Its time a minute ahead: within its second however slowly this test runs.
+        fs::last_write_time(path, fs::file_time_type::clock::now() + std::chrono::minutes(1));
         httplib::Response fresh;
         send_file(plain, fresh, path.string(), "image/x-exr");
         EXPECT_EQ(fresh.get_header_value("Last-Modified"), "") << "a file younger than a second has no date";
         const std::string fresh_tag = fresh.get_header_value("ETag");
         const auto mtime = std::chrono::system_clock::to_time_t(std::chrono::file_clock::to_sys(fs::last_write_time(path)));
-        for (const auto& [validator, ranged_answer] : std::vector<std::pair<std::string, bool>>{{http_date(mtime), false}, {fresh_tag, true}}) {
-            httplib::Request req;
-            req.ranges = {{10, 19}};
-            req.headers.emplace("If-Range", validator);
-            hold_range(req);
-            httplib::Response r;
-            send_file(req, r, path.string(), "image/x-exr");
-            EXPECT_EQ(req.ranges.size(), ranged_answer ? 1u : 0u) << validator;
-        }
+        EXPECT_FALSE(file_range_kept(http_date(mtime)));
+        EXPECT_TRUE(file_range_kept(fresh_tag));
         httplib::Request since;
         since.headers.emplace("If-Modified-Since", http_date(mtime));
         httplib::Response r;
