@@ -200,7 +200,13 @@ struct RenderNode::Impl {
             blocked_jobs.insert(id);
         }
         auto info = std::make_shared<JobInfo>();
-        info->job = api::job_from_json(json::parse(v[0].text));
+        try {
+            info->job = api::job_from_json(json::parse(v[0].text));
+        } catch (const api::InvalidJob& e) {
+            // Not the job's fault but this node's: an API node newer than it wrote a field it does
+            // not know. Retried, and another node may read it (an InvalidJob fails the job at once).
+            throw std::runtime_error(std::string("this node cannot read the job (an older version?): ") + e.what());
+        }
         if (!v[1].is_nil()) info->ref = SceneRef::decode(v[1].text);
         else info->ref.source = api::scene_of(info->job);  // built-in scenes need no file
         if (const auto* rj = std::get_if<api::RenderJob>(&info->job)) {

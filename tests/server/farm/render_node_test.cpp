@@ -600,6 +600,23 @@ TEST_F(RenderNodeFarm, AShotOfAnAnimationTheSceneLacksFailsOnceNamingItsAnimatio
     EXPECT_FALSE(st.task_failures) << api::to_json(st).dump();
 }
 
+// A job a node cannot read (a field an API node newer than it wrote) is not the job's input
+// error: it is retried like any task that failed on a node, saying why, until no node is left.
+TEST_F(RenderNodeFarm, AJobANodeCannotReadIsRetriedNotFailedAtOnce) {
+    without_fixture_nodes();
+    const std::string id = service_->submit({{"scene", "cornell_box"}, {"width", 16}, {"height", 12}, {"spp", 1}, {"max_retries", 1}}).id;
+    Redis r(redis_->url());
+    json spec = json::parse(r.command({"HGET", keys::job(id), "spec"}).text);
+    spec["a_field_from_a_newer_version"] = 1;
+    r.command({"HSET", keys::job(id), "spec", spec.dump()});
+    add_node("older-node");
+    const api::JobStatus st = wait_final(id);
+    ASSERT_EQ(st.state, api::JobState::failed) << api::to_json(st).dump();
+    EXPECT_NE(st.error.find("this node cannot read the job"), std::string::npos) << st.error;
+    ASSERT_TRUE(st.task_failures) << "retried as a task that failed: " << st.error;
+    EXPECT_GE(st.task_failures->failures, 2) << st.error;
+}
+
 // Where every live node is blocklisted for a job, it fails saying so, with the reasons.
 TEST_F(RenderNodeFarm, AJobNoLiveNodeCanTakeFailsWithEveryReason) {
     without_fixture_nodes();
