@@ -137,6 +137,9 @@ struct ComparisonJob {
 
 using Job = std::variant<RenderJob, ComparisonJob>;
 
+// A shot's `animation` as to_json writes it: null, a name, or an index (a number).
+nlohmann::json animation_json(const RenderJob& job);
+
 // A render job with every field at its declared default (scene empty).
 RenderJob default_render_job();
 

@@ -411,6 +411,15 @@ void set_bool(Job& j, const json& v, const ParseContext&) {
     at<Path...>(j) = v.get<bool>();
 }
 
+}  // namespace
+
+json animation_json(const RenderJob& j) {
+    if (j.animation.empty()) return nullptr;
+    return j.animation_index ? json(std::stoll(j.animation)) : json(j.animation);
+}
+
+namespace {
+
 // "animation": a name (or, where no animation has that name, the index its digits spell), an
 // index given as a number (never a name: a file may name an animation "1"), or null for every
 // animation at once.
@@ -422,10 +431,7 @@ void set_animation(RenderJob& j, const json& v, const ParseContext& ctx) {
     else throw InvalidJob(ctx.pointer, ctx.pointer + " must be an animation's name (1 to 256 characters), its index, or null (every animation)");
 }
 
-json get_animation(const RenderJob& j) {
-    if (j.animation.empty()) return nullptr;
-    return j.animation_index ? json(std::stoll(j.animation)) : json(j.animation);
-}
+json get_animation(const RenderJob& j) { return animation_json(j); }
 
 // "shutter": null (none) or {"open", "close"} in frames around each frame, -1 <= open < close <= 1.
 void set_shutter(RenderJob& j, const json& v, const ParseContext& ctx) {
@@ -613,8 +619,8 @@ const Field<RenderJob> kRenderFields[] = {
     [] {
         Field<RenderJob> f = field<RenderJob>(
             "animation", FieldKind::object,
-            "Which of the file's animations a shot plays: a name (a string; digits no animation is named are an index) or an index "
-            "(a number, never a name); null: every animation at once, as viewers play them.",
+            "Which of the file's animations a shot plays: a name, or an index (a JSON number is an index only; digits in a string "
+            "are an index where no animation has that name); null: every animation at once, as viewers play them.",
             "null");
         f.cli = "--animation";
         f.nullable = true;

@@ -1,6 +1,6 @@
 #include "api/json_text.h"
 
-#include <unordered_set>
+#include <set>
 #include <vector>
 
 #include "engine/io/json_depth.h"
@@ -32,7 +32,8 @@ JsonDuplicateKey::JsonDuplicateKey(const std::string& key)
 std::optional<nlohmann::json> parse_json(std::string_view text, int max_depth) {
     if (const int depth = json_nesting_depth(text, max_depth); depth > max_depth) throw JsonTooDeep(max_depth);
     // The keys of each object open at the moment, innermost last (the depth is bounded above).
-    std::vector<std::unordered_set<std::string>> open;
+    // Ordered sets: a hash set's unseeded hash lets a megabyte of colliding keys cost quadratic time.
+    std::vector<std::set<std::string>> open;
     std::optional<std::string> twice;
     const nlohmann::json::parser_callback_t keys = [&](int, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
         using E = nlohmann::json::parse_event_t;

@@ -326,7 +326,7 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
                  {"frames_total", frames.size()},
                  {"frames_done", frames.size()},
                  {"fps", job.fps},
-                 {"animation", job.animation.empty() ? json(nullptr) : job.animation_index ? json(std::stoll(job.animation)) : json(job.animation)},
+                 {"animation", animation_json(job)},
                  {"animations", animations},
                  {"preview", preview},
                  {"timings", {{"open_s", open_s}, {"render_s", render_s}, {"frames_s", frames_s}, {"total_s", total_s},

@@ -6,8 +6,9 @@
 
 namespace tessera::api {
 
-// Throws SceneError (the scene, or an animation it cannot play) and std::runtime_error (a result
-// that cannot be written); a stop ends it between or inside frames, writing no report.
+// Throws SceneError (the scene does not read: a run may be tried again), InvalidJob (an
+// animation the scene lacks or cannot play: final) and std::runtime_error (a result that cannot
+// be written); a stop ends it between or inside frames, writing no report.
 JobOutcome run_shot(const RenderJob& job, const RunOptions& options, const RunOutputs& outputs, const RunCallbacks& callbacks);
 
 // Frame `frame`'s outputs under a CLI pattern: the run of '#' in `pattern` becomes the frame

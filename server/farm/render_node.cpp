@@ -417,21 +417,21 @@ struct RenderNode::Impl {
                 throw;
             } catch (const JobFailure& e) {
                 failed = true;
-                log.errors.push_back(cache.as_published(e.what()));
+                log.errors.push_back(published(r, t.job, e.what()));
                 fail_job(r, t.job, log.errors.back());
             } catch (const api::InvalidJob& e) {
                 // The job's own input against a scene every node reads alike (an animation the
                 // scene lacks): no other node and no retry does better.
                 failed = true;
-                log.errors.push_back(cache.as_published(e.what()));
+                log.errors.push_back(published(r, t.job, e.what()));
                 fail_job(r, t.job, log.errors.back());
             } catch (const SceneError& e) {
                 // A node's own limits or files may refuse what another takes.
                 failed = true;
-                retry = cache.as_published(std::string("scene: ") + e.what());
+                retry = published(r, t.job, std::string("scene: ") + e.what());
             } catch (const std::exception& e) {
                 failed = true;
-                retry = cache.as_published(e.what());
+                retry = published(r, t.job, e.what());
             }
             if (!retry.empty()) {
                 log.errors.push_back(retry);
@@ -508,6 +508,18 @@ struct RenderNode::Impl {
         ++metrics.passed_on;
         t_passed = true;
         return true;
+    }
+
+    // A job's error with this node's copies of its files named as the job named them.
+    std::string published(Redis& r, const std::string& job, const std::string& text) {
+        std::vector<SceneRef> refs;
+        try {
+            for (const RedisValue& v : r.pipeline({{"GET", keys::job_scene(job)}, {"GET", keys::job_environment(job)}}))
+                if (!v.is_nil()) refs.push_back(SceneRef::decode(v.text));
+        } catch (const std::exception&) {
+            // Redis gone: the copies by their file names alone.
+        }
+        return cache.as_published(text, refs);
     }
 
     // A task failed here for a reason that is not the job's: counted against the task and this

@@ -655,7 +655,7 @@ bool HttpApi::refuse_before_body(const httplib::Request& req, httplib::Response&
         res.set_header("Allow", allow);
         refusal = Problem(405, "method-not-allowed", "Method not allowed",
                           loggable(req.path, 200) + " takes " + allow + ", not " + loggable(req.method, 16));
-    } else if (req.has_header("If-Match") && !takes_etags(req.path) && !only_any(req)) {
+    } else if (req.has_header("If-Match") && !takes_etags(req.path) && !only_any(req) && !names_missing_job(req.path)) {
         // RFC 9110 13.1.1: evaluated before the method. These answers have no ETag, so a tag
         // never matches: a DELETE or a pause under a tag the client expects does nothing.
         refusal = Problem(412, "precondition-failed", "Precondition failed",
@@ -681,6 +681,20 @@ bool HttpApi::refuse_before_body(const httplib::Request& req, httplib::Response&
         guard_->close_after_response();
     }
     return true;
+}
+
+bool HttpApi::names_missing_job(const std::string& path) {
+    static const std::regex job_path(R"(/v1/jobs/([^/:]+)(:[a-z]+|/.*)?)");
+    std::smatch m;
+    if (!std::regex_match(path, m, job_path)) return false;
+    try {
+        queue_.status(m[1]);
+        return false;
+    } catch (const QueueError& e) {
+        return e.kind == QueueErrorKind::not_found;
+    } catch (const std::exception&) {
+        return false;  // the route meets it too, and answers for it
+    }
 }
 
 void HttpApi::routes() {

@@ -72,6 +72,9 @@ private:
     size_t body_limit(const httplib::Request& req) const;
     // Answers a request from its head alone when it must be refused (true): no body is read.
     bool refuse_before_body(const httplib::Request& req, httplib::Response& res);
+    // Whether `path` names a job the queue does not have (its route answers 404, which a
+    // precondition does not override: RFC 9110 13.2.1).
+    bool names_missing_job(const std::string& path);
     // Each request's body budget, taken from the shared bound before a byte is read, and given
     // back when the request is answered.
     void begin_body(httplib::Request& req, ConnectionStream& strm);

@@ -12,6 +12,7 @@
 #include <functional>
 #include <optional>
 #include <string_view>
+#include <utility>
 #include <stdexcept>
 
 #include "server/http/problem.h"
@@ -33,8 +34,8 @@ thread_local bool t_takes_ranges = false;
 struct Validators {
     std::string etag;
     std::string last_modified;  // as sent (IMF-fixdate); empty for none
-    time_t modified = 0;
-    std::optional<int64_t> modified_ns;  // a file's time, whether its date is sent or not
+    time_t modified = 0;     // when the file took its place, whether its date is sent or not
+    bool file_time = false;  // `modified` is a file's
 };
 
 // The types httplib 0.11 compresses (its can_compress_content_type).
@@ -117,11 +118,10 @@ bool not_modified(const httplib::Request& req, httplib::Response& res, const Val
     };
     if (req.has_header("If-Match")) {
         if (!list_hits(joined(req, "If-Match"), v.etag, true)) failed("If-Match");
-    } else if (const auto since = one_date(req, "If-Unmodified-Since"); since && v.modified_ns) {
-        // A file within its first second (no date sent) by its time to the nanosecond: a date in
-        // its own second may be another file's, written there before it.
-        if (v.last_modified.empty() ? *v.modified_ns >= int64_t(*since) * 1'000'000'000 : v.modified > *since)
-            failed("If-Unmodified-Since");
+    } else if (const auto since = one_date(req, "If-Unmodified-Since"); since && v.file_time) {
+        // A file within its first second (no date sent) fails a date in that second too: the
+        // date may be another file's, written there before it.
+        if (v.last_modified.empty() ? v.modified >= *since : v.modified > *since) failed("If-Unmodified-Since");
     }
     bool fresh = false;
     if (req.has_header("If-None-Match")) {
@@ -229,15 +229,19 @@ void send_file(const httplib::Request& req, httplib::Response& res, const std::s
     std::snprintf(tag, sizeof tag, "%s\"%llx-%llx-%llx\"", in_memory && compressed_by_httplib(content_type) ? "W/" : "",
                   (unsigned long long)size, (unsigned long long)ns, (unsigned long long)st.st_ino);
     v.etag = tag;
-    v.modified = st.st_mtim.tv_sec;
-    v.modified_ns = int64_t(ns);
-    // A date is a validator only for a file a second or more old when it is sent: a file
+    // When the file took its place: its change time too, which a rename sets, as a file written
+    // earlier and renamed over the path (a farm's later attempt) keeps its older mtime.
+    const timespec landed = std::make_pair(st.st_ctim.tv_sec, st.st_ctim.tv_nsec) > std::make_pair(st.st_mtim.tv_sec, st.st_mtim.tv_nsec)
+                                ? st.st_ctim : st.st_mtim;
+    v.modified = landed.tv_sec;
+    v.file_time = true;
+    // A date is a validator only for a file a second or more in place when it is sent: a file
     // replaced within that second (a shot's frame written again) would carry the same date. A
-    // date sent so is strong from then on (RFC 9110 8.8.2.2), as a later file is a second apart.
+    // date sent so is strong from then on (RFC 9110 8.8.2.2), as a later file lands a second on.
     timespec now{};
     ::clock_gettime(CLOCK_REALTIME, &now);
-    const int64_t now_ns = int64_t(now.tv_sec) * 1'000'000'000 + now.tv_nsec;
-    if (now_ns - int64_t(ns) >= 1'000'000'000) v.last_modified = http_date(v.modified);
+    if ((int64_t(now.tv_sec) - landed.tv_sec) * 1'000'000'000 + (now.tv_nsec - landed.tv_nsec) >= 1'000'000'000)
+        v.last_modified = http_date(v.modified);
     t_takes_ranges = true;  // a 304 says so too: a cache copies its headers onto what it kept
     if (not_modified(req, res, v)) return;
     fit_range(req, res, size, v);

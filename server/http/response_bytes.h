@@ -8,8 +8,8 @@
 // overlong end cut at theirs; 416 with a problem past it), whether held or streamed.
 //
 // Both carry a validator: a file its ETag (its size, modification time and inode; weak for a
-// text answer httplib may compress) and Last-Modified, an encoded image a weak ETag of its
-// bytes. Preconditions are evaluated as RFC 9110 orders them: If-Match and If-Unmodified-Since
+// text answer httplib may compress) and, once it has been in place a second, Last-Modified (a
+// date within its second could be another file's); an encoded image a weak ETag of its bytes. Preconditions are evaluated as RFC 9110 orders them: If-Match and If-Unmodified-Since
 // that fail are 412, If-None-Match (or, without it, If-Modified-Since) that matches is 304, and
 // a range is served under If-Range only while the strong validator it names is the answer's.
 // An image that changes while its job runs (a running job's latest pass) serves no range, so

@@ -61,12 +61,6 @@ void SceneCache::drop_idle_locked() {
 std::string SceneCache::file_for(Redis& redis, const SceneRef& ref) {
     if (ref.hash.empty()) return ref.source;  // built-in
     const fs::path cached = fs::path(dir_) / (ref.hash + ref.ext);
-    {
-        std::lock_guard lock(names_mu_);
-        // A name per scene bytes the node has met; a long-lived node forgets them in bulk.
-        if (published_.size() >= 4096) published_.clear();
-        published_[cached.filename().string()] = ref.source;
-    }
     if (fs::exists(cached)) return cached.string();
     // The same file on this node's disk (a shared volume, the same image's catalog) when its
     // bytes are the job's; otherwise the bytes the API node published.
@@ -90,17 +84,17 @@ std::string SceneCache::file_for(Redis& redis, const SceneRef& ref) {
     return cached.string();
 }
 
-std::string SceneCache::as_published(std::string text) const {
+std::string SceneCache::as_published(std::string text, const std::vector<SceneRef>& refs) const {
     const std::string folder = (fs::path(dir_) / "").string();
-    std::lock_guard lock(names_mu_);
     for (size_t at = text.find(folder); at != std::string::npos; at = text.find(folder, at)) {
         size_t end = at + folder.size();
         while (end < text.size() && (std::isalnum(static_cast<unsigned char>(text[end])) || text[end] == '-' || text[end] == '.' || text[end] == '_'))
             ++end;
-        const auto it = published_.find(text.substr(at + folder.size(), end - at - folder.size()));
-        // A name it never handed out (a part file): the file's name alone.
-        std::string shown = it != published_.end() ? it->second : text.substr(at + folder.size(), end - at - folder.size());
-        if (shown.empty()) shown = "the node's scene folder";
+        const std::string name = text.substr(at + folder.size(), end - at - folder.size());
+        // Another copy (a part file): its name alone.
+        std::string shown = name.empty() ? "the node's scene folder" : name;
+        for (const SceneRef& ref : refs)
+            if (!ref.hash.empty() && ref.hash + ref.ext == name) shown = ref.source;
         text.replace(at, end - at, shown);
         at += shown.size();
     }

@@ -10,7 +10,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
-#include <unordered_map>
+#include <vector>
 
 #include "api/job_runner.h"
 #include "engine/io/scene_loader.h"
@@ -31,10 +31,11 @@ public:
     std::shared_ptr<const PreparedScene> get(Redis& redis, const SceneRef& ref, const RenderSceneOptions& options);
     // The job's scene as a file on this node (a built-in's name as is); throws std::runtime_error.
     std::string file_for(Redis& redis, const SceneRef& ref);
-    // `text` (an error) with this node's copies of scenes named as their jobs named them: the
-    // file's path on the API node, which that node's catalog then shows by its place. A node's
-    // own folders are not its clients' business.
-    std::string as_published(std::string text) const;
+    // `text` (a job's error) with this node's copies of the job's files (`refs`: its scene, its
+    // environment map) named as the job named them: the file's path on the API node, which that
+    // node's catalog then shows by its place. Another copy in the folder is named by its file
+    // name alone. A node's own folders are not its clients' business.
+    std::string as_published(std::string text, const std::vector<SceneRef>& refs) const;
     // A scene this process reads itself: a file path (keyed by its identity, so an edited or
     // replaced file is a new scene) or builtin:NAME[?params]. Throws SceneError. The second
     // value says whether it was prepared before.
@@ -56,8 +57,6 @@ private:
     int64_t max_bytes_;
     std::chrono::steady_clock::duration idle_;
     LoadLimits limits_;
-    mutable std::mutex names_mu_;
-    std::unordered_map<std::string, std::string> published_;  // a copy's file name → its SceneRef::source
     std::mutex mu_;
     std::list<Entry> lru_;  // most recent first
     std::atomic<uint64_t> hits_{0}, misses_{0};  // read by /metrics without the lock

@@ -68,6 +68,8 @@ TEST_F(Server, JobLifecycleAndResults) {
     }
     auto still = client_->Get(base + "/image.png");
     ASSERT_TRUE(still && still->status == 200) << "nothing was deleted";
+    // A job the server does not have is 404 under a precondition too (RFC 9110 13.2.1).
+    expect_problem(client_->Delete("/v1/jobs/0123456789abcdef/results", {{"If-Match", "\"bogus\""}}), 404);
     auto any = client_->Get(base, {{"If-Match", "*"}});
     ASSERT_TRUE(any);
     EXPECT_EQ(any->status, 200);
