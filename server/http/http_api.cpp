@@ -132,11 +132,19 @@ const char* content_type(const std::string& file) {
 
 namespace {
 
-// Whether `path` is a result file's, whose answers carry an ETag and decide If-Match themselves.
+// A job's result file and a frame's: the routes whose answers carry an ETag.
+const std::regex& job_file_route() {
+    static const std::regex re("/v1/jobs/[^/]+/(" + job_files_re() + ")");
+    return re;
+}
+const std::regex& frame_file_route() {
+    static const std::regex re("/v1/jobs/[^/]+/frames/-?[0-9]{1,8}/(" + render_files_re() + ")");
+    return re;
+}
+
+// Whether `path` is a result file's, whose answers decide If-Match themselves.
 bool takes_etags(const std::string& path) {
-    static const std::regex job_file("/v1/jobs/[^/]+/(" + job_files_re() + ")");
-    static const std::regex frame_file("/v1/jobs/[^/]+/frames/-?[0-9]{1,8}/(" + render_files_re() + ")");
-    return std::regex_match(path, job_file) || std::regex_match(path, frame_file);
+    return std::regex_match(path, job_file_route()) || std::regex_match(path, frame_file_route());
 }
 
 // An If-Match of "*" alone, on every line: any current answer matches it.
@@ -162,8 +170,8 @@ std::string allowed_methods(const std::string& path) {
         {std::regex(R"(/v1/jobs/[^/]+)"), "GET, HEAD, DELETE"},
         {std::regex(R"(/v1/jobs/[^/]+/results)"), "DELETE"},
         {std::regex(R"(/v1/jobs/[^/]+/log)"), "GET, HEAD"},
-        {std::regex("/v1/jobs/[^/]+/(" + job_files_re() + ")"), "GET, HEAD"},
-        {std::regex("/v1/jobs/[^/]+/frames/-?[0-9]{1,8}/(" + render_files_re() + ")"), "GET, HEAD"},
+        {job_file_route(), "GET, HEAD"},
+        {frame_file_route(), "GET, HEAD"},
     };
     for (const auto& [re, allow] : table)
         if (std::regex_match(path, re)) return allow;
