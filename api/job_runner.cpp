@@ -34,10 +34,10 @@ JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutp
     SceneCacheUse cache_use;
     if (opt.prepare) {
         bool hit = false;
-        std::tie(prepared, hit) = opt.prepare(opt.scene_source, job.scene_options);
+        std::tie(prepared, hit) = opt.prepare(opt.scene_source, opt.scene_name, job.scene_options);
         cache_use = {true, hit, prepared->load_s, prepared->build_s};
     } else {
-        prepared = prepare_scene(opt.scene_source, opt.load_limits, job.scene_options);
+        prepared = prepare_scene(opt.scene_source, opt.load_limits, job.scene_options, opt.scene_name);
     }
     // This job's own time: a hit costs the look-up only.
     const double own_s = seconds_between(t0, Clock::now());
@@ -47,7 +47,7 @@ JobOutcome run_render(const RenderJob& job, const RunOptions& opt, const RunOutp
 }
 
 JobOutcome run_comparison_job(const ComparisonJob& job, const RunOptions& opt, const RunOutputs& out, const RunCallbacks& cb) {
-    const SceneDescription desc = load_scene(opt.scene_source, opt.load_limits);
+    const SceneDescription desc = load_scene(opt.scene_source, opt.load_limits, opt.scene_name);
     RenderSettings base = default_render_job().render;
     base.width = job.width;
     base.height = job.height;
@@ -77,20 +77,25 @@ JobOutcome run_comparison_job(const ComparisonJob& job, const RunOptions& opt, c
 
 }  // namespace
 
-std::shared_ptr<const EnvironmentMap> load_environment(const std::string& path) {
+std::shared_ptr<const EnvironmentMap> load_environment(const std::string& path, const std::string& name) {
+    const std::string& shown = name.empty() ? path : name;
     const std::string ext = std::filesystem::path(path).extension().string();
     if (ext != ".exr" && ext != ".hdr")
-        throw SceneError(SourceLocation{path, 0, ""}, "an environment map must be a latitude-longitude .exr or .hdr file");
+        throw SceneError(SourceLocation{shown, 0, ""}, "an environment map must be a latitude-longitude .exr or .hdr file");
     Image img;
     try {
         img = read_image(path);
     } catch (const std::exception& e) {
-        throw SceneError(SourceLocation{path, 0, ""}, std::string("cannot read the environment map: ") + e.what());
+        // OpenImageIO names the file it opened: that is the path, said as `shown`.
+        std::string why = e.what();
+        for (size_t at = why.find(path); !path.empty() && at != std::string::npos; at = why.find(path, at + shown.size()))
+            why.replace(at, path.size(), shown);
+        throw SceneError(SourceLocation{shown, 0, ""}, "cannot read the environment map: " + why);
     }
     try {
-        return std::make_shared<const EnvironmentMap>(build_environment(img.width, img.height, img.rgb, path));
+        return std::make_shared<const EnvironmentMap>(build_environment(img.width, img.height, img.rgb, shown));
     } catch (const std::invalid_argument& e) {
-        throw SceneError(SourceLocation{path, 0, ""}, e.what());
+        throw SceneError(SourceLocation{shown, 0, ""}, e.what());
     }
 }
 
@@ -107,10 +112,11 @@ RenderSettings lit_settings(RenderSettings settings, const RenderScene& scene) {
     return settings;
 }
 
-std::shared_ptr<PreparedScene> prepare_scene(const std::string& source, const LoadLimits& limits, const RenderSceneOptions& options) {
+std::shared_ptr<PreparedScene> prepare_scene(const std::string& source, const LoadLimits& limits, const RenderSceneOptions& options,
+                                             const std::string& name) {
     auto p = std::make_shared<PreparedScene>();
     const auto t0 = Clock::now();
-    const SceneDescription desc = load_scene(source, limits);
+    const SceneDescription desc = load_scene(source, limits, name);
     const auto t1 = Clock::now();
     p->scene = build_render_scene(desc, options);
     p->load_s = seconds_between(t0, t1);
@@ -278,7 +284,7 @@ JobOutcome render_prepared(const RenderJob& job, const RenderSettings& render_se
             cb.pass(PassSnapshot{v.index, v.spp, v.point, img, denoised});
         };
     if (opt.environment) settings.environment = opt.environment;
-    else if (!opt.environment_file.empty()) settings.environment = load_environment(opt.environment_file);
+    else if (!opt.environment_file.empty()) settings.environment = load_environment(opt.environment_file, opt.environment_name);
     settings = lit_settings(std::move(settings), scene);
     if (!opt.reference_image.empty()) {
         if (!std::filesystem::exists(opt.reference_image)) throw std::runtime_error("the reference job's image was deleted");

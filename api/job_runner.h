@@ -31,17 +31,20 @@ struct PreparedScene {
     double load_s = 0, build_s = 0;
     size_t bytes = 0;  // estimated memory
 };
-// Loads and builds a scene (a file path, or builtin:NAME[?params]). Throws SceneError.
-std::shared_ptr<PreparedScene> prepare_scene(const std::string& source, const LoadLimits& limits, const RenderSceneOptions& options);
+// Loads and builds a scene (a file path, or builtin:NAME[?params]). Throws SceneError. `name`
+// is what its errors, warnings and origins call the file (load_scene's); empty: the path.
+std::shared_ptr<PreparedScene> prepare_scene(const std::string& source, const LoadLimits& limits, const RenderSceneOptions& options,
+                                             const std::string& name = {});
 
 // Where a runner's scenes come from when it keeps them between jobs: the scene for `source`
-// built with `options`, and whether it was there already (a hit).
-using ScenePreparer =
-    std::function<std::pair<std::shared_ptr<const PreparedScene>, bool>(const std::string& source, const RenderSceneOptions& options)>;
+// (called `name` in what it reports) built with `options`, and whether it was there already (a hit).
+using ScenePreparer = std::function<std::pair<std::shared_ptr<const PreparedScene>, bool>(
+    const std::string& source, const std::string& name, const RenderSceneOptions& options)>;
 
 // A lat-long environment map read from an .exr or .hdr file. Throws SceneError naming the
-// file (unreadable, another format, negative or non-finite pixels).
-std::shared_ptr<const EnvironmentMap> load_environment(const std::string& path);
+// file (unreadable, another format, negative or non-finite pixels) by `name` (empty: its path),
+// which the map's report line uses too.
+std::shared_ptr<const EnvironmentMap> load_environment(const std::string& path, const std::string& name = {});
 // What lights a scene without lights when the job names no environment: a uniform white sky of
 // radiance 1 (most glTF models carry no lights), the same on one process and on a render farm.
 std::shared_ptr<const EnvironmentMap> default_environment();
@@ -53,6 +56,9 @@ RenderSettings lit_settings(RenderSettings settings, const RenderScene& scene);
 // any of these).
 struct RunOptions {
     std::string scene_source;       // what load_scene takes: a file path, or builtin:NAME[?params]
+    // What the job's errors, log and report call its files (a server's catalog names them by
+    // their place in it: nothing a client reads shows the server's folders); empty: their paths.
+    std::string scene_name, environment_name;
     LoadLimits load_limits;
     int threads = 0;                // 0: all cores
     std::string job_id;             // names the job in metadata and plot titles; "" for none

@@ -157,7 +157,7 @@ JobOutcome run_shot(const RenderJob& job, const RunOptions& opt, const RunOutput
     const auto t_start = Clock::now();
     const std::vector<int> frames = job.frames->frames();
     const std::shared_ptr<const SceneFile> opened =
-        opt.scene_file ? opt.scene_file : std::make_shared<const SceneFile>(opt.scene_source, opt.load_limits);
+        opt.scene_file ? opt.scene_file : std::make_shared<const SceneFile>(opt.scene_source, opt.load_limits, opt.scene_name);
     const SceneFile& file = *opened;
     const double open_s = seconds_between(t_start, Clock::now());
     check_animation(job.animation, job.animation_index, file.animations());

@@ -788,18 +788,19 @@ SceneDescription parse_collada(std::string_view xml, const std::string& source_n
     return std::move(L.scene);
 }
 
-SceneDescription load_collada(const std::string& path, const LoadLimits& limits) {
+SceneDescription load_collada(const std::string& path, const LoadLimits& limits, const std::string& name) {
+    const std::string& shown = name.empty() ? path : name;
     std::error_code ec;
     const auto size = std::filesystem::file_size(path, ec);
-    if (ec) throw SceneError(SourceLocation{path, 0, {}}, "cannot read the file: " + ec.message());
+    if (ec) throw SceneError(SourceLocation{shown, 0, {}}, "cannot read the file: " + ec.message());
     if (size > limits.max_file_bytes)
-        throw SceneError(SourceLocation{path, 0, {}}, "file of " + std::to_string(size) + " bytes exceeds the limit of " +
+        throw SceneError(SourceLocation{shown, 0, {}}, "file of " + std::to_string(size) + " bytes exceeds the limit of " +
                                                           std::to_string(limits.max_file_bytes));
     std::ifstream in(path, std::ios::binary);
     std::string data(size, '\0');
     if (!in.read(data.data(), static_cast<std::streamsize>(size)))
-        throw SceneError(SourceLocation{path, 0, {}}, "cannot read the file");
-    return parse_collada(data, path, limits);
+        throw SceneError(SourceLocation{shown, 0, {}}, "cannot read the file");
+    return parse_collada(data, shown, limits);
 }
 
 }  // namespace tessera

@@ -10,8 +10,9 @@
 
 namespace tessera {
 
-// Reads a CS184-style COLLADA 1.4.1 file. Throws SceneError (file + line) on anything malformed.
-SceneDescription load_collada(const std::string& path, const LoadLimits& limits = {});
+// Reads a CS184-style COLLADA 1.4.1 file. Throws SceneError (file + line) on anything malformed;
+// `name` names the file there and in origins (empty: its path).
+SceneDescription load_collada(const std::string& path, const LoadLimits& limits = {}, const std::string& name = {});
 
 // Same, from memory (fuzzers and tests); `source_name` is used in error locations.
 SceneDescription parse_collada(std::string_view xml, const std::string& source_name, const LoadLimits& limits = {});

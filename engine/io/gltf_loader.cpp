@@ -1023,29 +1023,32 @@ std::shared_ptr<const GltfDocument> GltfDocument::parse(std::string_view bytes, 
     return std::shared_ptr<const GltfDocument>(new GltfDocument(std::move(impl)));
 }
 
-std::shared_ptr<const GltfDocument> GltfDocument::load(const std::string& path, const LoadLimits& limits) {
+std::shared_ptr<const GltfDocument> GltfDocument::load(const std::string& path, const LoadLimits& limits, const std::string& name) {
+    const std::string& shown = name.empty() ? path : name;
     std::error_code ec;
-    if (!fs::is_regular_file(path, ec)) fail(path, "", "not a readable file");
+    if (!fs::is_regular_file(path, ec)) fail(shown, "", "not a readable file");
     const uint64_t size = fs::file_size(path, ec);
-    if (ec) fail(path, "", "cannot read: " + ec.message());
+    if (ec) fail(shown, "", "cannot read: " + ec.message());
     if (size > limits.max_file_bytes)
-        fail(path, "", "file of " + str(size) + " bytes is above the limit of " + str(limits.max_file_bytes));
+        fail(shown, "", "file of " + str(size) + " bytes is above the limit of " + str(limits.max_file_bytes));
     std::string bytes(static_cast<size_t>(size), '\0');
     std::ifstream in(path, std::ios::binary);
-    if (!in.read(bytes.data(), static_cast<std::streamsize>(size))) fail(path, "", "cannot read the file");
+    if (!in.read(bytes.data(), static_cast<std::streamsize>(size))) fail(shown, "", "cannot read the file");
     std::string ext = fs::path(path).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
     const bool binary = ext == ".glb" || std::string_view(bytes).starts_with("glTF");
     fs::path dir = fs::path(path).parent_path();
     if (dir.empty()) dir = ".";
-    return parse(bytes, binary, dir.string(), path, limits);
+    return parse(bytes, binary, dir.string(), shown, limits);
 }
 
 SceneDescription GltfDocument::rest() const { return impl_->flatten(nullptr); }
 SceneDescription GltfDocument::pose(const ScenePose& pose) const { return impl_->flatten(&pose); }
 const std::vector<Animation>& GltfDocument::animations() const { return impl_->animations.list; }
 
-SceneDescription load_gltf(const std::string& path, const LoadLimits& limits) { return GltfDocument::load(path, limits)->rest(); }
+SceneDescription load_gltf(const std::string& path, const LoadLimits& limits, const std::string& name) {
+    return GltfDocument::load(path, limits, name)->rest();
+}
 
 SceneDescription parse_gltf(std::string_view bytes, bool binary, const std::string& base_dir,
                             const std::string& source_name, const LoadLimits& limits) {

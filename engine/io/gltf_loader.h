@@ -17,8 +17,10 @@ namespace tessera {
 class GltfDocument {
 public:
     // Throws SceneError with the file and a JSON pointer (e.g. "/accessors/3") on anything
-    // malformed. External buffers must lie inside the file's folder.
-    static std::shared_ptr<const GltfDocument> load(const std::string& path, const LoadLimits& limits = {});
+    // malformed. External buffers must lie inside the file's folder. `name` names the file in
+    // errors and SourceLocations (empty: its path).
+    static std::shared_ptr<const GltfDocument> load(const std::string& path, const LoadLimits& limits = {},
+                                                    const std::string& name = {});
     // From memory (fuzzers, uploads). `base_dir` resolves external URIs ("" forbids external
     // files); `source_name` names the input in errors and SourceLocations.
     static std::shared_ptr<const GltfDocument> parse(std::string_view bytes, bool binary, const std::string& base_dir,
@@ -40,7 +42,7 @@ private:
 };
 
 // The document at rest, in one call.
-SceneDescription load_gltf(const std::string& path, const LoadLimits& limits = {});
+SceneDescription load_gltf(const std::string& path, const LoadLimits& limits = {}, const std::string& name = {});
 SceneDescription parse_gltf(std::string_view bytes, bool binary, const std::string& base_dir,
                             const std::string& source_name, const LoadLimits& limits = {});
 

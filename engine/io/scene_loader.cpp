@@ -20,12 +20,12 @@ bool is_gltf(const std::string& path) {
 
 }  // namespace
 
-SceneFile::SceneFile(const std::string& path, const LoadLimits& limits) {
+SceneFile::SceneFile(const std::string& path, const LoadLimits& limits, const std::string& name) {
     if (!is_gltf(path)) {
-        still_ = load_scene(path, limits);
+        still_ = load_scene(path, limits, name);
         return;
     }
-    gltf_ = GltfDocument::load(path, limits);
+    gltf_ = GltfDocument::load(path, limits, name);
     for (const Animation& a : gltf_->animations())
         animations_.push_back({a.name, a.start_s, a.end_s, static_cast<int>(a.channels.size())});
 }
@@ -37,14 +37,14 @@ SceneDescription SceneFile::at(const std::optional<ScenePose>& pose) const {
     return pose ? gltf_->pose(*pose) : gltf_->rest();
 }
 
-SceneDescription load_scene(const std::string& path, const LoadLimits& limits) {
+SceneDescription load_scene(const std::string& path, const LoadLimits& limits, const std::string& name) {
     if (path.rfind("builtin:", 0) == 0) {
         check_builtin_name(path, limits.max_triangles);  // before a triangle is made
         return builtin_scene(path);
     }
     std::string ext = std::filesystem::path(path).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-    const SourceLocation where{path, 0, ""};
+    const SourceLocation where{name.empty() ? path : name, 0, ""};
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec)) throw SceneError(where, "no such scene file");
     const auto size = std::filesystem::file_size(path, ec);
@@ -55,8 +55,8 @@ SceneDescription load_scene(const std::string& path, const LoadLimits& limits) {
     // COLLADA emitters stay one-sided (toward their winding normal), as the CS184 area light
     // that light sampling uses in the CS184 app: the Cornell lamp faces down. Emitting from the
     // back too would light the ceiling 1 cm above the lamp with huge 1/d² contributions.
-    if (ext == ".dae") return load_collada(path, limits);
-    if (ext == ".gltf" || ext == ".glb") return load_gltf(path, limits);
+    if (ext == ".dae") return load_collada(path, limits, name);
+    if (ext == ".gltf" || ext == ".glb") return load_gltf(path, limits, name);
     throw SceneError(where, "unknown scene format '" + ext + "' (expected .dae, .gltf or .glb)");
 }
 

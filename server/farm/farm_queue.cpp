@@ -102,14 +102,16 @@ void FarmQueue::publish_scene(const std::string& id, const std::string& scene) {
         throw QueueError(QueueErrorKind::not_found, "unknown-scene", "Unknown scene", "no scene named '" + scene + "'")
             .with_field("/scene");
     if (entry->source == "builtin") {
-        redis_->put_scene(id, SceneRef{scene, "", ""}, nullptr);
+        redis_->put_scene(id, SceneRef{scene, "", "", scene}, nullptr);
         return;
     }
     const auto file = read_scene_file(entry->path);
     if (!file)
         throw QueueError(QueueErrorKind::unavailable, "scene-unreadable", "Scene unreadable", "cannot read scene '" + scene + "'")
             .with_retry_after(10);
-    redis_->put_scene(id, file->ref, &file->bytes);
+    SceneRef ref = file->ref;
+    ref.name = entry->shown;
+    redis_->put_scene(id, ref, &file->bytes);
 }
 
 void FarmQueue::publish_environment(const std::string& id, const std::string& name) {
@@ -121,7 +123,9 @@ void FarmQueue::publish_environment(const std::string& id, const std::string& na
     if (!file)
         throw QueueError(QueueErrorKind::unavailable, "scene-unreadable", "Scene unreadable",
                          "cannot read environment map '" + name + "'").with_retry_after(10);
-    redis_->put_environment(id, file->ref, file->bytes);
+    SceneRef ref = file->ref;
+    ref.name = entry->shown;
+    redis_->put_environment(id, ref, file->bytes);
 }
 
 api::JobStatus FarmQueue::enqueue(const api::Job& job, JobRecord rec) {

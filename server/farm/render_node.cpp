@@ -217,10 +217,8 @@ struct RenderNode::Impl {
             if (!rj->environment.empty()) {
                 if (v[2].is_nil()) throw JobFailure("the job's environment map '" + rj->environment + "' is missing from Redis");
                 const SceneRef env = SceneRef::decode(v[2].text);
-                // Named by the API node's path, as one process's report names it.
-                auto map = std::make_shared<EnvironmentMap>(*api::load_environment(cache.file_for(r, env)));
-                map->source = env.source;
-                info->settings.environment = std::move(map);
+                // Named by its place in the API node's catalog, as one process's report names it.
+                info->settings.environment = api::load_environment(cache.file_for(r, env), env.shown());
             }
             if (!rj->reference.empty()) {
                 const fs::path ref = job_image_exr(cfg.data_dir, rj->reference);
@@ -614,6 +612,7 @@ struct RenderNode::Impl {
         // The comparison loads the scene itself (each configuration builds its own BVH): only
         // the file is needed here.
         opt.scene_source = cache.file_for(r, info->ref);
+        opt.scene_name = info->ref.shown();
         opt.load_limits = cfg.load_limits;
         opt.threads = 1;
         opt.job_id = t.job;
@@ -636,6 +635,7 @@ struct RenderNode::Impl {
     api::RunOptions shot_options(Redis& r, const Task& t, const JobInfo& info) {
         api::RunOptions opt;
         opt.scene_source = cache.file_for(r, info.ref);
+        opt.scene_name = info.ref.shown();
         opt.load_limits = cfg.load_limits;
         opt.threads = cfg.threads;
         opt.job_id = t.job;
@@ -651,7 +651,7 @@ struct RenderNode::Impl {
         if (kept_shot.job != t.job || kept_shot.source != opt.scene_source || !kept_shot.file) {
             kept_shot = {};
             try {
-                kept_shot.file = std::make_shared<const tessera::SceneFile>(opt.scene_source, cfg.load_limits);
+                kept_shot.file = std::make_shared<const tessera::SceneFile>(opt.scene_source, cfg.load_limits, opt.scene_name);
             } catch (const std::exception&) {
                 return opt;  // the shot runner opens it and fails the job with the reason
             }

@@ -456,13 +456,12 @@ HttpApi::HttpApi(JobQueue& queue, HttpLimits limits, std::string openapi_path)
             } catch (const Problem& p) {
                 send_problem(res, p);
             } catch (const QueueError& e) {
-                // A scene's file is named by its place in the catalog, not in the server's disk,
-                // where the server wrote the text (a file that does not load or cannot be read
-                // now). The other kinds quote the client's own words, which are not cut: cut,
-                // they would tell a client which folders are the server's.
+                // A store that cannot take a file now says why in the file system's words, which
+                // may name its folders: cut. Every other text is left as made: a scene's file is
+                // named by its place in the catalog where the text is made (CatalogEntry::shown),
+                // and the client's own words, cut, would tell it which folders are the server's.
                 Problem p = problem(e);
-                const bool server_text = e.kind == QueueErrorKind::broken_file || e.kind == QueueErrorKind::unavailable ||
-                                         e.kind == QueueErrorKind::store_full;
+                const bool server_text = e.kind == QueueErrorKind::unavailable || e.kind == QueueErrorKind::store_full;
                 Problem shown(p.status, p.slug, p.title, server_text ? queue_.catalog().redact(p.what()) : std::string(p.what()));
                 shown.field = p.field;
                 shown.location = server_text ? queue_.catalog().redact(p.location) : p.location;
@@ -763,8 +762,8 @@ void HttpApi::routes() {
         const size_t limit = size_param(req, "limit", 1000, 1, 10'000);
         const LogPage page = queue_.job_log(req.matches[1], from, limit);
         res.set_header("Next-From", std::to_string(page.next));
-        // A scene's file is named by its place in the catalog, not in the server's disk.
-        res.set_content(queue_.catalog().redact(page.ndjson), "application/x-ndjson");
+        // Its files are named by their places in the catalog where each line was made.
+        res.set_content(page.ndjson, "application/x-ndjson");
     });
     s.Get("/v1/nodes", [this](const httplib::Request&, httplib::Response& res) {
         send_json(res, 200, {{"nodes", queue_.node_report()}});
@@ -830,7 +829,7 @@ void HttpApi::routes() {
                 const json details = queue_.catalog().describe(e, queue_.config().load_limits);
                 for (auto& [k, v] : details.items()) j[k] = v;
             } catch (const SceneError& err) {
-                j["error"] = queue_.catalog().redact(err.what());
+                j["error"] = err.what();
             }
             scenes.push_back(j);
         }

@@ -332,9 +332,6 @@ api::JobStatus JobQueue::status(const std::string& id) {
 
 api::JobStatus JobQueue::status_of(const JobRecord& rec, bool locked) {
     api::JobStatus st = record_status(rec);
-    st.error = catalog_.redact(st.error);
-    if (st.task_failures)
-        for (std::string& reason : st.task_failures->latest) reason = catalog_.redact(std::move(reason));
     add_live(st, rec, locked);
     // A shot no worker of this process holds (queued, failed or canceled; running before its
     // worker has begun, or on a farm's node): its frames from the job, those done from the

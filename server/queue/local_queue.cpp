@@ -373,10 +373,12 @@ bool LocalQueue::until_stored(const std::string& id, const char* what, const std
     }
 }
 
-std::string LocalQueue::scene_source(const std::string& scene) {
+// The job's scene: a file's entry, or a built-in's with its parameters (builtin:NAME?params).
+CatalogEntry LocalQueue::scene_entry(const std::string& scene) {
     auto entry = catalog_.find(scene.substr(0, scene.find('?')));
     if (!entry) throw std::runtime_error("scene '" + scene + "' is no longer in the catalog");
-    return entry->source == "builtin" ? scene : entry->path;
+    if (entry->source == "builtin") entry->path = entry->shown = scene;
+    return *entry;
 }
 
 void LocalQueue::run(const JobRecord& rec, Running& running) {
@@ -411,13 +413,17 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
         if (std::holds_alternative<api::ComparisonJob>(job)) task.task = "comparison";
         else if (std::get<api::RenderJob>(job).frames) task.task = "shot";
         api::RunOptions opt;
-        opt.scene_source = scene_source(api::scene_of(job));
+        const CatalogEntry scene = scene_entry(api::scene_of(job));
+        opt.scene_source = scene.path;
+        opt.scene_name = scene.shown;
         opt.load_limits = config_.load_limits;
         opt.threads = config_.render_threads;
         opt.job_id = rec.id;
         opt.resume_frames = true;  // a shot queued again after a shutdown keeps its written frames
         opt.checkpoint_seconds = config_.checkpoint_s;  // and a render its samples
-        opt.prepare = [this](const std::string& source, const RenderSceneOptions& options) { return scenes_.get_local(source, options); };
+        opt.prepare = [this](const std::string& source, const std::string& name, const RenderSceneOptions& options) {
+            return scenes_.get_local(source, name, options);
+        };
         if (const auto* r = std::get_if<api::RenderJob>(&job)) {
             running.max_spp = r->render.spp;
             if (r->frames) {
@@ -431,6 +437,7 @@ void LocalQueue::run(const JobRecord& rec, Running& running) {
                 const auto env = catalog_.find_environment(r->environment);
                 if (!env) throw std::runtime_error("environment map '" + r->environment + "' is no longer in the scene folders");
                 opt.environment_file = env->path;
+                opt.environment_name = env->shown;
             }
         }
         const std::string dir = job_dir(rec.id);

@@ -87,7 +87,7 @@ private:
     // Ends as canceled, with its checkpoints, a job the store holds paused; false for any other
     // state. The caller holds mutex_; a store that refuses throws StoreError.
     bool cancel_if_paused(const std::string& id);
-    std::string scene_source(const std::string& scene);
+    CatalogEntry scene_entry(const std::string& scene);
 
     // Prepared scenes kept between jobs (bounded by scene_cache_mb).
     SceneCache scenes_;

@@ -94,7 +94,7 @@ std::string SceneCache::as_published(std::string text, const std::vector<SceneRe
         // Another copy (a part file): its name alone.
         std::string shown = name.empty() ? "the node's scene folder" : name;
         for (const SceneRef& ref : refs)
-            if (!ref.hash.empty() && ref.hash + ref.ext == name) shown = ref.source;
+            if (!ref.hash.empty() && ref.hash + ref.ext == name) shown = ref.shown();
         text.replace(at, end - at, shown);
         at += shown.size();
     }
@@ -133,10 +133,11 @@ std::shared_ptr<const PreparedScene> SceneCache::keep(const std::string& key, st
 }
 
 std::shared_ptr<const PreparedScene> SceneCache::get(Redis& redis, const SceneRef& ref, const RenderSceneOptions& options) {
-    const std::string key = (ref.hash.empty() ? ref.source : ref.hash) + "|" + options_key(options);
+    // The name is in the key: two jobs' files of the same bytes, named apart, report each its own.
+    const std::string key = (ref.hash.empty() ? ref.source : ref.hash) + "|" + ref.shown() + "|" + options_key(options);
     if (auto hit = find(key)) return hit;
     // Prepared outside the lock: jobs on other scenes are not held up meanwhile.
-    return keep(key, api::prepare_scene(file_for(redis, ref), limits_, options));
+    return keep(key, api::prepare_scene(file_for(redis, ref), limits_, options, ref.shown()));
 }
 
 namespace {
@@ -173,19 +174,21 @@ std::string scene_identity(const std::string& source) {
 
 }  // namespace
 
-std::pair<std::shared_ptr<const PreparedScene>, bool> SceneCache::get_local(const std::string& source, const RenderSceneOptions& options) {
+std::pair<std::shared_ptr<const PreparedScene>, bool> SceneCache::get_local(const std::string& source, const std::string& name,
+                                                                            const RenderSceneOptions& options) {
     if (source.rfind("builtin:", 0) == 0) {
         const std::string key = source + "|" + options_key(options);
         if (auto hit = find(key)) return {hit, true};
-        return {keep(key, api::prepare_scene(source, limits_, options)), false};
+        return {keep(key, api::prepare_scene(source, limits_, options, name)), false};
     }
     // A file edited or replaced (an upload under the same name, a folder synced anew) is
-    // another key; one that changed while it was being prepared is rendered but not kept.
+    // another key; one that changed while it was being prepared is rendered but not kept. A
+    // file in two of the catalog's folders is two names, each reported as its own.
     const std::string before = scene_identity(source);
-    const std::string key = before + "|" + options_key(options);
+    const std::string key = before + "|" + name + "|" + options_key(options);
     if (!before.empty())
         if (auto hit = find(key)) return {hit, true};
-    auto prepared = api::prepare_scene(source, limits_, options);
+    auto prepared = api::prepare_scene(source, limits_, options, name);
     if (before.empty() || scene_identity(source) != before) return {prepared, false};
     return {keep(key, prepared), false};
 }

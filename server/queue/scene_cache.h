@@ -32,14 +32,14 @@ public:
     // The job's scene as a file on this node (a built-in's name as is); throws std::runtime_error.
     std::string file_for(Redis& redis, const SceneRef& ref);
     // `text` (a job's error) with this node's copies of the job's files (`refs`: its scene, its
-    // environment map) named as the job named them: the file's path on the API node, which that
-    // node's catalog then shows by its place. Another copy in the folder is named by its file
-    // name alone. A node's own folders are not its clients' business.
+    // environment map) named as the job's files are named (SceneRef::shown). Another copy in the
+    // folder is named by its file name alone. A node's own folders are not its clients' business.
     std::string as_published(std::string text, const std::vector<SceneRef>& refs) const;
     // A scene this process reads itself: a file path (keyed by its identity, so an edited or
-    // replaced file is a new scene) or builtin:NAME[?params]. Throws SceneError. The second
-    // value says whether it was prepared before.
-    std::pair<std::shared_ptr<const PreparedScene>, bool> get_local(const std::string& source, const RenderSceneOptions& options);
+    // replaced file is a new scene) or builtin:NAME[?params], called `name` in what it reports.
+    // Throws SceneError. The second value says whether it was prepared before.
+    std::pair<std::shared_ptr<const PreparedScene>, bool> get_local(const std::string& source, const std::string& name,
+                                                                    const RenderSceneOptions& options);
     void drop_idle();
     uint64_t hits() const { return hits_; }
     uint64_t misses() const { return misses_; }

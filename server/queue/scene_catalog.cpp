@@ -107,7 +107,7 @@ void SceneCatalog::scan_locked() {
     environments_.clear();
     for (const char* b : {"builtin:cornell_box", "builtin:cornell_spheres", "builtin:furnace", "builtin:many_lights",
                           "builtin:displaced_sphere"})
-        entries_[b] = {b, b, "builtin"};
+        entries_[b] = {b, b, "builtin", b};
     auto add_dir = [&](const std::string& dir, const std::string& source, const std::string& prefix) {
         std::error_code ec;
         if (dir.empty() || !fs::is_directory(dir, ec)) return;
@@ -120,7 +120,8 @@ void SceneCatalog::scan_locked() {
             fs::path rel = fs::relative(it->path(), dir, ec);
             if (ec) continue;
             std::string name = prefix + (rel.parent_path() / rel.stem()).generic_string();
-            (scene ? entries_ : environments_).try_emplace(name, CatalogEntry{name, it->path().string(), source});
+            (scene ? entries_ : environments_)
+                .try_emplace(name, CatalogEntry{name, it->path().string(), source, prefix + rel.generic_string()});
         }
     };
     add_dir(project_dir_, "project", "");
@@ -179,7 +180,7 @@ nlohmann::json SceneCatalog::describe(const CatalogEntry& e, const LoadLimits& l
     }
     {
         std::lock_guard<std::mutex> lock(mutex_);
-        auto it = details_.find(e.path);
+        auto it = details_.find(e.path + '\n' + e.shown);
         if (it != details_.end() && it->second.first == mtime) return it->second.second;
     }
     nlohmann::json d;
@@ -187,10 +188,10 @@ nlohmann::json SceneCatalog::describe(const CatalogEntry& e, const LoadLimits& l
         d = {{"triangles", 1002528}, {"spheres", 0}, {"lights", 1}, {"note", "?triangles=N sets the size"}};
     } else {
         LoadSlot slot(loads_);
-        d = api::describe_scene(load_scene(e.path, limits));
+        d = api::describe_scene(load_scene(e.path, limits, e.shown));
     }
     std::lock_guard<std::mutex> lock(mutex_);
-    details_[e.path] = {mtime, d};
+    details_[e.path + '\n' + e.shown] = {mtime, d};
     return d;
 }
 
@@ -210,6 +211,7 @@ CatalogEntry SceneCatalog::add_upload(const std::string& filename, const std::st
     const std::string id = random_hex(16);
     const fs::path dir = fs::path(upload_dir_) / id;
     const fs::path file = dir / filename;
+    const std::string shown = "upload/" + id + "/" + filename;
     {
         // A full disk refuses the upload (507) and leaves nothing half-written behind.
         std::error_code ec;
@@ -239,7 +241,7 @@ CatalogEntry SceneCatalog::add_upload(const std::string& filename, const std::st
         // Validation: a broken upload is refused, not stored. What it finds is what the
         // catalog says of the scene, so the file is not loaded a second time for that.
         LoadSlot slot(loads_);
-        details = api::describe_scene(load_scene(file.string(), limits));
+        details = api::describe_scene(load_scene(file.string(), limits, shown));
     } catch (const SceneError& e) {
         std::error_code ec;
         fs::remove_all(dir, ec);
@@ -250,10 +252,10 @@ CatalogEntry SceneCatalog::add_upload(const std::string& filename, const std::st
     const std::string name = "upload/" + id + "/" + p.stem().string();
     std::lock_guard<std::mutex> lock(mutex_);
     scan_locked();
-    CatalogEntry entry{name, file.string(), "upload"};
+    CatalogEntry entry{name, file.string(), "upload", shown};
     entries_[name] = entry;
     std::error_code ec;
-    details_[entry.path] = {(long long)fs::last_write_time(entry.path, ec).time_since_epoch().count(), std::move(details)};
+    details_[entry.path + '\n' + entry.shown] = {(long long)fs::last_write_time(entry.path, ec).time_since_epoch().count(), std::move(details)};
     return entry;
 }
 

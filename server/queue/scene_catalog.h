@@ -19,6 +19,12 @@ struct CatalogEntry {
     std::string name;    // what a job names: "cornell_box", "sky/CBbunny", "upload/<id>", "builtin:furnace"
     std::string path;    // file path, or the built-in name
     std::string source;  // "project", "directory", "upload", "builtin"
+    // What the server calls the file in what a client reads (errors, logs, reports): its place
+    // in the catalog ("sky/CBbunny.dae", "upload/<id>/box.gltf"), never its folders on the
+    // server's disk. Given to the loaders, so the text is right where it is made: cutting the
+    // folders out of finished text would also cut them out of a client's own words (a name
+    // inside an uploaded file), telling the client which folders are the server's.
+    std::string shown;
 };
 
 class SceneCatalog {
@@ -30,8 +36,9 @@ public:
     // An environment map (.exr, .hdr) in the same folders, named like a scene.
     std::optional<CatalogEntry> find_environment(const std::string& name);
     std::vector<CatalogEntry> entries();
-    // `text` with the catalog's folders taken out of every path in it: what the server tells a
-    // client about a scene's file names it by its place in the catalog, not in the server's disk.
+    // `text` with the catalog's folders taken out of every path in it. Only for texts wholly the
+    // server's (a file system's error on the upload store); a scene's files are named by
+    // CatalogEntry::shown where the text is made.
     std::string redact(std::string text) const;
     // Counts and bounds of a scene, loading it once (cached by path and modification time).
     // Throws SceneError for a broken file.
@@ -51,7 +58,9 @@ private:
     std::mutex mutex_;
     std::map<std::string, CatalogEntry> entries_;
     std::map<std::string, CatalogEntry> environments_;
-    std::map<std::string, std::pair<long long, nlohmann::json>> details_;  // path → (mtime, details)
+    // path + '\n' + shown → (mtime, details): a file under two names is described under each,
+    // its warnings naming it as each name's entry does.
+    std::map<std::string, std::pair<long long, nlohmann::json>> details_;
     // Scenes loaded at once to check or describe them (uploads, the catalog): each may take its
     // whole load budget (texels, triangles), so a burst of uploads costs two budgets, not one
     // for each upload in flight.

@@ -16,7 +16,13 @@ SceneRef SceneRef::decode(const std::string& s) {
     std::getline(in, r.source);
     std::getline(in, r.hash);
     std::getline(in, r.ext);
+    std::getline(in, r.name);
     return r;
+}
+
+std::string SceneRef::shown() const {
+    if (!name.empty() || hash.empty()) return name.empty() ? source : name;
+    return std::filesystem::path(source).filename().string();
 }
 
 std::string content_hash(const std::string& bytes) {

@@ -11,7 +11,11 @@ struct SceneRef {
     std::string source;  // "builtin:NAME[?params]", or the file's path on the API node
     std::string hash;    // content_hash of the file; "" for built-ins
     std::string ext;     // the file's extension, lower case (".dae", ".gltf", ".exr"), which picks the loader
-    std::string encode() const { return source + "\n" + hash + "\n" + ext; }
+    // What the job's errors, log and report call the file: its place in the API node's catalog
+    // (CatalogEntry::shown). A reference an older API node wrote has none: its file name then.
+    std::string name;
+    std::string encode() const { return source + "\n" + hash + "\n" + ext + "\n" + name; }
+    std::string shown() const;
     static SceneRef decode(const std::string& s);
 };
 

@@ -60,11 +60,15 @@ TEST_F(FarmQueueTest, ASubmissionPublishesWhatNodesLoad) {
     const SceneRef env = SceneRef::decode(get(keys::job_environment(file_job.id)));
     EXPECT_EQ(env.ext, ".exr");
     EXPECT_EQ(content_hash(get(keys::scene(env.hash))), env.hash);
+    // Each named by its place in the catalog, which the nodes' errors and reports say.
+    EXPECT_EQ(ref.name, "cornell_box.gltf");
+    EXPECT_EQ(env.name, "sky.exr");
 
     const api::JobStatus built_in = queue_->submit({{"scene", "builtin:displaced_sphere?triangles=200"}, {"width", 8}, {"height", 8}});
     const SceneRef b = SceneRef::decode(get(keys::job_scene(built_in.id)));
     EXPECT_EQ(b.source, "builtin:displaced_sphere?triangles=200");
     EXPECT_EQ(b.hash, "");
+    EXPECT_EQ(b.name, "builtin:displaced_sphere?triangles=200");
     EXPECT_EQ(queue_->queue_depth(), 2u);
 }
 

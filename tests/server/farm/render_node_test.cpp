@@ -588,6 +588,17 @@ TEST_F(RenderNodeFarm, ATaskFailingEverywhereFailsItsJobAfterMaxRetriesWithEvery
     }
 }
 
+// A farm's report names the job's files as one process's does: by their places in the API
+// node's catalog, not the node's copies of them nor the API node's folders.
+TEST_F(RenderNodeFarm, AReportNamesItsFilesByTheirPlaceInTheCatalog) {
+    const std::string id = run_on_farm({{"scene", "dark_box"}, {"environment", "sky"}, {"width", 16}, {"height", 12}, {"spp", 2}});
+    std::ifstream in(job_results_dir((dir_ / "data").string(), id) / "report.json");
+    const std::string report((std::istreambuf_iterator<char>(in)), {});
+    EXPECT_NE(report.find("environment light: sky.exr ("), std::string::npos) << report;
+    for (const std::string& folder : {std::string(TESSERA_PROJECT_SCENES), dir_.string(), std::string("tessera-node-")})
+        EXPECT_EQ(report.find(folder), std::string::npos) << folder << " in " << report;
+}
+
 // A shot playing an animation its scene lacks fails on the node that starts it, once, naming the
 // scene's animations: every node reads the scene alike, so no retry and no other node does better.
 TEST_F(RenderNodeFarm, AShotOfAnAnimationTheSceneLacksFailsOnceNamingItsAnimations) {

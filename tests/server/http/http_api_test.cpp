@@ -413,6 +413,87 @@ TEST_F(Server, BrokenSceneFailsWithItsLocation) {
     ASSERT_TRUE(health && health->status == 200);
 }
 
+// What a client reads names a scene's files by their places in the catalog, made so where the
+// text is made: the scene list, a job's report, log and error, an upload's refusal. Nothing is
+// cut from finished text, so a client's own words (names inside its upload) come back as sent:
+// cut, they would tell it which folders are the server's.
+TEST_F(Server, WhatAClientReadsNamesFilesByTheirPlaceInTheCatalog) {
+    // The scenes' folder is the test's own, beside the server's (start() makes that anew).
+    const fs::path more = fs::temp_directory_path() / ("tessera_catalog_names_" + std::to_string(::getpid()));
+    fs::remove_all(more);
+    fs::create_directories(more / "sub");
+    struct Cleanup {
+        fs::path p;
+        ~Cleanup() {
+            std::error_code ec;
+            fs::remove_all(p, ec);
+        }
+    } cleanup{more};
+    // A COLLADA triangle without <up_axis> (a warning naming its line), lit by a map beside it.
+    std::ofstream(more / "sub" / "tri.dae")
+        << "<?xml version=\"1.0\"?>\n<COLLADA version=\"1.4.1\">\n<library_geometries><geometry id=\"g\" name=\"g\"><mesh>\n"
+           "<source id=\"pos\"><float_array id=\"pos-a\" count=\"9\">-1 0 -1  1 0 -1  0 0 1</float_array>\n"
+           "<technique_common><accessor source=\"#pos-a\" count=\"3\" stride=\"3\"/></technique_common></source>\n"
+           "<vertices id=\"v\"><input semantic=\"POSITION\" source=\"#pos\"/></vertices>\n"
+           "<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 2</p></triangles>\n"
+           "</mesh></geometry></library_geometries>\n<library_visual_scenes><visual_scene id=\"S\">\n"
+           "<node id=\"n\" name=\"n\"><instance_geometry url=\"#g\"/></node>\n"
+           "</visual_scene></library_visual_scenes>\n<scene><instance_visual_scene url=\"#S\"/></scene>\n</COLLADA>\n";
+    fs::copy_file(fs::path(TESSERA_PROJECT_SCENES) / "sky.exr", more / "sub" / "sky.exr");
+    scene_dirs_ = {more.string()};
+    start();
+    const std::vector<std::string> folders = {TESSERA_PROJECT_SCENES, more.string(), dir_.string(), fs::canonical(dir_).string()};
+    auto shows_no_folder = [&](const std::string& text, const std::string& what) {
+        for (const std::string& f : folders) EXPECT_EQ(text.find(f), std::string::npos) << what << " shows " << f << ": " << text;
+    };
+    auto list = client_->Get("/v1/scenes");
+    ASSERT_TRUE(list && list->status == 200);
+    shows_no_folder(list->body, "the scene list");
+    EXPECT_NE(list->body.find("sub/tri.dae:2: no <up_axis>"), std::string::npos) << list->body;
+
+    json job = kSmallJob;
+    job["scene"] = "sub/tri";
+    job["environment"] = "sub/sky";
+    const json done = wait_state(submit(job), {"succeeded", "failed"});
+    ASSERT_EQ(done["state"], "succeeded") << done.dump();
+    const std::string base = "/v1/jobs/" + done["id"].get<std::string>();
+    auto report = client_->Get(base + "/report.json");
+    ASSERT_TRUE(report && report->status == 200);
+    shows_no_folder(report->body, "the report");
+    EXPECT_NE(report->body.find("environment light: sub/sky.exr ("), std::string::npos) << report->body;
+    EXPECT_NE(report->body.find("sub/tri.dae:2: no <up_axis>"), std::string::npos) << report->body;
+    auto log = client_->Get(base + "/log");
+    ASSERT_TRUE(log && log->status == 200);
+    shows_no_folder(log->body, "the log");
+    EXPECT_NE(log->body.find("sub/tri.dae:2"), std::string::npos) << log->body;
+
+    // An upload whose animation is named by a folder of the server's: a shot of another
+    // animation fails naming the file's animations, that one as the file spells it.
+    const std::string guess = (dir_ / "uploads").string() + "/x";
+    std::ifstream in(fs::path(TESSERA_PROJECT_SCENES) / "cornell_shot.gltf");
+    json shot = json::parse(in);
+    shot["animations"][0]["name"] = guess;
+    auto up = client_->Post("/v1/scenes?name=shot.gltf", shot.dump(), "model/gltf+json");
+    ASSERT_TRUE(up && up->status == 201) << (up ? up->body : "no answer");
+    const std::string id = json::parse(up->body)["id"];
+    const json failed = wait_state(submit({{"scene", id}, {"width", 16}, {"height", 12}, {"spp", 1}, {"frames", {0}}, {"animation", "nothing"}}),
+                                   {"succeeded", "failed"});
+    ASSERT_EQ(failed["state"], "failed") << failed.dump();
+    const std::string error = failed["error"];
+    EXPECT_NE(error.find("'" + guess + "'"), std::string::npos) << error;
+    auto failed_log = client_->Get("/v1/jobs/" + failed["id"].get<std::string>() + "/log");
+    ASSERT_TRUE(failed_log && failed_log->status == 200);
+    EXPECT_NE(failed_log->body.find(guess), std::string::npos) << failed_log->body;
+    // An upload refused for a file it names: the name as sent.
+    json outside = json::parse(to_gltf(cornell_box()));
+    outside["images"] = json::array({{{"uri", guess + "/sky.png"}}});
+    outside["textures"] = json::array({{{"source", 0}}});
+    outside["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+    auto refused = client_->Post("/v1/scenes?name=outside.gltf", outside.dump(), "model/gltf+json");
+    expect_problem(refused, 422);
+    EXPECT_NE(json::parse(refused->body)["detail"].get<std::string>().find("'" + guess + "/sky.png'"), std::string::npos) << refused->body;
+}
+
 // An environment map from the scene folders lights a job (CS184 -e); an unknown name is 404
 // naming /environment before anything runs; a broken map fails its job with the file's name,
 // and the server goes on.

@@ -39,18 +39,18 @@ protected:
 
 TEST_F(SceneCacheTest, TheSameFileAndOptionsAreOneSceneOtherOptionsAnother) {
     SceneCache cache((dir_ / "cache").string(), int64_t(1) << 30, LoadLimits{}, 60);
-    const auto [a, hit_a] = cache.get_local(path("box.gltf"), {});
-    const auto [b, hit_b] = cache.get_local(path("box.gltf"), {});
+    const auto [a, hit_a] = cache.get_local(path("box.gltf"), {}, {});
+    const auto [b, hit_b] = cache.get_local(path("box.gltf"), {}, {});
     EXPECT_FALSE(hit_a);
     EXPECT_TRUE(hit_b);
     EXPECT_EQ(a.get(), b.get()) << "a hit is the scene prepared before, not a copy";
     RenderSceneOptions other;
     other.bvh.max_leaf_size = 4;
-    const auto [c, hit_c] = cache.get_local(path("box.gltf"), other);
+    const auto [c, hit_c] = cache.get_local(path("box.gltf"), {}, other);
     EXPECT_FALSE(hit_c) << "other build options build another scene";
     EXPECT_NE(c.get(), a.get());
-    const auto [d, hit_d] = cache.get_local("builtin:cornell_spheres", {});
-    const auto [e, hit_e] = cache.get_local("builtin:cornell_spheres", {});
+    const auto [d, hit_d] = cache.get_local("builtin:cornell_spheres", {}, {});
+    const auto [e, hit_e] = cache.get_local("builtin:cornell_spheres", {}, {});
     EXPECT_FALSE(hit_d);
     EXPECT_TRUE(hit_e);
     EXPECT_EQ(cache.hits(), 2u);
@@ -59,16 +59,16 @@ TEST_F(SceneCacheTest, TheSameFileAndOptionsAreOneSceneOtherOptionsAnother) {
 
 TEST_F(SceneCacheTest, AnEditedOrReplacedFileIsAnotherScene) {
     SceneCache cache((dir_ / "cache").string(), int64_t(1) << 30, LoadLimits{}, 60);
-    const auto first = cache.get_local(path("box.gltf"), {}).first;
+    const auto first = cache.get_local(path("box.gltf"), {}, {}).first;
     // The same bytes written again: a new modification time, so possibly another file now.
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     fs::copy_file(path("box.gltf"), path("box2.gltf"));
     fs::rename(path("box2.gltf"), path("box.gltf"));
-    const auto [again, hit] = cache.get_local(path("box.gltf"), {});
+    const auto [again, hit] = cache.get_local(path("box.gltf"), {}, {});
     EXPECT_FALSE(hit) << "a replaced file is read again";
     EXPECT_NE(again.get(), first.get());
     fs::copy_file(path("spheres.gltf"), path("box.gltf"), fs::copy_options::overwrite_existing);
-    const auto [other, hit2] = cache.get_local(path("box.gltf"), {});
+    const auto [other, hit2] = cache.get_local(path("box.gltf"), {}, {});
     EXPECT_FALSE(hit2);
     EXPECT_NE(other->scene.triangle_count() + other->scene.spheres.size(),
               again->scene.triangle_count() + again->scene.spheres.size()) << "the new content, not the old";
@@ -78,23 +78,23 @@ TEST_F(SceneCacheTest, TheLeastRecentlyUsedGoFirstWhenTheBoundIsPassed) {
     size_t box = 0, spheres = 0, furnace = 0;
     {
         SceneCache sizes((dir_ / "sizes").string(), int64_t(1) << 30, LoadLimits{}, 60);
-        box = sizes.get_local(path("box.gltf"), {}).first->bytes;
-        spheres = sizes.get_local(path("spheres.gltf"), {}).first->bytes;
-        furnace = sizes.get_local("builtin:furnace", {}).first->bytes;
+        box = sizes.get_local(path("box.gltf"), {}, {}).first->bytes;
+        spheres = sizes.get_local(path("spheres.gltf"), {}, {}).first->bytes;
+        furnace = sizes.get_local("builtin:furnace", {}, {}).first->bytes;
     }
     // Room for the box and one of the others.
     SceneCache cache((dir_ / "cache").string(), int64_t(box + std::max(spheres, furnace)), LoadLimits{}, 60);
-    cache.get_local(path("box.gltf"), {});
-    cache.get_local(path("spheres.gltf"), {});
-    EXPECT_TRUE(cache.get_local(path("box.gltf"), {}).second) << "the box is now the most recent";
-    cache.get_local("builtin:furnace", {});  // over the bound: the least recently used goes
-    EXPECT_TRUE(cache.get_local(path("box.gltf"), {}).second);
-    EXPECT_FALSE(cache.get_local(path("spheres.gltf"), {}).second) << "the least recently used went";
+    cache.get_local(path("box.gltf"), {}, {});
+    cache.get_local(path("spheres.gltf"), {}, {});
+    EXPECT_TRUE(cache.get_local(path("box.gltf"), {}, {}).second) << "the box is now the most recent";
+    cache.get_local("builtin:furnace", {}, {});  // over the bound: the least recently used goes
+    EXPECT_TRUE(cache.get_local(path("box.gltf"), {}, {}).second);
+    EXPECT_FALSE(cache.get_local(path("spheres.gltf"), {}, {}).second) << "the least recently used went";
     // A scene larger than the whole bound is rendered by whoever holds it, and not kept.
     SceneCache tiny((dir_ / "tiny").string(), 1, LoadLimits{}, 60);
-    const auto held = tiny.get_local(path("box.gltf"), {}).first;
+    const auto held = tiny.get_local(path("box.gltf"), {}, {}).first;
     EXPECT_GT(held->scene.triangle_count(), 0u);
-    EXPECT_FALSE(tiny.get_local(path("box.gltf"), {}).second);
+    EXPECT_FALSE(tiny.get_local(path("box.gltf"), {}, {}).second);
 }
 
 // The objects' and materials' names (Cryptomatte's) count against the bound: the same box with
@@ -111,18 +111,18 @@ TEST_F(SceneCacheTest, NamesCountAgainstTheBound) {
     ASSERT_GT(names, 2u);
     std::ofstream(path("named.gltf")) << g.dump();
     SceneCache cache((dir_ / "cache").string(), int64_t(1) << 30, LoadLimits{}, 60);
-    const size_t plain = cache.get_local(path("box.gltf"), {}).first->bytes;
-    const size_t named = cache.get_local(path("named.gltf"), {}).first->bytes;
+    const size_t plain = cache.get_local(path("box.gltf"), {}, {}).first->bytes;
+    const size_t named = cache.get_local(path("named.gltf"), {}, {}).first->bytes;
     EXPECT_GE(named, plain + names * 150) << "each name about 180 bytes longer than the loader's own";
 }
 
 TEST_F(SceneCacheTest, IdleScenesGoAfterTheirIdleTime) {
     SceneCache cache((dir_ / "cache").string(), int64_t(1) << 30, LoadLimits{}, 0.05);
-    cache.get_local(path("box.gltf"), {});
-    EXPECT_TRUE(cache.get_local(path("box.gltf"), {}).second);
+    cache.get_local(path("box.gltf"), {}, {});
+    EXPECT_TRUE(cache.get_local(path("box.gltf"), {}, {}).second);
     std::this_thread::sleep_for(std::chrono::milliseconds(150));
     cache.drop_idle();
-    EXPECT_FALSE(cache.get_local(path("box.gltf"), {}).second) << "dropped after 50 ms unused";
+    EXPECT_FALSE(cache.get_local(path("box.gltf"), {}, {}).second) << "dropped after 50 ms unused";
 }
 
 }  // namespace

@@ -195,7 +195,7 @@ TEST_F(RedisJobStoreFarmSide, LiveProgressIsWhatTheRenderWrote) {
 
 TEST_F(RedisJobStoreFarmSide, PutScenePublishesTheBytesOncePerContent) {
     const std::string bytes = "glTF\0\x01\x02 scene bytes\r\n"s;
-    const SceneRef ref{"/scenes/box.gltf", content_hash(bytes), ".gltf"};
+    const SceneRef ref{"/scenes/box.gltf", content_hash(bytes), ".gltf", "box.gltf"};
     store_->put_scene(hex_id(1), ref, &bytes);
 
     EXPECT_EQ(cmd({"GET", keys::scene(ref.hash)}).text, bytes) << "a render node loads exactly these bytes";
@@ -215,7 +215,7 @@ TEST_F(RedisJobStoreFarmSide, PutScenePublishesTheBytesOncePerContent) {
     EXPECT_EQ(cmd({"GET", keys::scene(ref.hash)}).text, bytes);
 
     // A built-in scene has no bytes: only the job's reference is written.
-    const SceneRef builtin{"builtin:cornell_box", "", ""};
+    const SceneRef builtin{"builtin:cornell_box", "", "", "builtin:cornell_box"};
     store_->put_scene(hex_id(4), builtin, nullptr);
     const SceneRef b = SceneRef::decode(cmd({"GET", keys::job_scene(hex_id(4))}).text);
     EXPECT_EQ(b.source, "builtin:cornell_box");
@@ -226,7 +226,7 @@ TEST_F(RedisJobStoreFarmSide, PutScenePublishesTheBytesOncePerContent) {
 
 TEST_F(RedisJobStoreFarmSide, PutEnvironmentPublishesTheMapBesideTheScene) {
     const std::string map = "#?RADIANCE\n\0\xff map bytes"s;
-    const SceneRef ref{"/scenes/sky.hdr", content_hash(map), ".hdr"};
+    const SceneRef ref{"/scenes/sky.hdr", content_hash(map), ".hdr", "sky.hdr"};
     store_->put_environment(hex_id(1), ref, map);
 
     EXPECT_EQ(cmd({"GET", keys::scene(ref.hash)}).text, map);
@@ -337,8 +337,8 @@ TEST_F(RedisJobStoreFarmSide, TaggedJobsHaveLanesThatGoWhenUnusedAndAreBounded) 
 
 TEST_F(RedisJobStoreFarmSide, RemovingAFinishedJobTakesItsFarmKeysButNotSharedSceneBytes) {
     const std::string bytes = "scene bytes", map = "map bytes";
-    const SceneRef scene{"/scenes/a.gltf", content_hash(bytes), ".gltf"};
-    const SceneRef env{"/scenes/sky.exr", content_hash(map), ".exr"};
+    const SceneRef scene{"/scenes/a.gltf", content_hash(bytes), ".gltf", "a.gltf"};
+    const SceneRef env{"/scenes/sky.exr", content_hash(map), ".exr", "sky.exr"};
     JobRecord gone = make_job(1), kept = make_job(2);
     for (JobRecord* r : {&gone, &kept}) {
         store_->put_scene(r->id, scene, &bytes);
@@ -466,7 +466,7 @@ TEST_F(RedisJobStoreFarmSide, RedisGoingAwayIsUnavailableAndTheStoreComesBackWit
     expect_unavailable("ids", [&] { (void)store_->ids(std::nullopt, 10); });
     expect_unavailable("live_progress", [&] { (void)store_->live_progress(a.id); });
     expect_unavailable("nodes", [&] { (void)store_->nodes(); });
-    expect_unavailable("put_scene", [&] { store_->put_scene(b.id, SceneRef{"/s.gltf", content_hash(bytes), ".gltf"}, &bytes); });
+    expect_unavailable("put_scene", [&] { store_->put_scene(b.id, SceneRef{"/s.gltf", content_hash(bytes), ".gltf", "s.gltf"}, &bytes); });
 
     ASSERT_TRUE(start_server());
     if (redis_->port() != port) GTEST_SKIP() << "redis-server came back on another port; the store's address is gone";

@@ -19,16 +19,28 @@ TEST(ContentHash, NamesBytes) {
 }
 
 TEST(SceneRef, EncodesAndDecodesEveryField) {
-    const SceneRef built_in{"builtin:displaced_sphere?triangles=2000", "", ""};
+    const SceneRef built_in{"builtin:displaced_sphere?triangles=2000", "", "", "builtin:displaced_sphere?triangles=2000"};
     const SceneRef decoded = SceneRef::decode(built_in.encode());
     EXPECT_EQ(decoded.source, built_in.source);
     EXPECT_EQ(decoded.hash, "");
     EXPECT_EQ(decoded.ext, "");
-    const SceneRef file{"/scenes/a b.glb", content_hash("x"), ".glb"};
+    EXPECT_EQ(decoded.shown(), built_in.source);
+    const SceneRef file{"/scenes/a b.glb", content_hash("x"), ".glb", "sub/a b.glb"};
     const SceneRef f = SceneRef::decode(file.encode());
     EXPECT_EQ(f.source, file.source);
     EXPECT_EQ(f.hash, file.hash);
     EXPECT_EQ(f.ext, ".glb");
+    EXPECT_EQ(f.name, "sub/a b.glb");
+    EXPECT_EQ(f.shown(), "sub/a b.glb");
+}
+
+// A reference an older API node wrote has three lines: its file is named by its file name, never
+// by the API node's folders.
+TEST(SceneRef, AnOlderReferenceIsNamedByItsFileName) {
+    const SceneRef old = SceneRef::decode("/srv/scenes/sky/a.gltf\n" + content_hash("x") + "\n.gltf");
+    EXPECT_EQ(old.name, "");
+    EXPECT_EQ(old.shown(), "a.gltf");
+    EXPECT_EQ(SceneRef::decode("builtin:furnace\n\n").shown(), "builtin:furnace");
 }
 
 TEST(SceneRef, ReadsAFileWithItsHashAndLowerCaseExtension) {
