@@ -117,6 +117,7 @@ std::shared_ptr<PreparedScene> prepare_scene(const std::string& source, const Lo
     auto p = std::make_shared<PreparedScene>();
     const auto t0 = Clock::now();
     const SceneDescription desc = load_scene(source, limits, name);
+    p->files_read = desc.files_read;
     const auto t1 = Clock::now();
     p->scene = build_render_scene(desc, options);
     p->load_s = seconds_between(t0, t1);

@@ -30,6 +30,7 @@ struct PreparedScene {
     RenderScene scene;
     double load_s = 0, build_s = 0;
     size_t bytes = 0;  // estimated memory
+    std::vector<std::string> files_read;  // SceneDescription::files_read: what else an edit can change
 };
 // Loads and builds a scene (a file path, or builtin:NAME[?params]). Throws SceneError. `name`
 // is what its errors, warnings and origins call the file (load_scene's); empty: the path.

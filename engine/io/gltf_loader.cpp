@@ -114,13 +114,17 @@ void check_image_views(std::string_view text, const std::string& file) {
 
 // --- external files -------------------------------------------------------------------------
 // tinygltf joins base_dir and the (URL-decoded) URI itself, then also tries the working
-// directory. We hand it an absolute base ending in '/', recover the URI from the joined path
-// and refuse anything that is absolute, has a scheme or resolves outside the scene's folder.
+// directory, and names the joined path in its messages ("File is empty : <path>"). We hand it
+// the folder as the file is shown (its name's folder, so its messages name a file as the
+// server's clients know it, never the server's folders), recover the URI from the joined path,
+// refuse anything that is absolute, has a scheme or resolves outside the scene's folder, and
+// read the rest from the real folder.
 struct FileGuard {
-    std::string prefix;  // absolute scene folder + '/'; empty = no external files at all
-    fs::path root;       // the folder, canonical
+    std::string prefix;  // the folder as shown + '/' ("./" for none); empty = no external files at all
+    fs::path root;       // the real folder, canonical
     uint64_t max_bytes = 0;
     std::string refusal;  // why a file was refused, for the error message
+    std::vector<std::string> read;  // the files read, by their real paths
 };
 
 bool guard_exists(const std::string& path, void* user) {
@@ -160,6 +164,7 @@ bool guard_read(std::vector<unsigned char>* out, std::string* err, const std::st
     out->resize(size);
     if (!in.read(reinterpret_cast<char*>(out->data()), static_cast<std::streamsize>(size)))
         return refuse(uri, "read error");
+    if (std::find(g->read.begin(), g->read.end(), target.string()) == g->read.end()) g->read.push_back(target.string());
     return true;
 }
 
@@ -189,7 +194,8 @@ void add_lines(std::vector<std::string>& to, const std::string& text) {
 }
 
 tinygltf::Model read_model(std::string_view bytes, bool binary, const std::string& base_dir, const std::string& file,
-                           const LoadLimits& limits, std::vector<std::string>& warnings, DecodedImages& images) {
+                           const LoadLimits& limits, std::vector<std::string>& warnings, DecodedImages& images,
+                           std::vector<std::string>& files_read) {
     if (bytes.size() > limits.max_file_bytes)
         fail(file, "", "input of " + str(bytes.size()) + " bytes is above the limit of " + str(limits.max_file_bytes));
     if (bytes.size() >= std::numeric_limits<uint32_t>::max()) fail(file, "", "inputs of 4 GiB or more are not supported");
@@ -203,10 +209,10 @@ tinygltf::Model read_model(std::string_view bytes, bool binary, const std::strin
     guard.max_bytes = limits.max_file_bytes;
     if (!base_dir.empty()) {
         std::error_code ec;
-        const fs::path abs = fs::absolute(base_dir, ec).lexically_normal();
-        guard.root = fs::weakly_canonical(abs, ec);
-        guard.prefix = abs.string();
-        if (guard.prefix.empty() || guard.prefix.back() != '/') guard.prefix += '/';
+        guard.root = fs::weakly_canonical(fs::absolute(base_dir, ec).lexically_normal(), ec);
+        guard.prefix = fs::path(file).parent_path().generic_string();
+        if (guard.prefix.empty()) guard.prefix = ".";
+        if (guard.prefix.back() != '/') guard.prefix += '/';
     }
     tinygltf::TinyGLTF reader;
     images.limits = &limits;
@@ -230,6 +236,7 @@ tinygltf::Model read_model(std::string_view bytes, bool binary, const std::strin
     if (!ok) fail(file, "", "invalid glTF: " + clip(err.empty() ? "unknown tinygltf error" : err));
     add_lines(warnings, err);  // tinygltf reports some problems it then works around
     add_lines(warnings, warn);
+    files_read = std::move(guard.read);
     return model;
 }
 
@@ -981,6 +988,7 @@ struct GltfDocument::Impl {
     std::string source;
     LoadLimits limits;
     std::vector<std::string> read_warnings;  // tinygltf's, once
+    std::vector<std::string> files_read;     // external files, once
     tinygltf::Model model;
     DecodedImages images;
     ReadAnimations animations;
@@ -989,6 +997,7 @@ struct GltfDocument::Impl {
         SceneDescription scene;
         scene.source = source;
         scene.warnings = read_warnings;
+        scene.files_read = files_read;
         Ctx c{model, source, limits, scene, images};
         if (pose) c.state = pose_nodes(c, animations, *pose);
         c.animated.assign(model.nodes.size(), 0);
@@ -1015,7 +1024,7 @@ std::shared_ptr<const GltfDocument> GltfDocument::parse(std::string_view bytes, 
     auto impl = std::make_unique<Impl>();
     impl->source = source_name;
     impl->limits = limits;
-    impl->model = read_model(bytes, binary, base_dir, source_name, impl->limits, impl->read_warnings, impl->images);
+    impl->model = read_model(bytes, binary, base_dir, source_name, impl->limits, impl->read_warnings, impl->images, impl->files_read);
     impl->images.limits = nullptr;  // only decoding read them
     SceneDescription unused;
     Ctx c{impl->model, impl->source, impl->limits, unused, impl->images};

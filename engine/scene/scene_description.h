@@ -154,6 +154,9 @@ struct SceneDescription {
     std::optional<CameraDesc> camera;    // absent: a default camera frames the scene
     std::vector<AnimationSummary> animations;  // what the file animates (posed or not)
     std::vector<std::string> warnings;   // things that were read but are not (yet) rendered as written
+    // The files besides its own that the loader read (a glTF's external buffers and images), by
+    // their paths: what a cache of prepared scenes watches for edits besides the file itself.
+    std::vector<std::string> files_read;
 
     // Triangles stored: each prototype once (what memory and the triangle limit count).
     size_t triangle_count() const {

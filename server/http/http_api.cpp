@@ -456,17 +456,10 @@ HttpApi::HttpApi(JobQueue& queue, HttpLimits limits, std::string openapi_path)
             } catch (const Problem& p) {
                 send_problem(res, p);
             } catch (const QueueError& e) {
-                // A store that cannot take a file now says why in the file system's words, which
-                // may name its folders: cut. Every other text is left as made: a scene's file is
-                // named by its place in the catalog where the text is made (CatalogEntry::shown),
-                // and the client's own words, cut, would tell it which folders are the server's.
-                Problem p = problem(e);
-                const bool server_text = e.kind == QueueErrorKind::unavailable || e.kind == QueueErrorKind::store_full;
-                Problem shown(p.status, p.slug, p.title, server_text ? queue_.catalog().redact(p.what()) : std::string(p.what()));
-                shown.field = p.field;
-                shown.location = server_text ? queue_.catalog().redact(p.location) : p.location;
-                shown.retry_after = p.retry_after;
-                send_problem(res, shown);
+                // Sent as made: a scene's file is named by its place in the catalog where the text
+                // is made (CatalogEntry::shown), and the client's own words are quoted as sent
+                // (cut, they would tell a client which folders are the server's).
+                send_problem(res, problem(e));
             } catch (const StoreError& e) {
                 spdlog::error("job store: {}", loggable(e.what(), 400));
                 send_problem(res, store_problem(e));

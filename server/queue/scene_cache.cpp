@@ -152,27 +152,25 @@ std::string file_identity(const std::string& path) {
            std::to_string(st.st_ctim.tv_sec) + "." + std::to_string(st.st_ctim.tv_nsec);
 }
 
-// What a scene file's preparation reads: the file, and for a .gltf the buffers beside it
-// (external .bin files). "" when the file cannot be read: nothing is kept then.
-std::string scene_identity(const std::string& source) {
+// What a scene file's preparation reads: the file, and the files besides it that its last
+// preparation read (a glTF's external buffers and textures, wherever in its folder). "" when
+// the file cannot be read: nothing is kept then.
+std::string scene_identity(const std::string& source, const std::vector<std::string>& read_beside) {
     std::string id = file_identity(source);
     if (id.empty()) return {};
     std::error_code ec;
     id = fs::weakly_canonical(source, ec).string() + "#" + id;
-    fs::path p(source);
-    std::string ext = p.extension().string();
-    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-    if (ext == ".gltf") {
-        std::vector<std::string> beside;
-        for (const auto& e : fs::directory_iterator(p.parent_path().empty() ? fs::path(".") : p.parent_path(), ec))
-            if (e.path().extension() == ".bin") beside.push_back(e.path().filename().string() + "#" + file_identity(e.path().string()));
-        std::sort(beside.begin(), beside.end());
-        for (const auto& b : beside) id += "|" + b;
-    }
+    for (const std::string& f : read_beside) id += "|" + f + "#" + file_identity(f);
     return id;
 }
 
 }  // namespace
+
+std::vector<std::string> SceneCache::read_beside(const std::string& source) {
+    std::lock_guard lock(mu_);
+    const auto it = read_beside_.find(source);
+    return it == read_beside_.end() ? std::vector<std::string>{} : it->second;
+}
 
 std::pair<std::shared_ptr<const PreparedScene>, bool> SceneCache::get_local(const std::string& source, const std::string& name,
                                                                             const RenderSceneOptions& options) {
@@ -184,13 +182,27 @@ std::pair<std::shared_ptr<const PreparedScene>, bool> SceneCache::get_local(cons
     // A file edited or replaced (an upload under the same name, a folder synced anew) is
     // another key; one that changed while it was being prepared is rendered but not kept. A
     // file in two of the catalog's folders is two names, each reported as its own.
-    const std::string before = scene_identity(source);
+    // An edited texture or buffer is another key too: the files the file's last preparation
+    // read are part of it. (One edited while it is read is taken as it is after: a window of
+    // the preparation's length, as for a file the folder's tools rewrite in place.)
+    const std::vector<std::string> beside = read_beside(source);
+    const std::string before = scene_identity(source, beside);
     const std::string key = before + "|" + name + "|" + options_key(options);
     if (!before.empty())
         if (auto hit = find(key)) return {hit, true};
     auto prepared = api::prepare_scene(source, limits_, options, name);
-    if (before.empty() || scene_identity(source) != before) return {prepared, false};
-    return {keep(key, prepared), false};
+    if (before.empty() || scene_identity(source, beside) != before) return {prepared, false};
+    if (prepared->files_read == beside) return {keep(key, prepared), false};
+    // It read other files than the last time (the first time, or an edit naming others): kept
+    // under what it read, which the next job's key names.
+    {
+        std::lock_guard lock(mu_);
+        if (read_beside_.size() > 4096) read_beside_.clear();  // a bound: files come and go in a long-lived server
+        read_beside_[source] = prepared->files_read;
+    }
+    const std::string after = scene_identity(source, prepared->files_read);
+    if (after.empty()) return {prepared, false};
+    return {keep(after + "|" + name + "|" + options_key(options), prepared), false};
 }
 
 }  // namespace tessera::server

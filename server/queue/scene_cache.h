@@ -46,6 +46,7 @@ public:
 
 private:
     std::shared_ptr<const PreparedScene> find(const std::string& key);
+    std::vector<std::string> read_beside(const std::string& source);
     std::shared_ptr<const PreparedScene> keep(const std::string& key, std::shared_ptr<const PreparedScene> scene);
     void drop_idle_locked();
     struct Entry {
@@ -53,6 +54,8 @@ private:
         std::shared_ptr<const PreparedScene> scene;
         std::chrono::steady_clock::time_point used;
     };
+    // Per scene file, the other files its last preparation read (get_local's keys name them).
+    std::map<std::string, std::vector<std::string>> read_beside_;
     std::string dir_;
     int64_t max_bytes_;
     std::chrono::steady_clock::duration idle_;

@@ -45,56 +45,7 @@ std::string random_hex(size_t n) {
 
 SceneCatalog::SceneCatalog(std::string project_dir, std::vector<std::string> dirs, std::string upload_dir)
     : project_dir_(std::move(project_dir)), dirs_(std::move(dirs)), upload_dir_(std::move(upload_dir)) {
-    std::vector<std::string> given{project_dir_, upload_dir_};
-    given.insert(given.end(), dirs_.begin(), dirs_.end());
-    for (const std::string& root : given) {
-        if (root.empty()) continue;
-        std::error_code ec;
-        for (std::string form : {std::filesystem::absolute(root, ec).lexically_normal().string(),
-                                 std::filesystem::weakly_canonical(root, ec).string()}) {
-            while (form.size() > 1 && form.back() == '/') form.pop_back();
-            if (form.empty() || form == "/" || form.front() != '/') continue;
-            form += '/';
-            if (std::find(roots_.begin(), roots_.end(), form) == roots_.end()) roots_.push_back(form);
-        }
-    }
-    // A folder inside another is taken whole before its parent's part of it.
-    std::sort(roots_.begin(), roots_.end(), [](const std::string& a, const std::string& b) { return a.size() > b.size(); });
     refresh();
-}
-
-std::string SceneCatalog::redact(std::string text) const {
-    if (text.empty() || roots_.empty() || text.find('/') == std::string::npos) return text;
-    // One pass: a root is cut where a path starts (the text's start, or after a space, a quote,
-    // a bracket, ':', '=' or ','), not inside another path that happens to contain it.
-    auto starts_path = [&](size_t at) {
-        if (at == 0) return true;
-        const char c = text[at - 1];
-        return c == ' ' || c == '"' || c == '\'' || c == '(' || c == '[' || c == ':' || c == '=' || c == ',' || c == '\t' || c == '\n';
-    };
-    std::string out;
-    out.reserve(text.size());
-    size_t at = 0;
-    while (at < text.size()) {
-        const size_t slash = text.find('/', at);
-        if (slash == std::string::npos) break;
-        out.append(text, at, slash - at);
-        size_t cut = 0;
-        if (starts_path(slash))
-            for (const std::string& root : roots_)
-                if (text.compare(slash, root.size(), root) == 0) {
-                    cut = root.size();
-                    break;
-                }
-        if (cut) {
-            at = slash + cut;
-        } else {
-            out += '/';
-            at = slash + 1;
-        }
-    }
-    if (at < text.size()) out.append(text, at, std::string::npos);
-    return out;
 }
 
 void SceneCatalog::refresh() {
@@ -117,8 +68,10 @@ void SceneCatalog::scan_locked() {
             if (!it->is_regular_file(ec)) continue;
             const bool scene = scene_extension(it->path()), environment = environment_extension(it->path());
             if (!scene && !environment) continue;
-            fs::path rel = fs::relative(it->path(), dir, ec);
-            if (ec) continue;
+            // Where the entry sits in the folder, not where a link points: a link's target would
+            // name a folder of the server's disk (fs::relative resolves links).
+            const fs::path rel = it->path().lexically_relative(dir);
+            if (rel.empty() || *rel.begin() == "..") continue;
             std::string name = prefix + (rel.parent_path() / rel.stem()).generic_string();
             (scene ? entries_ : environments_)
                 .try_emplace(name, CatalogEntry{name, it->path().string(), source, prefix + rel.generic_string()});

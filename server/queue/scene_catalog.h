@@ -36,10 +36,6 @@ public:
     // An environment map (.exr, .hdr) in the same folders, named like a scene.
     std::optional<CatalogEntry> find_environment(const std::string& name);
     std::vector<CatalogEntry> entries();
-    // `text` with the catalog's folders taken out of every path in it. Only for texts wholly the
-    // server's (a file system's error on the upload store); a scene's files are named by
-    // CatalogEntry::shown where the text is made.
-    std::string redact(std::string text) const;
     // Counts and bounds of a scene, loading it once (cached by path and modification time).
     // Throws SceneError for a broken file.
     nlohmann::json describe(const CatalogEntry& e, const LoadLimits& limits);
@@ -52,9 +48,6 @@ private:
     std::string project_dir_;
     std::vector<std::string> dirs_;
     std::string upload_dir_;
-    // Every spelling of the folders above that redact() takes out (absolute, as given and as
-    // the file system resolves it), each ending in '/', the longest first: found once.
-    std::vector<std::string> roots_;
     std::mutex mutex_;
     std::map<std::string, CatalogEntry> entries_;
     std::map<std::string, CatalogEntry> environments_;

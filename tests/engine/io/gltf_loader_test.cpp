@@ -545,6 +545,32 @@ TEST(GltfExternal, EscapesAreRefused) {
     }
 }
 
+// A file loaded under a name (a server's catalog name for it) is named so in every message,
+// tinygltf's own about the files beside it too ("File size mismatch : <path>"): never by the
+// folder it was read from.
+TEST(GltfExternal, MessagesNameTheFilesBesideItByTheFilesName) {
+    TempDir t;
+    t.write("scene/bin/short.bin", triangle_blob().bytes.substr(0, 10));  // shorter than its byteLength
+    t.write("scene/bin/empty.bin", "");
+    t.write("scene/short.gltf", external_file("bin/short.bin"));
+    t.write("scene/empty.gltf", external_file("bin/empty.bin"));
+    for (const char* name : {"short", "empty"}) {
+        const std::string path = (t.path / "scene" / (std::string(name) + ".gltf")).string();
+        const SceneError e = error_of([&] { load_gltf(path, {}, std::string("sub/") + name + ".gltf"); });
+        const std::string what = e.what();
+        EXPECT_EQ(what.find(t.path.string()), std::string::npos) << what;
+        EXPECT_NE(what.find(std::string("sub/bin/") + name + ".bin"), std::string::npos) << what;
+        EXPECT_EQ(what.rfind(std::string("sub/") + name + ".gltf", 0), 0u) << what;
+        // At the catalog's top, the file's folder is "./".
+        const SceneError top = error_of([&] { load_gltf(path, {}, std::string(name) + ".gltf"); });
+        EXPECT_EQ(std::string(top.what()).find(t.path.string()), std::string::npos) << top.what();
+        EXPECT_NE(std::string(top.what()).find(std::string("./bin/") + name + ".bin"), std::string::npos) << top.what();
+    }
+    // Loaded without a name, the path is the name.
+    const SceneError plain = error_of([&] { load_gltf((t.path / "scene" / "short.gltf").string()); });
+    EXPECT_NE(std::string(plain.what()).find((t.path / "scene" / "bin" / "short.bin").string()), std::string::npos) << plain.what();
+}
+
 TEST(GltfExternal, FileSizeLimit) {
     TempDir t;
     t.write("scene/bin/tri.bin", triangle_blob().bytes);

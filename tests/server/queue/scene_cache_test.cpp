@@ -57,6 +57,35 @@ TEST_F(SceneCacheTest, TheSameFileAndOptionsAreOneSceneOtherOptionsAnother) {
     EXPECT_EQ(cache.misses(), 3u);
 }
 
+// A glTF's external buffer (or texture), wherever in its folder, is part of what the scene is:
+// one edited is another scene, though the .gltf is the same file.
+TEST_F(SceneCacheTest, AnEditedFileTheSceneReadsIsAnotherScene) {
+    fs::create_directories(dir_ / "data");
+    auto write_triangle = [&](float size) {
+        const float xyz[9] = {0, 0, 0, size, 0, 0, 0, size, 0};
+        std::ofstream(dir_ / "data" / "tri.part", std::ios::binary).write(reinterpret_cast<const char*>(xyz), sizeof xyz);
+        fs::rename(dir_ / "data" / "tri.part", dir_ / "data" / "tri.bin");  // a new file, as tools write one
+    };
+    write_triangle(1);
+    std::ofstream(dir_ / "tri.gltf") << R"({"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+        "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+        "buffers":[{"byteLength":36,"uri":"data/tri.bin"}],"bufferViews":[{"buffer":0,"byteLength":36}],
+        "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[2,2,0]}]})";
+    SceneCache cache((dir_ / "cache").string(), int64_t(1) << 30, LoadLimits{}, 60);
+    const auto [first, hit_first] = cache.get_local(path("tri.gltf"), {}, {});
+    EXPECT_FALSE(hit_first);
+    ASSERT_EQ(first->files_read.size(), 1u);
+    EXPECT_EQ(fs::path(first->files_read[0]).filename(), "tri.bin");
+    const auto [same, hit_same] = cache.get_local(path("tri.gltf"), {}, {});
+    EXPECT_TRUE(hit_same) << "kept at the first preparation, under the files it read";
+    EXPECT_EQ(same.get(), first.get());
+    write_triangle(2);
+    const auto [edited, hit_edited] = cache.get_local(path("tri.gltf"), {}, {});
+    EXPECT_FALSE(hit_edited) << "the buffer was edited";
+    EXPECT_NE(edited.get(), first.get());
+    EXPECT_TRUE(cache.get_local(path("tri.gltf"), {}, {}).second);
+}
+
 TEST_F(SceneCacheTest, AnEditedOrReplacedFileIsAnotherScene) {
     SceneCache cache((dir_ / "cache").string(), int64_t(1) << 30, LoadLimits{}, 60);
     const auto first = cache.get_local(path("box.gltf"), {}, {}).first;

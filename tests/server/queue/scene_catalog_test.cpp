@@ -73,27 +73,52 @@ TEST_F(SceneCatalogTest, NamesComeFromTheFoldersAndNeverActAsPaths) {
     EXPECT_FALSE(c.find_environment("box"));
 }
 
-// What the server says about a scene's file names it by its place in the catalog: the folders
-// of the server's disk are taken out of every path in the text, in any spelling of them.
-TEST_F(SceneCatalogTest, RedactTakesTheServersFoldersOutOfPaths) {
-    SceneCatalog c = catalog();
-    const std::string project = (dir_ / "project").string(), more = (dir_ / "more").string();
-    EXPECT_EQ(c.redact("scene: " + project + "/sub/deep.gltf#/animations: no animation 'x'"),
-              "scene: sub/deep.gltf#/animations: no animation 'x'");
-    EXPECT_EQ(c.redact(more + "/other.gltf and " + project + "/box.gltf"), "other.gltf and box.gltf");
-    EXPECT_EQ(c.redact((dir_ / "uploads").string() + "/up.glb: broken"), "up.glb: broken");
-    EXPECT_EQ(c.redact("/etc/passwd stays"), "/etc/passwd stays");
-    EXPECT_EQ(c.redact("/bak" + project + "/box.gltf"), "/bak" + project + "/box.gltf") << "inside another path: left";
-    EXPECT_EQ(c.redact(""), "");
-    // A folder given through ".." or a link is cut in the spelling the file system gives too.
+// What the server tells a client names a file by its place in the catalog (`shown`, which the
+// loaders are given), never by the server's folders: a link by where it sits, not where it
+// points (a folder outside the catalog), a folder given through ".." or a link alike, an upload
+// under upload/<id>/, a built-in by its name.
+TEST_F(SceneCatalogTest, EveryFileIsShownByItsPlaceInTheCatalog) {
+    write("outside/far.gltf", box_);
+    fs::create_symlink(dir_ / "outside" / "far.gltf", dir_ / "project" / "sub" / "near.gltf");
     fs::create_directory_symlink(dir_ / "project", dir_ / "linked");
-    SceneCatalog through((dir_ / "linked").string(), {(dir_ / "more" / ".." / "more").string()}, "");
-    EXPECT_EQ(through.redact(fs::canonical(dir_ / "project").string() + "/box.gltf"), "box.gltf");
-    EXPECT_EQ(through.redact((dir_ / "linked").string() + "/box.gltf"), "box.gltf");
-    EXPECT_EQ(through.redact(fs::canonical(dir_ / "more").string() + "/other.gltf"), "other.gltf");
-    // A relative folder is cut as its absolute path, never as "./" in the text.
-    SceneCatalog relative(".", {}, "");
-    EXPECT_EQ(relative.redact("../x and ./y"), "../x and ./y");
+    auto expect_places = [&](SceneCatalog& c) {
+        const std::vector<std::pair<std::string, std::string>> shown = {
+            {"box", "box.gltf"}, {"sub/deep", "sub/deep.gltf"}, {"sub/near", "sub/near.gltf"}, {"other", "other.gltf"},
+            {"builtin:furnace", "builtin:furnace"}};
+        for (const auto& [name, place] : shown) {
+            const auto e = c.find(name);
+            ASSERT_TRUE(e) << name;
+            EXPECT_EQ(e->shown, place) << name;
+        }
+        EXPECT_FALSE(c.find("../outside/far")) << "a link is named where it sits";
+        EXPECT_EQ(c.find_environment("sky")->shown, "sky.exr");
+        const CatalogEntry up = c.add_upload("mine.gltf", box_, {});
+        EXPECT_EQ(up.shown, up.name.substr(0, up.name.rfind('/')) + "/mine.gltf");
+        EXPECT_EQ(up.shown.rfind("upload/", 0), 0u) << up.shown;
+        for (const CatalogEntry& e : c.entries()) {
+            EXPECT_EQ(e.shown.find(dir_.string()), std::string::npos) << e.shown;
+            EXPECT_EQ(e.shown.find(".."), std::string::npos) << e.shown;
+        }
+    };
+    SceneCatalog as_given = catalog();
+    expect_places(as_given);
+    SceneCatalog through((dir_ / "linked").string(), {(dir_ / "more" / ".." / "more").string()}, (dir_ / "uploads").string());
+    expect_places(through);
+}
+
+// A broken upload is refused naming the file by its place, what it names quoted as written.
+TEST_F(SceneCatalogTest, ABrokenUploadNamesItsFileByItsPlace) {
+    SceneCatalog c = catalog();
+    // A buffer whose file is the upload itself, longer than it: tinygltf names the file it read.
+    const std::string self = R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "self.gltf", "byteLength": 99999}]})";
+    try {
+        c.add_upload("self.gltf", self, {});
+        ADD_FAILURE() << "a buffer longer than its file";
+    } catch (const QueueError& e) {
+        const std::string text = std::string(e.what()) + " " + e.location;
+        EXPECT_EQ(text.find(dir_.string()), std::string::npos) << text;
+        EXPECT_NE(text.find("upload/"), std::string::npos) << text;
+    }
 }
 
 TEST_F(SceneCatalogTest, AFileAddedLaterIsFound) {
