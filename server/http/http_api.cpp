@@ -457,8 +457,10 @@ HttpApi::HttpApi(JobQueue& queue, HttpLimits limits, std::string openapi_path)
                 send_problem(res, p);
             } catch (const QueueError& e) {
                 // Sent as made: a scene's file is named by its place in the catalog where the text
-                // is made (CatalogEntry::shown), and the client's own words are quoted as sent
-                // (cut, they would tell a client which folders are the server's).
+                // is made (CatalogEntry::shown), the client's own words are quoted as sent (cut,
+                // they would tell a client which folders are the server's), and what only the
+                // server may read (a store's file, its Redis) is its cause, logged here.
+                if (!e.cause.empty()) spdlog::warn("{}: {}", e.code, loggable(e.cause, 400));
                 send_problem(res, problem(e));
             } catch (const StoreError& e) {
                 spdlog::error("job store: {}", loggable(e.what(), 400));

@@ -28,22 +28,29 @@ struct QueueError : std::runtime_error {
     std::optional<std::string> field;  // JSON pointer (or query parameter) at fault, if any
     std::string location;              // a scene file's position, if any
     int retry_after_s = 0;             // when a retry may succeed (queue_full, store_full, unavailable)
+    // The server's own account of it, for its log, never sent: a store's error names its file,
+    // its Redis or its bound.
+    std::string cause;
 
     QueueError(QueueErrorKind kind_, std::string code_, std::string title_, const std::string& detail)
         : std::runtime_error(detail), kind(kind_), code(std::move(code_)), title(std::move(title_)) {}
     QueueError& with_field(std::string f) { field = std::move(f); return *this; }
     QueueError& with_location(std::string l) { location = std::move(l); return *this; }
     QueueError& with_retry_after(int s) { retry_after_s = s; return *this; }
+    QueueError& with_cause(std::string c) { cause = std::move(c); return *this; }
 };
 
 // The store's refusal as the queue reports it: full (a disk, or the size bound) or unavailable.
 inline QueueError store_refusal(const StoreError& e) {
     if (e.full)
         return QueueError(QueueErrorKind::store_full, "insufficient-storage", "The job store is full",
-                          std::string("no space left (") + e.what() + "); retry when space is freed")
-            .with_retry_after(30);
-    return QueueError(QueueErrorKind::unavailable, "store-unavailable", "The job store is unavailable", e.what())
-        .with_retry_after(10);
+                          "the job store has no room for more; retry when space is freed")
+            .with_retry_after(30)
+            .with_cause(e.what());
+    return QueueError(QueueErrorKind::unavailable, "store-unavailable", "The job store is unavailable",
+                      "the job store cannot be read or written now; retry shortly")
+        .with_retry_after(10)
+        .with_cause(e.what());
 }
 
 // A pause asked of a job that waits for others (`after`): it has nothing to pause yet.

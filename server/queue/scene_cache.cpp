@@ -183,8 +183,7 @@ std::pair<std::shared_ptr<const PreparedScene>, bool> SceneCache::get_local(cons
     // another key; one that changed while it was being prepared is rendered but not kept. A
     // file in two of the catalog's folders is two names, each reported as its own.
     // An edited texture or buffer is another key too: the files the file's last preparation
-    // read are part of it. (One edited while it is read is taken as it is after: a window of
-    // the preparation's length, as for a file the folder's tools rewrite in place.)
+    // read are part of it, their identities taken before this one reads them.
     const std::vector<std::string> beside = read_beside(source);
     const std::string before = scene_identity(source, beside);
     const std::string key = before + "|" + name + "|" + options_key(options);
@@ -193,16 +192,14 @@ std::pair<std::shared_ptr<const PreparedScene>, bool> SceneCache::get_local(cons
     auto prepared = api::prepare_scene(source, limits_, options, name);
     if (before.empty() || scene_identity(source, beside) != before) return {prepared, false};
     if (prepared->files_read == beside) return {keep(key, prepared), false};
-    // It read other files than the last time (the first time, or an edit naming others): kept
-    // under what it read, which the next job's key names.
-    {
-        std::lock_guard lock(mu_);
-        if (read_beside_.size() > 4096) read_beside_.clear();  // a bound: files come and go in a long-lived server
-        read_beside_[source] = prepared->files_read;
-    }
-    const std::string after = scene_identity(source, prepared->files_read);
-    if (after.empty()) return {prepared, false};
-    return {keep(after + "|" + name + "|" + options_key(options), prepared), false};
+    // It read other files than the last time (the first time, or an edit naming others), whose
+    // identities before it read them are not known: rendered, not kept. The next job's key
+    // names them, taken before its preparation, and that one is kept: an edit while a file is
+    // read is never cached.
+    std::lock_guard lock(mu_);
+    if (read_beside_.size() > 4096) read_beside_.clear();  // a bound: files come and go in a long-lived server
+    read_beside_[source] = prepared->files_read;
+    return {prepared, false};
 }
 
 }  // namespace tessera::server

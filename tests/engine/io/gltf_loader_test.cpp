@@ -542,6 +542,11 @@ TEST(GltfExternal, EscapesAreRefused) {
     for (const char* name : {"up.gltf", "abs.gltf", "link.gltf"}) {
         const SceneError e = error_of([&] { load_gltf((t.path / "scene" / name).string()); });
         EXPECT_NE(std::string(e.what()).find("refused"), std::string::npos) << name << ": " << e.what();
+        // Under a name (a catalog's), whose folder tinygltf is handed instead of the real one.
+        for (const std::string& shown : {std::string(name), std::string("/").append(name), std::string("sub/").append(name)}) {
+            const SceneError named = error_of([&] { load_gltf((t.path / "scene" / name).string(), {}, shown); });
+            EXPECT_NE(std::string(named.what()).find("refused"), std::string::npos) << shown << ": " << named.what();
+        }
     }
 }
 
