@@ -21,8 +21,8 @@ SceneRef SceneRef::decode(const std::string& s) {
 }
 
 std::string SceneRef::shown() const {
-    if (!name.empty() || hash.empty()) return name.empty() ? source : name;
-    return std::filesystem::path(source).filename().string();
+    if (!name.empty()) return name;
+    return hash.empty() ? source : std::filesystem::path(source).filename().string();  // a built-in: its name
 }
 
 std::string content_hash(const std::string& bytes) {
